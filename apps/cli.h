@@ -1,0 +1,55 @@
+#pragma once
+// The meshmark command line: shared pieces of the subcommands (thin wrappers over the library).
+
+#include <CLI/CLI.hpp>
+#include <stdexcept>
+#include <string>
+
+#include "meshmark/io.h"
+
+namespace meshmark::cli {
+
+/// Exit codes, documented in the README.
+enum Exit : int {
+  kOk = 0,
+  kUsage = 1,        ///< bad command line or option value
+  kBadInput = 2,     ///< the input mesh cannot be read or is malformed
+  kWriteFailed = 3,  ///< the output cannot be written
+  kNotEmbedded = 4,  ///< embedding infeasible, not converged, or the mesh has no histogram
+  kBitErrors = 5,    ///< extract --expect found bit errors or erasures
+  kInternal = 70,    ///< a bug
+};
+
+/// An input file that cannot be read (exit code kBadInput, unlike a failed write).
+struct InputFailure : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// Options every command that reads a mesh shares.
+struct InputOptions {
+  double weld_tolerance = 0;
+};
+
+/// Adds --weld-tolerance to a subcommand.
+void add_input_options(CLI::App& app, InputOptions& options);
+
+/// Output format options: --format, --encoding, --float32.
+struct OutputOptions {
+  std::string format;    // "" = from the extension
+  std::string encoding;  // "" = keep
+  bool float32 = false;
+};
+void add_output_options(CLI::App& app, OutputOptions& options);
+
+/// Reads a mesh with the options (throws the library's errors).
+Mesh read_input(const std::string& path, const InputOptions& options);
+
+/// Writes a mesh; refuses to write over the input file.
+void write_output(const std::string& path, const std::string& input_path, const Mesh& mesh,
+                  const OutputOptions& options);
+
+void register_embed(CLI::App& app, int& exit_code);
+void register_extract(CLI::App& app, int& exit_code);
+void register_attack(CLI::App& app, int& exit_code);
+
+}  // namespace meshmark::cli

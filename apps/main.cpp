@@ -1,0 +1,83 @@
+// meshmark: blind watermarking of triangle meshes. Parses, calls the library, prints, and maps
+// every failure to one line on stderr and a documented exit code (see cli.h and the README).
+
+#include <filesystem>
+#include <fmt/format.h>
+
+#include "cli.h"
+#include "meshmark/error.h"
+
+namespace meshmark::cli {
+
+void add_input_options(CLI::App& app, InputOptions& options) {
+  app.add_option("--weld-tolerance", options.weld_tolerance,
+                 "STL: weld corners closer than this distance (model units); 0 welds identical ones")
+      ->check(CLI::NonNegativeNumber);
+}
+
+void add_output_options(CLI::App& app, OutputOptions& options) {
+  app.add_option("--format", options.format, "output format (default: from OUT's extension)")
+      ->check(CLI::IsMember({"off", "obj", "ply", "stl"}));
+  app.add_option("--encoding", options.encoding, "PLY/STL output encoding (default: keep the input's)")
+      ->check(CLI::IsMember({"ascii", "binary_little_endian", "binary_big_endian"}));
+  app.add_flag("--float32", options.float32, "PLY written from scratch: store float32 coordinates");
+}
+
+Mesh read_input(const std::string& path, const InputOptions& options) {
+  ReadOptions ro;
+  ro.weld_tolerance = options.weld_tolerance;
+  try {
+    return read_mesh(path, ro);
+  } catch (const IOError& e) {
+    throw InputFailure(e.what());
+  }
+}
+
+void write_output(const std::string& path, const std::string& input_path, const Mesh& mesh,
+                  const OutputOptions& options) {
+  std::error_code ec;
+  if (std::filesystem::equivalent(path, input_path, ec))
+    throw InvalidArgumentError(fmt::format("{}: refusing to overwrite the input file", path));
+  WriteOptions wo;
+  if (!options.format.empty()) wo.format = format_from_path("x." + options.format);
+  if (options.encoding == "ascii") wo.encoding = Encoding::Ascii;
+  if (options.encoding == "binary_little_endian") wo.encoding = Encoding::BinaryLittleEndian;
+  if (options.encoding == "binary_big_endian") wo.encoding = Encoding::BinaryBigEndian;
+  wo.single_precision = options.float32;
+  write_mesh(path, mesh, wo);
+}
+
+}  // namespace meshmark::cli
+
+int main(int argc, char** argv) {
+  using namespace meshmark;
+  CLI::App app{"meshmark: blind, robust watermarking of triangle meshes (Rolland-Neviere et al., TIFS 2014)"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "meshmark 0.1.0");
+  int exit_code = cli::kOk;
+  cli::register_embed(app, exit_code);
+  cli::register_extract(app, exit_code);
+  cli::register_attack(app, exit_code);
+  try {
+    app.parse(argc, argv);
+    return exit_code;
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e);
+    return rc == 0 ? cli::kOk : cli::kUsage;
+  } catch (const cli::InputFailure& e) {
+    fmt::print(stderr, "meshmark: error: {}\n", e.what());
+    return cli::kBadInput;
+  } catch (const InvalidInputError& e) {
+    fmt::print(stderr, "meshmark: error: {}\n", e.what());
+    return cli::kBadInput;
+  } catch (const IOError& e) {
+    fmt::print(stderr, "meshmark: error: {}\n", e.what());
+    return cli::kWriteFailed;
+  } catch (const InvalidArgumentError& e) {
+    fmt::print(stderr, "meshmark: error: {}\n", e.what());
+    return cli::kUsage;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "meshmark: internal error: {}\n", e.what());
+    return cli::kInternal;
+  }
+}

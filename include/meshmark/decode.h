@@ -1,0 +1,46 @@
+#pragma once
+/// \file decode.h
+/// Blind decoding (../shared/spec/WATERMARK.md section 2): rebuild the histogram from the mesh
+/// alone and read bit j from the mean normalized position of bin j + 1.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "meshmark/histogram.h"
+#include "meshmark/payload.h"
+
+namespace meshmark {
+
+/// Options of extract.
+struct ExtractOptions {
+  int bits = 64;                               ///< payload length nb (nB = nb + 2 bins)
+  CenterKind center = CenterKind::Discrete;    ///< the variant's center
+};
+
+/// Value of an erased bit (its bin is empty) in ExtractResult::bits.
+inline constexpr std::uint8_t kErasure = 2;
+
+/// What extract read.
+struct ExtractResult {
+  std::vector<std::uint8_t> bits;  ///< 0, 1, or kErasure for an empty bin
+  std::vector<double> means;       ///< tbar_j, mean position in bin j + 1 (NaN when empty)
+  std::vector<double> margins;     ///< |tbar_j - 1/2|, the bit's confidence (0 when erased)
+  std::vector<int> counts;         ///< vertices in bin j + 1
+  int erasures = 0;                ///< number of empty bins
+  Center center;                   ///< the center the histogram was built around
+  Histogram histogram;             ///< the histogram itself
+  /// The bits as a payload, erasures read as 0.
+  Payload payload() const;
+  /// Smallest margin over the bits (0 with an erasure).
+  double min_margin() const;
+};
+
+/// Decodes nb bits from V, F (#V x 3, #F x 3). Unreferenced vertices are ignored. A mesh
+/// whose vertices all lie at one distance gives all erasures.
+ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const ExtractOptions& options = {});
+
+/// Per-bin mean of t over bins 1..nb of a histogram: means[j], counts[j] for bin j + 1.
+void bin_means(const Histogram& h, std::vector<double>& means, std::vector<int>& counts);
+
+}  // namespace meshmark

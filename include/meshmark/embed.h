@@ -1,0 +1,71 @@
+#pragma once
+/// \file embed.h
+/// Watermark embedding as a constrained optimization (../shared/spec/WATERMARK.md sections 3
+/// to 5; Rolland-Neviere, Doerr, Alliez, IEEE TIFS 9(9) 2014): move every referenced vertex
+/// along a direction, as little as the cost allows, so that each bit's bin mean reaches its
+/// target while the center, the histogram range and every vertex's bin stay as they were.
+/// Rounds of linearized solves repeat until every bit decodes with its margin.
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "meshmark/histogram.h"
+#include "meshmark/payload.h"
+#include "meshmark/separable_qp.h"
+
+namespace meshmark {
+
+/// Options of embed. Units: strength and bin offset are fractions of a bin width.
+struct EmbedOptions {
+  CenterKind center = CenterKind::Discrete;  ///< the variant's center (D implemented)
+  double strength = 0.05;     ///< alpha in (0, 1/2): each bin mean moves to 1/2 +- alpha
+  double bin_offset = 0.05;   ///< G in [0, 1/2): vertices stay inside [G, 1 - G] of their bin
+  int max_rounds = 10;        ///< linearize-and-solve rounds at most
+  /// A bit "decodes with its margin" when m_j (tbar_j - 1/2) >= strength - margin_tolerance.
+  double margin_tolerance = 1e-9;
+  /// The center may move by at most this many bin widths.
+  double center_tolerance = 1e-9;
+  /// Vertices at bit-identical positions (unwelded seams) move as one, so seams stay closed.
+  bool keep_duplicates_together = true;
+  QpSettings solver;          ///< settings of the exact QP solver
+};
+
+/// Outcome of embed.
+enum class EmbedStatus {
+  Embedded,      ///< every bit decodes with its margin, center within tolerance
+  Infeasible,    ///< some bits cannot reach their targets (infeasible_bits); V unchanged
+  NotConverged,  ///< max_rounds or the solver's iteration limit reached; V is the last round's
+  InvalidMesh,   ///< no histogram can be built (no referenced vertex, all at one distance)
+};
+
+/// What embed did.
+struct EmbedResult {
+  EmbedStatus status = EmbedStatus::InvalidMesh;
+  std::string message;              ///< one line for a person
+  Eigen::MatrixX3d V;               ///< #V x 3 watermarked positions
+  std::vector<int> infeasible_bits; ///< bits j whose bin j + 1 cannot reach its target
+  int rounds = 0;                   ///< solves performed
+  int solver_iterations = 0;        ///< Newton iterations over all rounds
+  QpStatus solver_status = QpStatus::Solved;  ///< last solve's status
+  double kkt_residual = 0;          ///< last solve's max KKT residual (bin-width units)
+  std::vector<double> margins;      ///< per bit, m_j (tbar_j - 1/2) after embedding (signed)
+  double min_margin = 0;            ///< smallest of margins
+  double squared_displacement = 0;  ///< sum_i |p_i^w - p_i|^2 (model units squared)
+  double rms_displacement = 0;      ///< sqrt(mean over referenced vertices of |p^w - p|^2)
+  double rms_percent = 0;           ///< rms_displacement as % of the bounding-box diagonal
+  double center_drift = 0;          ///< |C^w - C| in bin widths
+  double bin_width = 0;             ///< s of the original histogram (model units)
+  double seconds = 0;               ///< wall time of the computation (no file I/O)
+};
+
+/// Embeds payload (nb = payload.size() bits) into V, F (#V x 3, #F x 3). Unreferenced
+/// vertices do not move. The input is not modified; the result holds the new positions.
+/// \throw InvalidArgumentError for an empty payload or options out of range.
+EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Payload& payload,
+                  const EmbedOptions& options = {});
+
+/// "embedded", "infeasible", "not converged", "invalid mesh".
+const char* embed_status_name(EmbedStatus status);
+
+}  // namespace meshmark

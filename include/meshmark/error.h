@@ -1,0 +1,52 @@
+#pragma once
+/// \file error.h
+/// The exceptions meshmark throws. Bad input throws a typed exception whose message names the
+/// file, the line or element, and what is wrong; solver outcomes are status values, never
+/// exceptions (see separable_qp.h and embed.h).
+
+#include <cstddef>
+#include <stdexcept>
+#include <string>
+
+namespace meshmark {
+
+/// Base of every exception meshmark throws on purpose.
+class Error : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// A file (or an in-memory mesh) that cannot be read as what it claims to be: truncated,
+/// wrong counts, indices out of range, non-finite or non-numeric coordinates, no faces.
+/// what() reads "FILE:LINE: MESSAGE" for text formats, "FILE: MESSAGE" otherwise, where the
+/// message names the element (vertex 12, face 3, ...).
+class InvalidInputError : public Error {
+ public:
+  /// \param file the path as given by the caller; \param line 1-based line, 0 when the
+  /// format has no lines (binary) or the problem is not tied to one.
+  InvalidInputError(std::string file, std::size_t line, const std::string& message);
+  const std::string& file() const { return file_; }
+  std::size_t line() const { return line_; }
+  /// The message without the file and line prefix.
+  const std::string& detail() const { return detail_; }
+
+ private:
+  std::string file_;
+  std::size_t line_;
+  std::string detail_;
+};
+
+/// The operating system refused a read or a write (missing file, permission, full disk).
+class IOError : public Error {
+ public:
+  using Error::Error;
+};
+
+/// A caller's argument that is out of its documented range (bits <= 0, strength outside
+/// (0, 1/2), a payload that does not fit in the requested bits, ...).
+class InvalidArgumentError : public Error {
+ public:
+  using Error::Error;
+};
+
+}  // namespace meshmark

@@ -1,0 +1,78 @@
+#pragma once
+/// \file io.h
+/// Reading and writing OFF, OBJ, PLY (ascii, binary little and big endian; face lists and
+/// triangle strips) and STL (ascii and binary), one dispatcher over per-format readers.
+///
+/// A read keeps an image of the file, so that writing the mesh back in the same format changes
+/// vertex positions and nothing else: OBJ texture coordinates, normals, groups, materials,
+/// comments and face index style; every other PLY element and property; STL triangle order,
+/// normals and attribute bytes. Coordinates whose value did not change keep their bytes.
+/// Text formats are written with round-trip precision (shortest representation that reads
+/// back to the same double).
+
+#include <optional>
+#include <string>
+
+#include "meshmark/mesh.h"
+
+namespace meshmark {
+
+/// Options of read_mesh.
+struct ReadOptions {
+  /// STL only: positions closer than this (absolute, in model units) are welded into one
+  /// vertex. 0 welds bit-identical positions only.
+  double weld_tolerance = 0.0;
+  /// Keep the file image for faithful writing (costs about the file's size in memory).
+  bool keep_image = true;
+};
+
+/// Reads a mesh, choosing the format from the extension (.off .obj .ply .stl, any case).
+/// \throw IOError when the file cannot be opened or read.
+/// \throw InvalidInputError naming file, line or element, and the problem, for malformed
+///        content: truncated data, wrong counts, indices out of range, NaN or infinite
+///        coordinates, non-numeric tokens, no faces.
+Mesh read_mesh(const std::string& path, const ReadOptions& options = {});
+
+/// Parses a mesh from bytes already in memory; `name` is used in error messages only.
+Mesh read_mesh_from_bytes(std::string bytes, FileFormat format, const std::string& name,
+                          const ReadOptions& options = {});
+
+/// Options of write_mesh.
+struct WriteOptions {
+  /// Output format; default: from the output path's extension.
+  std::optional<FileFormat> format;
+  /// Output encoding; default: the source's when the format is the source's, otherwise
+  /// binary little endian for PLY and STL. Ignored for OFF and OBJ (always ascii).
+  std::optional<Encoding> encoding;
+  /// PLY and STL binary written from scratch: store coordinates as float32 (STL always does).
+  bool single_precision = false;
+  /// Use the file image when it applies (same format, encoding, vertex count and faces).
+  bool keep_source = true;
+};
+
+/// Writes a mesh atomically: to a temporary file in the destination's folder, then renamed
+/// over the destination. On failure the destination is untouched.
+/// \throw IOError when the file cannot be written; InvalidArgumentError for an unknown
+///        extension.
+void write_mesh(const std::string& path, const Mesh& mesh, const WriteOptions& options = {});
+
+/// The bytes write_mesh would write (without touching the disk).
+std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format, const WriteOptions& options = {});
+
+/// The format an extension names. \throw InvalidArgumentError when it names none.
+FileFormat format_from_path(const std::string& path);
+
+/// "off", "obj", "ply", "stl".
+const char* format_name(FileFormat format);
+
+/// "ascii", "binary_little_endian", "binary_big_endian".
+const char* encoding_name(Encoding encoding);
+
+/// Writes bytes to path atomically (temporary file in the same folder, then rename).
+/// \throw IOError on failure; the destination is then untouched.
+void write_file_atomically(const std::string& path, const std::string& bytes);
+
+/// Reads a whole file. \throw IOError.
+std::string read_file(const std::string& path);
+
+}  // namespace meshmark

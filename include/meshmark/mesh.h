@@ -1,0 +1,82 @@
+#pragma once
+/// \file mesh.h
+/// The mesh meshmark works on: positions and triangles as plain matrices (libigl style), the
+/// polygons the file had, and an opaque image of the source file so that writing back keeps
+/// everything the file carried besides positions.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace meshmark {
+
+/// The mesh file formats meshmark reads and writes.
+enum class FileFormat { Off, Obj, Ply, Stl };
+
+/// How a file stores its numbers. OFF and OBJ are always ascii.
+enum class Encoding { Ascii, BinaryLittleEndian, BinaryBigEndian };
+
+/// Faces of any size in compressed rows: face k holds indices[offsets[k] .. offsets[k+1]).
+struct Polygons {
+  std::vector<std::int64_t> offsets{0};  ///< size() + 1 entries, offsets[0] == 0
+  std::vector<int> indices;              ///< 0-based vertex indices
+  /// Number of faces.
+  std::size_t size() const { return offsets.size() - 1; }
+  /// Appends one face.
+  void push_back(const int* first, std::size_t count);
+  bool operator==(const Polygons&) const = default;
+};
+
+/// The bytes of the file a mesh was read from and where its coordinates sit in them
+/// (defined in the io module; opaque here).
+struct FileImage;
+
+/// A triangle mesh as meshmark computes on it, plus what its file carried.
+struct Mesh {
+  Eigen::MatrixX3d V;      ///< #V x 3 positions
+  Eigen::MatrixX3i F;      ///< #F x 3 triangles (polygons fan-triangulated), 0-based
+  Polygons faces;          ///< the faces as the file gave them (polygons, strips unrolled)
+  FileFormat format = FileFormat::Obj;  ///< format of the source file
+  Encoding encoding = Encoding::Ascii;  ///< encoding of the source file
+  std::string source_path;              ///< the path it was read from, if any
+  /// Image of the source file: while V keeps its row count and faces are unchanged, a write
+  /// in the same format substitutes the positions and keeps every other byte. Operations that
+  /// change connectivity reset it.
+  std::shared_ptr<const FileImage> image;
+};
+
+/// Fan-triangulates polygons: a face (v0, v1, ..., vk) gives (v0, vi, vi+1). Faces with fewer
+/// than three vertices give no triangle. Returns #T x 3.
+Eigen::MatrixX3i triangulate(const Polygons& faces);
+
+/// Polygons holding exactly the rows of F.
+Polygons polygons_from_triangles(const Eigen::MatrixX3i& F);
+
+/// A mesh made of V and F alone (faces = F, no file image).
+Mesh make_mesh(Eigen::MatrixX3d V, Eigen::MatrixX3i F);
+
+/// 1 for every vertex that some triangle of F references, 0 otherwise (size nv).
+/// Unreferenced vertices carry no bit and do not enter any center.
+std::vector<std::uint8_t> referenced_vertices(const Eigen::MatrixX3i& F, Eigen::Index nv);
+
+/// Length of the diagonal of the axis-aligned bounding box of the referenced vertices
+/// (all vertices when mask is empty). 0 for an empty set.
+double bounding_box_diagonal(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& mask = {});
+
+/// Groups of referenced vertices at bit-identical positions (unwelded seams, duplicates):
+/// group_of[i] is the group of vertex i (-1 for unreferenced), members are listed per group in
+/// compressed rows. Groups are numbered in order of their first vertex.
+struct PositionGroups {
+  std::vector<int> group_of;            ///< size nv
+  std::vector<int> offsets{0};          ///< size count() + 1
+  std::vector<int> members;             ///< vertex indices, grouped
+  int count() const { return static_cast<int>(offsets.size()) - 1; }
+};
+
+/// Computes PositionGroups over the vertices with referenced[i] != 0. -0.0 equals +0.0.
+PositionGroups group_identical_positions(const Eigen::MatrixX3d& V,
+                                         const std::vector<std::uint8_t>& referenced);
+
+}  // namespace meshmark

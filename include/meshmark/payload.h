@@ -1,0 +1,40 @@
+#pragma once
+/// \file payload.h
+/// Payloads as bit vectors, their hexadecimal form, and bit error rates.
+///
+/// Convention (../shared/spec/WATERMARK.md section 1): bit j lives in histogram bin j + 1.
+/// The hexadecimal form is a number of nb bits written most significant digit first; bit j is
+/// its j-th most significant bit. So the hex string read left to right lists the bits in bin
+/// order (bin 1 first): with 8 bits, "80" sets bit 0 (bin 1) and "01" sets bit 7 (bin 8).
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace meshmark {
+
+/// A payload of nb bits: bits[j] in {0, 1} is carried by bin j + 1.
+struct Payload {
+  std::vector<std::uint8_t> bits;
+  int size() const { return static_cast<int>(bits.size()); }
+  bool operator==(const Payload&) const = default;
+};
+
+/// Parses a hexadecimal payload (optional 0x prefix, any case) into nbits bits.
+/// \throw InvalidArgumentError when the text is not hexadecimal, nbits < 1, or the value does
+///        not fit in nbits bits.
+Payload payload_from_hex(std::string_view hex, int nbits);
+
+/// The payload as ceil(nb / 4) hexadecimal digits (lower case), the inverse of
+/// payload_from_hex.
+std::string payload_to_hex(const Payload& payload);
+
+/// A uniformly random payload of nbits bits from a seed (SplitMix64; same seed, same bits).
+Payload random_payload(int nbits, std::uint64_t seed);
+
+/// Fraction of positions where a decoded bit differs from the expected one. decoded may hold
+/// erasures (value > 1), counted as errors. Sizes must match.
+double bit_error_rate(const std::vector<std::uint8_t>& decoded, const Payload& expected);
+
+}  // namespace meshmark

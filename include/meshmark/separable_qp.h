@@ -1,0 +1,68 @@
+#pragma once
+/// \file separable_qp.h
+/// An exact solver for the embedding quadratic program with a diagonal cost
+/// (../shared/spec/WATERMARK.md section 4):
+///
+///     minimize    sum_i h_i x_i^2
+///     subject to  sum_{i : row(i) = j} a_i x_i >= b_j      for every watermark row j
+///                 sum_i e_i x_i = 0                        (3 rows: the center stays)
+///                 lo_i <= x_i <= hi_i
+///
+/// The watermark rows have disjoint supports. The Lagrangian dual has only m + 3 unknowns:
+/// for multipliers y the primal minimizer is x_i(y) = clip((M^T y)_i / (2 h_i), lo_i, hi_i), and
+/// the dual is concave and piecewise quadratic. A projected semismooth Newton method on it
+/// (O(n) work per iteration, an (m + 3)-square arrow-shaped system solved by a 3 x 3 Schur
+/// complement) finds the exact optimum: once the clipped set settles, a full Newton step
+/// lands on it. The KKT conditions of the answer are measured and returned.
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace meshmark {
+
+/// The problem, n variables and m watermark rows.
+struct SeparableQp {
+  Eigen::VectorXd h;      ///< n, cost weights, > 0
+  Eigen::VectorXd lo;     ///< n, lower bounds
+  Eigen::VectorXd hi;     ///< n, upper bounds, >= lo
+  std::vector<int> row;   ///< n, the watermark row holding x_i, or -1
+  Eigen::VectorXd a;      ///< n, coefficient of x_i in its row (ignored when row(i) = -1)
+  Eigen::VectorXd b;      ///< m, right-hand sides of the rows
+  Eigen::Matrix3Xd e;     ///< 3 x n, columns of the equality constraint
+};
+
+/// Solver settings.
+struct QpSettings {
+  int max_iterations = 100;     ///< Newton iterations
+  double tolerance = 1e-11;     ///< on the KKT residuals (rows and equalities, absolute)
+};
+
+/// Outcome of a solve.
+enum class QpStatus {
+  Solved,          ///< KKT conditions hold within the tolerance
+  Infeasible,      ///< some row cannot reach b_j inside the bounds (infeasible_rows), or the
+                   ///< equality cannot hold together with the rows
+  IterationLimit,  ///< max_iterations reached; x is the best iterate
+};
+
+/// Solution and diagnostics.
+struct QpResult {
+  QpStatus status = QpStatus::IterationLimit;
+  Eigen::VectorXd x;                 ///< n, the minimizer (bounds hold exactly)
+  Eigen::VectorXd y;                 ///< m + 3 multipliers: rows (>= 0), then the equalities
+  double objective = 0;              ///< sum h_i x_i^2
+  double primal_residual = 0;        ///< max(row violation, |E x|_inf)
+  double complementarity = 0;        ///< max_j |min(y_j, slack_j)|
+  int iterations = 0;                ///< Newton iterations
+  std::vector<int> infeasible_rows;  ///< rows that cannot reach their right-hand side
+};
+
+/// Solves the problem. warm_y (m + 3, optional) starts the multipliers there.
+/// Preconditions (asserted): consistent sizes, h > 0, lo <= hi.
+QpResult solve_separable_qp(const SeparableQp& qp, const QpSettings& settings = {},
+                            const Eigen::VectorXd* warm_y = nullptr);
+
+/// "solved", "infeasible", "iteration limit".
+const char* qp_status_name(QpStatus status);
+
+}  // namespace meshmark

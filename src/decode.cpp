@@ -1,0 +1,72 @@
+#include "meshmark/decode.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "meshmark/error.h"
+#include "meshmark/mesh.h"
+
+namespace meshmark {
+
+Payload ExtractResult::payload() const {
+  Payload p;
+  p.bits.reserve(bits.size());
+  for (auto b : bits) p.bits.push_back(b == 1 ? 1 : 0);
+  return p;
+}
+
+double ExtractResult::min_margin() const {
+  if (margins.empty()) return 0;
+  return *std::min_element(margins.begin(), margins.end());
+}
+
+void bin_means(const Histogram& h, std::vector<double>& means, std::vector<int>& counts) {
+  const int nb = h.bins - 2;
+  std::vector<double> sums(static_cast<std::size_t>(nb), 0.0);
+  counts.assign(static_cast<std::size_t>(nb), 0);
+  for (std::size_t i = 0; i < h.bin.size(); ++i) {
+    const int j = h.bin[i] - 1;
+    if (j < 0 || j >= nb) continue;
+    sums[j] += h.t(static_cast<Eigen::Index>(i));
+    counts[j] += 1;
+  }
+  means.resize(static_cast<std::size_t>(nb));
+  for (int j = 0; j < nb; ++j)
+    means[j] = counts[j] > 0 ? sums[j] / counts[j] : std::numeric_limits<double>::quiet_NaN();
+}
+
+ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const ExtractOptions& options) {
+  if (options.bits < 1) throw InvalidArgumentError(fmt::format("cannot extract {} bits", options.bits));
+  ExtractResult r;
+  const auto referenced = referenced_vertices(F, V.rows());
+  r.center = center_of_mass(V, F, referenced, options.center);
+  r.histogram = build_histogram(V, referenced, r.center.point, options.bits);
+  const auto nb = static_cast<std::size_t>(options.bits);
+  if (!r.histogram.valid()) {
+    r.bits.assign(nb, kErasure);
+    r.means.assign(nb, std::numeric_limits<double>::quiet_NaN());
+    r.margins.assign(nb, 0.0);
+    r.counts.assign(nb, 0);
+    r.erasures = options.bits;
+    return r;
+  }
+  bin_means(r.histogram, r.means, r.counts);
+  r.bits.resize(nb);
+  r.margins.resize(nb);
+  for (std::size_t j = 0; j < nb; ++j) {
+    if (r.counts[j] == 0) {
+      r.bits[j] = kErasure;
+      r.margins[j] = 0;
+      ++r.erasures;
+    } else {
+      r.bits[j] = r.means[j] > 0.5 ? 1 : 0;
+      r.margins[j] = std::abs(r.means[j] - 0.5);
+    }
+  }
+  return r;
+}
+
+}  // namespace meshmark

@@ -1,0 +1,180 @@
+#include "meshmark/io.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#include <fmt/format.h>
+
+#include "io_formats.h"
+#include "text_scan.h"
+#include "meshmark/error.h"
+
+namespace meshmark {
+
+namespace detail {
+
+void fail(const std::string& name, std::size_t line, const std::string& message) {
+  throw InvalidInputError(name, line, message);
+}
+
+void append_position(std::string& out, const Eigen::MatrixX3d& V, Eigen::Index i) {
+  append_double(out, V(i, 0));
+  out += ' ';
+  append_double(out, V(i, 1));
+  out += ' ';
+  append_double(out, V(i, 2));
+}
+
+Mesh assemble(Parsed parsed, std::string bytes, FileFormat format, Encoding encoding,
+              const std::string& name, const ReadOptions& options) {
+  if (parsed.faces.size() == 0) fail(name, 0, "the file has no faces");
+  Mesh mesh;
+  const auto nv = static_cast<Eigen::Index>(parsed.xyz.size() / 3);
+  mesh.V = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(
+      parsed.xyz.data(), nv, 3);
+  mesh.F = triangulate(parsed.faces);
+  if (mesh.F.rows() == 0) fail(name, 0, "no face has three or more vertices");
+  mesh.faces = std::move(parsed.faces);
+  mesh.format = format;
+  mesh.encoding = encoding;
+  mesh.source_path = name;
+  if (options.keep_image) {
+    auto image = std::make_shared<FileImage>();
+    image->format = format;
+    image->encoding = encoding;
+    image->bytes = std::move(bytes);
+    image->slots = std::move(parsed.slots);
+    std::sort(image->slots.begin(), image->slots.end(),
+              [](const CoordSlot& a, const CoordSlot& b) { return a.offset < b.offset; });
+    image->V = mesh.V;
+    image->face_count = mesh.faces.size();
+    image->face_index_count = mesh.faces.indices.size();
+    mesh.image = std::move(image);
+  }
+  return mesh;
+}
+
+}  // namespace detail
+
+const char* format_name(FileFormat format) {
+  switch (format) {
+    case FileFormat::Off: return "off";
+    case FileFormat::Obj: return "obj";
+    case FileFormat::Ply: return "ply";
+    case FileFormat::Stl: return "stl";
+  }
+  return "?";
+}
+
+const char* encoding_name(Encoding encoding) {
+  switch (encoding) {
+    case Encoding::Ascii: return "ascii";
+    case Encoding::BinaryLittleEndian: return "binary_little_endian";
+    case Encoding::BinaryBigEndian: return "binary_big_endian";
+  }
+  return "?";
+}
+
+FileFormat format_from_path(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (ext == ".off") return FileFormat::Off;
+  if (ext == ".obj") return FileFormat::Obj;
+  if (ext == ".ply") return FileFormat::Ply;
+  if (ext == ".stl") return FileFormat::Stl;
+  throw InvalidArgumentError(
+      fmt::format("{}: unknown mesh extension '{}' (expected .off, .obj, .ply or .stl)", path, ext));
+}
+
+std::string read_file(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw IOError(fmt::format("{}: is a directory", path));
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IOError(fmt::format("{}: cannot open for reading: {}", path, std::strerror(errno)));
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) throw IOError(fmt::format("{}: read error", path));
+  return bytes;
+}
+
+Mesh read_mesh_from_bytes(std::string bytes, FileFormat format, const std::string& name,
+                          const ReadOptions& options) {
+  switch (format) {
+    case FileFormat::Off: return detail::read_off(std::move(bytes), name, options);
+    case FileFormat::Obj: return detail::read_obj(std::move(bytes), name, options);
+    case FileFormat::Ply: return detail::read_ply(std::move(bytes), name, options);
+    case FileFormat::Stl: return detail::read_stl(std::move(bytes), name, options);
+  }
+  throw InvalidArgumentError("unknown format");
+}
+
+Mesh read_mesh(const std::string& path, const ReadOptions& options) {
+  const FileFormat format = format_from_path(path);
+  return read_mesh_from_bytes(read_file(path), format, path, options);
+}
+
+std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format, const WriteOptions& options) {
+  Encoding encoding = Encoding::Ascii;
+  if (format == FileFormat::Ply || format == FileFormat::Stl)
+    encoding = options.encoding.value_or(mesh.format == format ? mesh.encoding
+                                                               : Encoding::BinaryLittleEndian);
+  if (format == FileFormat::Stl && encoding == Encoding::BinaryBigEndian)
+    throw InvalidArgumentError("STL has no big-endian encoding");
+  if (options.keep_source && !options.single_precision &&
+      detail::image_applies(mesh, format, encoding))
+    return detail::patch_image(*mesh.image, mesh.V);
+  switch (format) {
+    case FileFormat::Off: return detail::write_off(mesh);
+    case FileFormat::Obj: return detail::write_obj(mesh);
+    case FileFormat::Ply: return detail::write_ply(mesh, encoding, options.single_precision);
+    case FileFormat::Stl: return detail::write_stl(mesh, encoding);
+  }
+  throw InvalidArgumentError("unknown format");
+}
+
+void write_mesh(const std::string& path, const Mesh& mesh, const WriteOptions& options) {
+  const FileFormat format = options.format.value_or(format_from_path(path));
+  write_file_atomically(path, write_mesh_to_bytes(mesh, format, options));
+}
+
+void write_file_atomically(const std::string& path, const std::string& bytes) {
+  const std::filesystem::path target(path);
+  std::filesystem::path dir = target.parent_path();
+  if (dir.empty()) dir = ".";
+  std::string tmpl = (dir / ("." + target.filename().string() + ".meshmark-XXXXXX")).string();
+  const int fd = ::mkstemp(tmpl.data());
+  if (fd < 0) throw IOError(fmt::format("{}: cannot create a temporary file in {}: {}", path,
+                                        dir.string(), std::strerror(errno)));
+  std::size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int err = errno;
+      ::close(fd);
+      ::unlink(tmpl.c_str());
+      throw IOError(fmt::format("{}: write failed: {}", path, std::strerror(err)));
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  ::fchmod(fd, 0644);
+  if (::fsync(fd) != 0 || ::close(fd) != 0) {
+    const int err = errno;
+    ::unlink(tmpl.c_str());
+    throw IOError(fmt::format("{}: write failed: {}", path, std::strerror(err)));
+  }
+  if (::rename(tmpl.c_str(), path.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(tmpl.c_str());
+    throw IOError(fmt::format("{}: cannot rename the temporary file into place: {}", path,
+                              std::strerror(err)));
+  }
+}
+
+}  // namespace meshmark

@@ -1,0 +1,41 @@
+#pragma once
+// Internal: the per-format readers and writers behind io.h's dispatcher, and what they share.
+
+#include <string>
+#include <vector>
+
+#include "file_image.h"
+#include "meshmark/io.h"
+
+namespace meshmark::detail {
+
+Mesh read_off(std::string bytes, const std::string& name, const ReadOptions& options);
+Mesh read_obj(std::string bytes, const std::string& name, const ReadOptions& options);
+Mesh read_ply(std::string bytes, const std::string& name, const ReadOptions& options);
+Mesh read_stl(std::string bytes, const std::string& name, const ReadOptions& options);
+
+/// Writers from scratch (no file image): positions and polygons only.
+std::string write_off(const Mesh& mesh);
+std::string write_obj(const Mesh& mesh);
+std::string write_ply(const Mesh& mesh, Encoding encoding, bool single_precision);
+std::string write_stl(const Mesh& mesh, Encoding encoding);
+
+/// Appends "x y z" of vertex i (shortest round-trip text, single spaces, no newline).
+void append_position(std::string& out, const Eigen::MatrixX3d& V, Eigen::Index i);
+
+/// Throws InvalidInputError(name, line, message).
+[[noreturn]] void fail(const std::string& name, std::size_t line, const std::string& message);
+
+/// What a reader found, before it becomes a Mesh.
+struct Parsed {
+  std::vector<double> xyz;     ///< 3 per vertex
+  Polygons faces;
+  std::vector<CoordSlot> slots;
+};
+
+/// Builds the Mesh: V from xyz, F by triangulation, the image when asked. Throws
+/// InvalidInputError when there are no faces or no triangles.
+Mesh assemble(Parsed parsed, std::string bytes, FileFormat format, Encoding encoding,
+              const std::string& name, const ReadOptions& options);
+
+}  // namespace meshmark::detail

@@ -1,0 +1,114 @@
+#include "meshmark/mesh.h"
+
+#include <algorithm>
+#include <numeric>
+
+namespace meshmark {
+
+void Polygons::push_back(const int* first, std::size_t count) {
+  indices.insert(indices.end(), first, first + count);
+  offsets.push_back(static_cast<std::int64_t>(indices.size()));
+}
+
+Eigen::MatrixX3i triangulate(const Polygons& faces) {
+  Eigen::Index count = 0;
+  for (std::size_t k = 0; k < faces.size(); ++k) {
+    const auto n = faces.offsets[k + 1] - faces.offsets[k];
+    if (n >= 3) count += n - 2;
+  }
+  Eigen::MatrixX3i F(count, 3);
+  Eigen::Index row = 0;
+  for (std::size_t k = 0; k < faces.size(); ++k) {
+    const int* f = faces.indices.data() + faces.offsets[k];
+    const auto n = faces.offsets[k + 1] - faces.offsets[k];
+    for (std::int64_t i = 1; i + 1 < n; ++i) F.row(row++) << f[0], f[i], f[i + 1];
+  }
+  return F;
+}
+
+Polygons polygons_from_triangles(const Eigen::MatrixX3i& F) {
+  Polygons faces;
+  faces.offsets.resize(static_cast<std::size_t>(F.rows()) + 1);
+  faces.indices.resize(static_cast<std::size_t>(F.rows()) * 3);
+  for (Eigen::Index t = 0; t < F.rows(); ++t) {
+    faces.offsets[t + 1] = 3 * (t + 1);
+    for (int c = 0; c < 3; ++c) faces.indices[3 * t + c] = F(t, c);
+  }
+  return faces;
+}
+
+Mesh make_mesh(Eigen::MatrixX3d V, Eigen::MatrixX3i F) {
+  Mesh mesh;
+  mesh.faces = polygons_from_triangles(F);
+  mesh.V = std::move(V);
+  mesh.F = std::move(F);
+  return mesh;
+}
+
+std::vector<std::uint8_t> referenced_vertices(const Eigen::MatrixX3i& F, Eigen::Index nv) {
+  std::vector<std::uint8_t> used(static_cast<std::size_t>(nv), 0);
+  for (Eigen::Index t = 0; t < F.rows(); ++t)
+    for (int c = 0; c < 3; ++c) used[static_cast<std::size_t>(F(t, c))] = 1;
+  return used;
+}
+
+double bounding_box_diagonal(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& mask) {
+  Eigen::RowVector3d lo = Eigen::RowVector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::RowVector3d hi = -lo;
+  bool any = false;
+  for (Eigen::Index i = 0; i < V.rows(); ++i) {
+    if (!mask.empty() && !mask[static_cast<std::size_t>(i)]) continue;
+    lo = lo.cwiseMin(V.row(i));
+    hi = hi.cwiseMax(V.row(i));
+    any = true;
+  }
+  return any ? (hi - lo).norm() : 0.0;
+}
+
+PositionGroups group_identical_positions(const Eigen::MatrixX3d& V,
+                                         const std::vector<std::uint8_t>& referenced) {
+  const auto nv = static_cast<int>(V.rows());
+  std::vector<int> order;
+  order.reserve(static_cast<std::size_t>(nv));
+  for (int i = 0; i < nv; ++i)
+    if (referenced[static_cast<std::size_t>(i)]) order.push_back(i);
+  // Lexicographic sort on (x, y, z, index): equal positions become neighbours, and within a
+  // run the smallest index comes first. Comparisons treat -0.0 and +0.0 as equal.
+  auto less = [&V](int a, int b) {
+    for (int c = 0; c < 3; ++c)
+      if (V(a, c) != V(b, c)) return V(a, c) < V(b, c);
+    return a < b;
+  };
+  std::sort(order.begin(), order.end(), less);
+  std::vector<int> leader(static_cast<std::size_t>(nv), -1);
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const int i = order[k];
+    const bool same = k > 0 && V.row(i) == V.row(order[k - 1]);
+    leader[static_cast<std::size_t>(i)] = same ? leader[static_cast<std::size_t>(order[k - 1])] : i;
+  }
+  PositionGroups groups;
+  groups.group_of.assign(static_cast<std::size_t>(nv), -1);
+  std::vector<int> sizes;
+  for (int i = 0; i < nv; ++i) {
+    const int l = leader[static_cast<std::size_t>(i)];
+    if (l < 0) continue;
+    if (l == i) {
+      groups.group_of[static_cast<std::size_t>(i)] = static_cast<int>(sizes.size());
+      sizes.push_back(0);
+    } else {
+      groups.group_of[static_cast<std::size_t>(i)] = groups.group_of[static_cast<std::size_t>(l)];
+    }
+    ++sizes[static_cast<std::size_t>(groups.group_of[static_cast<std::size_t>(i)])];
+  }
+  groups.offsets.resize(sizes.size() + 1);
+  std::partial_sum(sizes.begin(), sizes.end(), groups.offsets.begin() + 1);
+  groups.members.resize(static_cast<std::size_t>(groups.offsets.back()));
+  std::vector<int> fill(groups.offsets.begin(), groups.offsets.end() - 1);
+  for (int i = 0; i < nv; ++i) {
+    const int g = groups.group_of[static_cast<std::size_t>(i)];
+    if (g >= 0) groups.members[static_cast<std::size_t>(fill[static_cast<std::size_t>(g)]++)] = i;
+  }
+  return groups;
+}
+
+}  // namespace meshmark
