@@ -1,0 +1,81 @@
+// The command line as a user runs it: exit codes, messages, files.
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sys/wait.h>
+
+#include "meshmark/io.h"
+#include "test_data.h"
+
+using namespace meshmark;
+
+namespace {
+
+struct CliRun {
+  int code = -1;
+  std::string out;
+};
+
+CliRun run(const std::string& args) {
+  const std::string cmd = std::string(MESHMARK_CLI) + " " + args + " 2>&1";
+  CliRun r;
+  FILE* pipe = popen(cmd.c_str(), "r");
+  if (!pipe) return r;
+  std::array<char, 4096> buf;
+  std::size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), pipe)) > 0) r.out.append(buf.data(), n);
+  const int status = pclose(pipe);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+}  // namespace
+
+TEST(Cli, EmbedThenExtractRoundTrips) {
+  const std::string in = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(in, "spot.obj");
+  const std::string dir = test::scratch_dir();
+  const CliRun e = run("embed " + in + " " + dir + "/w.obj --payload 0123456789abcdef");
+  ASSERT_EQ(e.code, 0) << e.out;
+  EXPECT_NE(e.out.find("RMS displacement"), std::string::npos);
+  const CliRun x = run("extract " + dir + "/w.obj --expect 0123456789abcdef");
+  EXPECT_EQ(x.code, 0) << x.out;
+  EXPECT_NE(x.out.find("payload 0123456789abcdef"), std::string::npos) << x.out;
+  EXPECT_NE(x.out.find("bit error rate 0.000000"), std::string::npos) << x.out;
+  const CliRun wrong = run("extract " + dir + "/w.obj --expect 0123456789abcdee");
+  EXPECT_EQ(wrong.code, 5) << wrong.out;
+  const CliRun json = run("extract " + dir + "/w.obj --json");
+  EXPECT_EQ(json.code, 0);
+  EXPECT_NE(json.out.find("\"payload\": \"0123456789abcdef\""), std::string::npos) << json.out;
+}
+
+TEST(Cli, MalformedInputExitsWithCodeTwoAndNamesFileAndLine) {
+  const std::string dir = test::scratch_dir();
+  const std::string bad = dir + "/bad.off";
+  std::ofstream(bad) << "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 9\n";
+  const CliRun r = run("extract " + bad);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find(bad + ":6:"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("out of range"), std::string::npos) << r.out;
+  EXPECT_EQ(run("extract " + dir + "/missing.obj").code, 2);
+}
+
+TEST(Cli, RefusesToOverwriteTheInputAndReportsInfeasibleBits) {
+  const std::string dir = test::scratch_dir();
+  const std::string in = dir + "/tiny.obj";
+  write_mesh(in, test::bumpy_sphere(4, 5, 1));
+  const std::string before = read_file(in);
+  const CliRun same = run("embed " + in + " " + in + " --payload 1 --bits 4");
+  EXPECT_EQ(same.code, 1) << same.out;
+  EXPECT_EQ(read_file(in), before);
+  const CliRun infeasible = run("embed " + in + " " + dir + "/out.obj --payload 0123456789abcdef");
+  EXPECT_EQ(infeasible.code, 4) << infeasible.out;
+  EXPECT_NE(infeasible.out.find("infeasible bits"), std::string::npos) << infeasible.out;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out.obj"));
+  EXPECT_EQ(run("embed " + in + " " + dir + "/o.obj --payload zz").code, 1);
+  EXPECT_EQ(run("frobnicate").code, 1);
+}

@@ -1,0 +1,223 @@
+// DRS embedding on real meshes: exact optimality against an independent QP solved by Ipopt,
+// round trips through files, and the constraints the paper imposes, checked from the geometry.
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <filesystem>
+
+#include "ipopt_reference.h"
+#include "meshmark/decode.h"
+#include "meshmark/embed.h"
+#include "meshmark/error.h"
+#include "meshmark/io.h"
+#include "test_data.h"
+
+using namespace meshmark;
+using namespace meshmark::test;
+
+namespace {
+
+struct Named {
+  std::string label, path;
+  int bits = 64;
+  double weld = 0;
+};
+
+// Real meshes of different kinds: closed, open, non-manifold, CAD, with UVs, with seams.
+std::vector<Named> real_meshes() {
+  return {{"stanford-bunny (holes, unreferenced)", shared_mesh("stanford-bunny.obj")},
+          {"horse (closed, binary PLY)", shared_mesh("horse.ply")},
+          {"bunny.ply (non-manifold)", shared_mesh("bunny.ply")},
+          {"spot (UVs)", shared_mesh("spot.obj")},
+          {"teapot (seams)", shared_mesh("teapot.obj")},
+          {"spider (groups, degenerate faces)", shared_mesh("spider.obj"), 24},
+          {"featuretype (STL CAD, tolerance weld)", shared_mesh("featuretype.STL"), 16, 1e-5},
+          {"fandisk (CAD)", cgal_mesh("fandisk.off")},
+          {"mech-holes-shark (CAD, holes)", cgal_mesh("mech-holes-shark.off")},
+          {"elephant", cgal_mesh("elephant.off")},
+          {"pig (ascii STL)", cgal_mesh("pig.stl")},
+          {"cow", cgal_mesh("cow.off")},
+          {"armadillo", cgal_mesh("armadillo.off")}};
+}
+
+// Radii of referenced vertices around the discrete center, computed here from scratch.
+struct Radii {
+  Eigen::VectorXd rho;  // NaN for unreferenced
+  Eigen::Vector3d center;
+  double lo = 0, hi = 0;
+};
+Radii radii(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
+  std::vector<char> used(V.rows(), 0);
+  for (Eigen::Index k = 0; k < F.size(); ++k) used[F.data()[k]] = 1;
+  Radii r;
+  r.center.setZero();
+  double n = 0;
+  for (Eigen::Index i = 0; i < V.rows(); ++i)
+    if (used[i]) r.center += V.row(i).transpose(), n += 1;
+  r.center /= n;
+  r.rho = Eigen::VectorXd::Constant(V.rows(), std::nan(""));
+  r.lo = 1e300;
+  r.hi = -1e300;
+  for (Eigen::Index i = 0; i < V.rows(); ++i)
+    if (used[i]) {
+      r.rho(i) = (V.row(i).transpose() - r.center).norm();
+      r.lo = std::min(r.lo, r.rho(i));
+      r.hi = std::max(r.hi, r.rho(i));
+    }
+  return r;
+}
+
+}  // namespace
+
+TEST(EmbedDrs, OptimumMatchesIpoptOnSmallMeshes) {
+  struct Small {
+    std::string label;
+    Mesh mesh;
+  };
+  std::vector<Small> meshes;
+  meshes.push_back({"generated bumpy sphere", bumpy_sphere(40, 60, 4)});
+  for (const std::string name : {"elephant.off", "cow.off", "mech-holes-shark.off"})
+    if (!cgal_mesh(name).empty()) meshes.push_back({name, read_mesh(cgal_mesh(name))});
+  if (!shared_mesh("spot.obj").empty()) meshes.push_back({"spot.obj", read_mesh(shared_mesh("spot.obj"))});
+  ASSERT_GE(meshes.size(), 1u);
+  for (const Small& s : meshes) {
+    SCOPED_TRACE(s.label);
+    const Payload p = random_payload(64, 42);
+    EmbedOptions o;
+    o.max_rounds = 1;
+    const EmbedResult ours = embed(s.mesh.V, s.mesh.F, p, o);
+    ASSERT_EQ(ours.status, EmbedStatus::Embedded) << ours.message;
+    std::vector<int> referenced;
+    Eigen::MatrixX3d dirs;
+    const std::vector<int> bits(p.bits.begin(), p.bits.end());
+    const SparseQp qp = drs_reference_problem(s.mesh.V, s.mesh.F, bits, 0.05, 0.05, referenced, dirs);
+    const ReferenceSolution ref = solve_with_ipopt(qp);
+    ASSERT_TRUE(ref.ok) << "Ipopt status " << ref.status;
+    EXPECT_NEAR(ours.squared_displacement, ref.objective, 1e-6 * ref.objective);
+    // Our displacement is feasible for the independently built problem and radial.
+    Eigen::VectorXd r(referenced.size());
+    for (std::size_t k = 0; k < referenced.size(); ++k) {
+      const Eigen::RowVector3d d = ours.V.row(referenced[k]) - s.mesh.V.row(referenced[k]);
+      r(k) = d.dot(dirs.row(k));
+      EXPECT_LE((d - r(k) * dirs.row(k)).norm(), 1e-12 * (1 + std::abs(r(k)))) << "displacement is radial";
+      EXPECT_GE(r(k), qp.x_lo(k) - 1e-12);
+      EXPECT_LE(r(k), qp.x_hi(k) + 1e-12);
+    }
+    Eigen::VectorXd Ar = Eigen::VectorXd::Zero(qp.row_lo.size());
+    for (const auto& t : qp.A) Ar(t.row()) += t.value() * r(t.col());
+    for (Eigen::Index j = 0; j < Ar.size(); ++j) EXPECT_GE(Ar(j), qp.row_lo(j) - 1e-9);
+    for (Eigen::Index j = 64; j < Ar.size(); ++j) EXPECT_NEAR(Ar(j), 0, 1e-9 * r.cwiseAbs().maxCoeff());
+  }
+}
+
+TEST(EmbedDrs, RoundTripThroughFilesOnRealMeshes) {
+  int ran = 0;
+  const std::string dir = scratch_dir();
+  for (const Named& n : real_meshes()) {
+    if (n.path.empty()) continue;
+    SCOPED_TRACE(n.label);
+    ReadOptions ro;
+    ro.weld_tolerance = n.weld;
+    Mesh m = read_mesh(n.path, ro);
+    const Payload p = random_payload(n.bits, 1234 + ran);
+    const EmbedResult r = embed(m.V, m.F, p);
+    ASSERT_EQ(r.status, EmbedStatus::Embedded) << r.message;
+
+    // Constraints, from scratch: the center, the range and every vertex's bin are unchanged,
+    // unreferenced vertices do not move.
+    const Radii before = radii(m.V, m.F), after = radii(r.V, m.F);
+    const double s = (before.hi - before.lo) / (n.bits + 2);
+    EXPECT_LE((after.center - before.center).norm(), 1e-9 * s);
+    EXPECT_NEAR(after.lo, before.lo, 1e-9 * s);
+    EXPECT_NEAR(after.hi, before.hi, 1e-9 * s);
+    for (Eigen::Index i = 0; i < m.V.rows(); ++i) {
+      if (std::isnan(before.rho(i))) {
+        EXPECT_EQ(r.V.row(i), m.V.row(i)) << "unreferenced vertex " << i << " moved";
+        continue;
+      }
+      // Each histogram as a decoder builds it, from its own mesh.
+      const auto bin = [&](const Radii& h, double rho) {
+        return std::min<int>(std::floor((rho - h.lo) / ((h.hi - h.lo) / (n.bits + 2))), n.bits + 1);
+      };
+      ASSERT_EQ(bin(before, before.rho(i)), bin(after, after.rho(i))) << "vertex " << i << " changed bin";
+    }
+
+    // Through a file in the input's own format and encoding, then blind extraction.
+    const std::string out = dir + "/wm_" + std::filesystem::path(n.path).filename().string();
+    Mesh w = m;
+    w.V = r.V;
+    write_mesh(out, w);
+    const Mesh back = read_mesh(out, ro);
+    ExtractOptions eo;
+    eo.bits = n.bits;
+    const ExtractResult x = extract(back.V, back.F, eo);
+    EXPECT_EQ(x.erasures, 0);
+    EXPECT_EQ(bit_error_rate(x.bits, p), 0.0);
+    EXPECT_GE(x.min_margin(), 0.05 - 1e-3) << "float32 storage may shave a little off the margin";
+    ++ran;
+  }
+  if (ran == 0) GTEST_SKIP() << "skipped: no real mesh available";
+  EXPECT_GE(ran, 10) << "fewer than 10 real meshes were available";
+}
+
+TEST(EmbedDrs, UnreachableBitsAreNamedAndTheMeshIsLeftAlone) {
+  const Mesh m = bumpy_sphere(5, 7, 2);  // 37 vertices: with 64 bits most bins are empty
+  const Payload p = random_payload(64, 3);
+  const EmbedResult r = embed(m.V, m.F, p);
+  ASSERT_EQ(r.status, EmbedStatus::Infeasible);
+  EXPECT_EQ(r.V, m.V);
+  // Independently: every empty bin j + 1 must be among the named bits.
+  const Radii rr = radii(m.V, m.F);
+  const double s = (rr.hi - rr.lo) / 66;
+  std::vector<int> count(66, 0);
+  for (Eigen::Index i = 0; i < m.V.rows(); ++i) ++count[std::min<int>(std::floor((rr.rho(i) - rr.lo) / s), 65)];
+  std::vector<int> empty;
+  for (int j = 0; j < 64; ++j)
+    if (count[j + 1] == 0) empty.push_back(j);
+  ASSERT_FALSE(empty.empty());
+  for (int j : empty)
+    EXPECT_NE(std::find(r.infeasible_bits.begin(), r.infeasible_bits.end(), j), r.infeasible_bits.end()) << j;
+}
+
+TEST(EmbedDrs, SeamsStayClosed) {
+  const std::string path = shared_mesh("teapot.obj");
+  MESHMARK_REQUIRE(path, "teapot.obj");
+  const Mesh m = read_mesh(path);
+  const EmbedResult r = embed(m.V, m.F, random_payload(64, 5));
+  ASSERT_EQ(r.status, EmbedStatus::Embedded);
+  int pairs = 0;
+  for (Eigen::Index i = 0; i < m.V.rows(); ++i)
+    for (Eigen::Index k = i + 1; k < m.V.rows(); ++k)
+      if (m.V.row(i) == m.V.row(k)) {
+        ++pairs;
+        EXPECT_EQ(r.V.row(i), r.V.row(k)) << "duplicates " << i << " and " << k << " split";
+      }
+  EXPECT_GT(pairs, 0);
+}
+
+TEST(EmbedDrs, StrongerWatermarksCostMore) {
+  const Mesh m = bumpy_sphere(30, 40, 8);
+  double previous = 0;
+  for (double alpha : {0.02, 0.05, 0.1, 0.2}) {
+    EmbedOptions o;
+    o.strength = alpha;
+    const EmbedResult r = embed(m.V, m.F, random_payload(32, 1), o);
+    ASSERT_EQ(r.status, EmbedStatus::Embedded);
+    EXPECT_GT(r.squared_displacement, previous);
+    EXPECT_NEAR(r.min_margin, alpha, 1e-9);
+    previous = r.squared_displacement;
+  }
+}
+
+TEST(EmbedDrs, OptionsOutOfRangeThrow) {
+  const Mesh m = bumpy_sphere(8, 8, 1);
+  const Payload p = random_payload(8, 1);
+  EmbedOptions o;
+  o.strength = 0.5;
+  EXPECT_THROW(embed(m.V, m.F, p, o), InvalidArgumentError);
+  o = {};
+  o.bin_offset = -0.1;
+  EXPECT_THROW(embed(m.V, m.F, p, o), InvalidArgumentError);
+  EXPECT_THROW(embed(m.V, m.F, Payload{}, {}), InvalidArgumentError);
+}

@@ -1,0 +1,50 @@
+#include <gtest/gtest.h>
+
+#include "meshmark/mesh.h"
+
+using namespace meshmark;
+
+TEST(Mesh, TriangulateFansPolygonsAndSkipsShortFaces) {
+  Polygons faces;
+  const int quad[] = {0, 1, 2, 3}, edge[] = {4, 5}, tri[] = {2, 4, 5};
+  faces.push_back(quad, 4);
+  faces.push_back(edge, 2);
+  faces.push_back(tri, 3);
+  const Eigen::MatrixX3i F = triangulate(faces);
+  ASSERT_EQ(F.rows(), 3);  // 2 from the quad, 0 from the edge, 1 from the triangle
+  EXPECT_EQ(F.row(0), Eigen::RowVector3i(0, 1, 2));
+  EXPECT_EQ(F.row(1), Eigen::RowVector3i(0, 2, 3));
+  EXPECT_EQ(F.row(2), Eigen::RowVector3i(2, 4, 5));
+}
+
+TEST(Mesh, ReferencedVerticesMarksOnlyVerticesOfTriangles) {
+  Eigen::MatrixX3i F(1, 3);
+  F << 0, 2, 3;
+  const auto used = referenced_vertices(F, 5);
+  EXPECT_EQ(used, (std::vector<std::uint8_t>{1, 0, 1, 1, 0}));
+}
+
+TEST(Mesh, GroupsIdenticalPositionsIncludingSignedZero) {
+  Eigen::MatrixX3d V(6, 3);
+  V << 0, 0, 0,   //
+      1, 2, 3,    //
+      -0.0, 0, 0, // same as vertex 0
+      1, 2, 3,    // same as vertex 1
+      1, 2, 3.0000001, 0, 0, 0;  // vertex 5 unreferenced below
+  const std::vector<std::uint8_t> referenced = {1, 1, 1, 1, 1, 0};
+  const PositionGroups g = group_identical_positions(V, referenced);
+  ASSERT_EQ(g.count(), 3);
+  EXPECT_EQ(g.group_of[0], g.group_of[2]);
+  EXPECT_EQ(g.group_of[1], g.group_of[3]);
+  EXPECT_NE(g.group_of[1], g.group_of[4]);
+  EXPECT_EQ(g.group_of[5], -1);
+  EXPECT_EQ(g.group_of[0], 0);  // numbered by first vertex
+  EXPECT_EQ(g.members.size(), 5u);
+}
+
+TEST(Mesh, BoundingBoxDiagonalOfMaskedVertices) {
+  Eigen::MatrixX3d V(3, 3);
+  V << 0, 0, 0, 3, 4, 0, 100, 100, 100;
+  EXPECT_DOUBLE_EQ(bounding_box_diagonal(V, {1, 1, 0}), 5.0);
+  EXPECT_DOUBLE_EQ(bounding_box_diagonal(V, {0, 0, 0}), 0.0);
+}

@@ -1,0 +1,33 @@
+#pragma once
+// Where the tests find real meshes: ../shared/meshes beside the project and Debian's
+// libcgal-demo data unpacked into the build tree. Tests skip, saying why, when one is absent.
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "meshmark/mesh.h"
+
+namespace meshmark::test {
+
+/// Path of a file in ../shared/meshes, or "" when that folder or file is absent.
+std::string shared_mesh(const std::string& name);
+
+/// Path of a file in libcgal-demo's data/meshes, or "" when absent.
+std::string cgal_mesh(const std::string& name);
+
+/// A unique scratch directory for one test (removed by the OS's tmp cleaning, not by us).
+std::string scratch_dir();
+
+/// A closed, irregular test surface generated in code: a sphere of n_theta x n_phi vertices
+/// whose radius varies smoothly with the direction (so the histogram is spread), seeded.
+Mesh bumpy_sphere(int n_theta, int n_phi, unsigned seed);
+
+}  // namespace meshmark::test
+
+/// Skips the current test when path is empty, naming what is missing.
+#define MESHMARK_REQUIRE(path, what)                                                     \
+  do {                                                                                   \
+    if ((path).empty()) GTEST_SKIP() << "skipped: " << (what) << " is not available "    \
+                                     << "(needs ../shared/meshes or libcgal-demo data)"; \
+  } while (0)
