@@ -9,7 +9,8 @@ namespace meshmark {
 
 namespace {
 
-// Everything one pass over the variables gives for multipliers y.
+// Everything one pass over the variables gives for multipliers y: the primal minimizer, the
+// dual value and gradient, and the generalized Hessian blocks over the unclipped variables.
 struct DualPoint {
   Eigen::VectorXd y;
   Eigen::VectorXd x;
@@ -20,16 +21,14 @@ struct DualPoint {
   Eigen::Matrix3d hee;     // equality block
 };
 
-void evaluate(const SeparableQp& qp, DualPoint& p, bool with_hessian) {
+void evaluate(const SeparableQp& qp, DualPoint& p) {
   const Eigen::Index n = qp.h.size(), m = qp.b.size();
   const Eigen::Vector3d ye = p.y.tail<3>();
   p.x.resize(n);
   p.g.setZero(m + 3);
-  if (with_hessian) {
-    p.hww.setZero(m);
-    p.hwe.setZero(3, m);
-    p.hee.setZero();
-  }
+  p.hww.setZero(m);
+  p.hwe.setZero(3, m);
+  p.hee.setZero();
   double value = 0;
   for (Eigen::Index i = 0; i < n; ++i) {
     const int j = qp.row[i];
@@ -42,7 +41,7 @@ void evaluate(const SeparableQp& qp, DualPoint& p, bool with_hessian) {
     value += qp.h(i) * xi * xi - z * xi;
     if (j >= 0) p.g(j) -= qp.a(i) * xi;
     p.g.tail<3>() -= ei * xi;
-    if (with_hessian && u > qp.lo(i) && u < qp.hi(i)) {
+    if (u > qp.lo(i) && u < qp.hi(i)) {
       if (j >= 0) {
         p.hww(j) += qp.a(i) * qp.a(i) * d;
         p.hwe.col(j) += (qp.a(i) * d) * ei;
@@ -119,7 +118,7 @@ QpResult solve_separable_qp(const SeparableQp& qp, const QpSettings& settings, c
   DualPoint p;
   p.y = warm_y && warm_y->size() == m + 3 ? *warm_y : Eigen::VectorXd::Zero(m + 3);
   p.y.head(m) = p.y.head(m).cwiseMax(0.0);
-  evaluate(qp, p, true);
+  evaluate(qp, p);
   auto finish = [&](QpStatus status) {
     result.status = status;
     result.x = p.x;
@@ -146,7 +145,7 @@ QpResult solve_separable_qp(const SeparableQp& qp, const QpSettings& settings, c
     for (int k = 0; k < 60; ++k, step *= 0.5) {
       trial.y = p.y + step * dy;
       trial.y.head(m) = trial.y.head(m).cwiseMax(0.0);
-      evaluate(qp, trial, false);
+      evaluate(qp, trial);
       // Near the optimum the change of the dual value drowns in rounding: a full step that
       // halves the KKT residual is taken on that evidence instead.
       double tp = 0, tc = 0;
@@ -157,8 +156,7 @@ QpResult solve_separable_qp(const SeparableQp& qp, const QpSettings& settings, c
       }
     }
     if (!accepted) break;
-    p.y = trial.y;
-    evaluate(qp, p, true);
+    std::swap(p, trial);  // the trial point, Hessian included, becomes the iterate
     if (!std::isfinite(p.value) || p.y.cwiseAbs().maxCoeff() > 1e30) return finish(QpStatus::Infeasible);
   }
   double primal = 0, comp = 0;

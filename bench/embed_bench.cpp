@@ -1,0 +1,62 @@
+// Embedding and decoding times on real meshes, without file I/O (meshes are read once, before
+// timing). Run: build/bench/meshmark_bench --benchmark_repetitions=5
+// --benchmark_report_aggregates_only=true, and report medians.
+
+#include <benchmark/benchmark.h>
+
+#include <filesystem>
+#include <map>
+
+#include "meshmark/decode.h"
+#include "meshmark/embed.h"
+#include "meshmark/io.h"
+
+using namespace meshmark;
+
+namespace {
+
+const Mesh* load(const std::string& path) {
+  static std::map<std::string, Mesh> cache;
+  auto it = cache.find(path);
+  if (it != cache.end()) return &it->second;
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return nullptr;
+  ReadOptions ro;
+  ro.keep_image = false;
+  return &cache.emplace(path, read_mesh(path, ro)).first->second;
+}
+
+std::string shared(const char* name) { return std::string(MESHMARK_SHARED_DIR) + "/meshes/" + name; }
+
+void embed_drs(benchmark::State& state, const std::string& path) {
+  const Mesh* m = load(path);
+  if (!m) return state.SkipWithError(("missing " + path).c_str());
+  const Payload p = random_payload(64, 1);
+  for (auto _ : state) {
+    EmbedResult r = embed(m->V, m->F, p);
+    if (r.status != EmbedStatus::Embedded) state.SkipWithError(r.message.c_str());
+    benchmark::DoNotOptimize(r.V.data());
+  }
+  state.counters["vertices"] = static_cast<double>(m->V.rows());
+  state.SetItemsProcessed(state.iterations() * m->V.rows());
+}
+
+void extract_drs(benchmark::State& state, const std::string& path) {
+  const Mesh* m = load(path);
+  if (!m) return state.SkipWithError(("missing " + path).c_str());
+  for (auto _ : state) {
+    ExtractResult r = extract(m->V, m->F);
+    benchmark::DoNotOptimize(r.bits.data());
+  }
+  state.SetItemsProcessed(state.iterations() * m->V.rows());  // items/s = vertices per second
+}
+
+}  // namespace
+
+BENCHMARK_CAPTURE(embed_drs, stanford_bunny_35k, shared("stanford-bunny.obj"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(embed_drs, horse_48k, shared("horse.ply"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(embed_drs, igea_134k, shared("igea.ply"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(extract_drs, stanford_bunny_35k, shared("stanford-bunny.obj"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(extract_drs, igea_134k, shared("igea.ply"))->Unit(benchmark::kMillisecond);
+
+BENCHMARK_MAIN();

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Installs meshmark's build and test dependencies from Debian 12 packages (as root), then
+# configures and builds the project in build/. Safe to run again: it installs only what is
+# missing and rebuilds only what changed.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(
+  g++ cmake ninja-build pkg-config ccache          # toolchain
+  libeigen3-dev libfmt-dev libcli11-dev nlohmann-json3-dev   # library and CLI
+  libgtest-dev libgmock-dev libbenchmark-dev       # tests and benchmarks
+  coinor-libipopt-dev                              # independent QP solver for the optimality tests
+  libcgal-dev libcgal-demo                         # CGAL, and its real meshes (data.tar.gz)
+  python3                                          # small helper scripts
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]}"
+  if [ "$(id -u)" -ne 0 ]; then echo "setup: run as root to install packages" >&2; exit 1; fi
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -q
+  apt-get install -y -q --no-install-recommends "${missing[@]}"
+fi
+
+build_type="${MESHMARK_BUILD_TYPE:-Release}"
+build_dir="${MESHMARK_BUILD_DIR:-build}"
+cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE="$build_type" ${MESHMARK_CMAKE_ARGS:-} >/dev/null
+cmake --build "$build_dir" --parallel "$(nproc)"
