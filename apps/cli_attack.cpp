@@ -29,11 +29,12 @@ int run(const AttackArgs& a) {
   } else if (a.kind == "reorder") {
     attacked = attack_reorder(mesh, a.seed);
   } else {
-    throw InvalidArgumentError(fmt::format("unknown attack '{}' (available: similarity, reorder)", a.kind));
+    throw InvalidArgumentError(
+        fmt::format("unknown attack '{}' (available: similarity, reorder)", a.kind));
   }
   write_output(a.output, a.input, attacked, a.out);
-  fmt::print("{}: {} -> {} ({} vertices, {} faces, seed {})\n", a.kind, a.input, a.output, attacked.V.rows(),
-             attacked.faces.size(), a.seed);
+  fmt::print("{}: {} -> {} ({} vertices, {} faces, seed {})\n", a.kind, a.input, a.output,
+             attacked.V.rows(), attacked.faces.size(), a.seed);
   return kOk;
 }
 
@@ -41,7 +42,8 @@ int run(const AttackArgs& a) {
 
 void register_attack(CLI::App& app, int& exit_code) {
   auto args = std::make_shared<AttackArgs>();
-  CLI::App* sub = app.add_subcommand("attack", "Apply an attack to a mesh (deterministic for a seed)");
+  CLI::App* sub =
+      app.add_subcommand("attack", "Apply an attack to a mesh (deterministic for a seed)");
   sub->add_option("KIND", args->kind, "similarity | reorder")->required();
   sub->add_option("IN", args->input, "input mesh")->required();
   sub->add_option("OUT", args->output, "output mesh")->required();

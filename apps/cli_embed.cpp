@@ -23,11 +23,14 @@ struct EmbedArgs {
 };
 
 void apply_variant(const std::string& variant, EmbedOptions& options) {
-  if (variant.size() != 3) throw InvalidArgumentError(fmt::format("variant '{}' is not three letters", variant));
+  if (variant.size() != 3)
+    throw InvalidArgumentError(fmt::format("variant '{}' is not three letters", variant));
   options.center = center_from_letter(variant[0]);
   if (std::toupper(variant[1]) != 'R' || std::toupper(variant[2]) != 'S')
     throw InvalidArgumentError(
-        fmt::format("variant '{}': only radial directions (R) with the squared-error cost (S) are implemented so far", variant));
+        fmt::format("variant '{}': only radial directions (R) with the squared-error cost (S) are "
+                    "implemented so far",
+                    variant));
 }
 
 int run(const EmbedArgs& a) {
@@ -67,15 +70,16 @@ int run(const EmbedArgs& a) {
     fmt::print("{}\n", j.dump(2));
   } else {
     fmt::print("{}: {}\n", ok ? "embedded" : "NOT embedded", r.message);
-    fmt::print("  payload          {} ({} bits, variant {}, strength {}, bin offset {})\n", payload_to_hex(payload),
-               a.bits, a.variant, options.strength, options.bin_offset);
+    fmt::print("  payload          {} ({} bits, variant {}, strength {}, bin offset {})\n",
+               payload_to_hex(payload), a.bits, a.variant, options.strength, options.bin_offset);
     fmt::print("  rounds           {} ({} solver iterations, KKT residual {:.2e})\n", r.rounds,
                r.solver_iterations, r.kkt_residual);
     fmt::print("  smallest margin  {:.6f} (target {})\n", r.min_margin, options.strength);
     fmt::print("  RMS displacement {:.6f} % of the bounding-box diagonal\n", r.rms_percent);
     fmt::print("  center drift     {:.3g} bin widths\n", r.center_drift);
     fmt::print("  time             {:.2f} ms (without file I/O)\n", 1e3 * r.seconds);
-    if (!r.infeasible_bits.empty()) fmt::print("  infeasible bits  {}\n", fmt::join(r.infeasible_bits, " "));
+    if (!r.infeasible_bits.empty())
+      fmt::print("  infeasible bits  {}\n", fmt::join(r.infeasible_bits, " "));
     if (ok) fmt::print("  written          {}\n", a.output);
   }
   if (!ok) fmt::print(stderr, "meshmark: error: {}: {}\n", a.input, r.message);
@@ -86,15 +90,20 @@ int run(const EmbedArgs& a) {
 
 void register_embed(CLI::App& app, int& exit_code) {
   auto args = std::make_shared<EmbedArgs>();
-  CLI::App* sub = app.add_subcommand("embed", "Embed a payload into a mesh and write the watermarked mesh");
+  CLI::App* sub =
+      app.add_subcommand("embed", "Embed a payload into a mesh and write the watermarked mesh");
   sub->add_option("IN", args->input, "input mesh (.off .obj .ply .stl)")->required();
   sub->add_option("OUT", args->output, "output mesh; format from its extension")->required();
-  sub->add_option("--payload", args->payload, "payload in hexadecimal (bin 1's bit first)")->required();
+  sub->add_option("--payload", args->payload, "payload in hexadecimal (bin 1's bit first)")
+      ->required();
   sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, 1 << 20));
   sub->add_option("--variant", args->variant, "center, direction, cost: DRS");
-  sub->add_option("--strength", args->embed.strength, "alpha in (0, 1/2): target distance of bin means from 1/2");
-  sub->add_option("--bin-offset", args->embed.bin_offset, "G in [0, 1/2): vertices stay in [G, 1-G] of their bin");
-  sub->add_option("--max-rounds", args->embed.max_rounds, "linearize-and-solve rounds at most")->check(CLI::PositiveNumber);
+  sub->add_option("--strength", args->embed.strength,
+                  "alpha in (0, 1/2): target distance of bin means from 1/2");
+  sub->add_option("--bin-offset", args->embed.bin_offset,
+                  "G in [0, 1/2): vertices stay in [G, 1-G] of their bin");
+  sub->add_option("--max-rounds", args->embed.max_rounds, "linearize-and-solve rounds at most")
+      ->check(CLI::PositiveNumber);
   sub->add_flag("--json", args->json, "print a JSON report");
   add_input_options(*sub, args->in);
   add_output_options(*sub, args->out);

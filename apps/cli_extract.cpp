@@ -1,7 +1,7 @@
 // meshmark extract IN [--expect HEX]
 
-#include <cmath>
 #include <fmt/format.h>
+#include <cmath>
 #include <memory>
 #include <nlohmann/json.hpp>
 
@@ -21,7 +21,8 @@ struct ExtractArgs {
 };
 
 int run(const ExtractArgs& a) {
-  if (a.variant.size() != 3) throw InvalidArgumentError(fmt::format("variant '{}' is not three letters", a.variant));
+  if (a.variant.size() != 3)
+    throw InvalidArgumentError(fmt::format("variant '{}' is not three letters", a.variant));
   ExtractOptions options;
   options.bits = a.bits;
   options.center = center_from_letter(a.variant[0]);
@@ -36,12 +37,18 @@ int run(const ExtractArgs& a) {
     nlohmann::json bits = nlohmann::json::array();
     for (std::size_t j = 0; j < r.bits.size(); ++j)
       bits.push_back({{"bit", j},
-                      {"value", r.bits[j] == kErasure ? nlohmann::json(nullptr) : nlohmann::json(int(r.bits[j]))},
-                      {"mean", std::isfinite(r.means[j]) ? nlohmann::json(r.means[j]) : nlohmann::json(nullptr)},
+                      {"value", r.bits[j] == kErasure ? nlohmann::json(nullptr)
+                                                      : nlohmann::json(int(r.bits[j]))},
+                      {"mean", std::isfinite(r.means[j]) ? nlohmann::json(r.means[j])
+                                                         : nlohmann::json(nullptr)},
                       {"margin", r.margins[j]},
                       {"vertices", r.counts[j]}});
-    nlohmann::json j = {{"input", a.input}, {"payload", hex}, {"bits", a.bits}, {"erasures", r.erasures},
-                        {"min_margin", r.min_margin()}, {"per_bit", bits}};
+    nlohmann::json j = {{"input", a.input},
+                        {"payload", hex},
+                        {"bits", a.bits},
+                        {"erasures", r.erasures},
+                        {"min_margin", r.min_margin()},
+                        {"per_bit", bits}};
     if (expected) j["expected"] = payload_to_hex(*expected), j["bit_error_rate"] = ber;
     fmt::print("{}\n", j.dump(2));
   } else {
@@ -50,9 +57,11 @@ int run(const ExtractArgs& a) {
     fmt::print("smallest margin {:.6f}\n", r.min_margin());
     fmt::print("bit  value  mean      margin    vertices\n");
     for (std::size_t j = 0; j < r.bits.size(); ++j)
-      fmt::print("{:>3}  {:>5}  {:<8.6f}  {:<8.6f}  {}\n", j, r.bits[j] == kErasure ? "?" : std::to_string(r.bits[j]),
-                 r.means[j], r.margins[j], r.counts[j]);
-    if (expected) fmt::print("expected {}\nbit error rate {:.6f}\n", payload_to_hex(*expected), ber);
+      fmt::print("{:>3}  {:>5}  {:<8.6f}  {:<8.6f}  {}\n", j,
+                 r.bits[j] == kErasure ? "?" : std::to_string(r.bits[j]), r.means[j], r.margins[j],
+                 r.counts[j]);
+    if (expected)
+      fmt::print("expected {}\nbit error rate {:.6f}\n", payload_to_hex(*expected), ber);
   }
   return expected && ber > 0 ? kBitErrors : kOk;
 }
@@ -64,7 +73,8 @@ void register_extract(CLI::App& app, int& exit_code) {
   CLI::App* sub = app.add_subcommand("extract", "Read the payload back from a mesh (blind)");
   sub->add_option("IN", args->input, "watermarked mesh")->required();
   sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, 1 << 20));
-  sub->add_option("--variant", args->variant, "the embedding's variant (its center letter matters)");
+  sub->add_option("--variant", args->variant,
+                  "the embedding's variant (its center letter matters)");
   sub->add_option("--expect", args->expect, "expected payload (hex): report the bit error rate");
   sub->add_flag("--json", args->json, "print a JSON report");
   add_input_options(*sub, args->in);

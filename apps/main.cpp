@@ -1,8 +1,8 @@
 // meshmark: blind watermarking of triangle meshes. Parses, calls the library, prints, and maps
 // every failure to one line on stderr and a documented exit code (see cli.h and the README).
 
-#include <filesystem>
 #include <fmt/format.h>
+#include <filesystem>
 
 #include "cli.h"
 #include "meshmark/error.h"
@@ -10,15 +10,17 @@
 namespace meshmark::cli {
 
 void add_input_options(CLI::App& app, InputOptions& options) {
-  app.add_option("--weld-tolerance", options.weld_tolerance,
-                 "STL: weld corners closer than this distance (model units); 0 welds identical ones")
+  app.add_option(
+         "--weld-tolerance", options.weld_tolerance,
+         "STL: weld corners closer than this distance (model units); 0 welds identical ones")
       ->check(CLI::NonNegativeNumber);
 }
 
 void add_output_options(CLI::App& app, OutputOptions& options) {
   app.add_option("--format", options.format, "output format (default: from OUT's extension)")
       ->check(CLI::IsMember({"off", "obj", "ply", "stl"}));
-  app.add_option("--encoding", options.encoding, "PLY/STL output encoding (default: keep the input's)")
+  app.add_option("--encoding", options.encoding,
+                 "PLY/STL output encoding (default: keep the input's)")
       ->check(CLI::IsMember({"ascii", "binary_little_endian", "binary_big_endian"}));
   app.add_flag("--float32", options.float32, "PLY written from scratch: store float32 coordinates");
 }
@@ -51,7 +53,9 @@ void write_output(const std::string& path, const std::string& input_path, const 
 
 int main(int argc, char** argv) {
   using namespace meshmark;
-  CLI::App app{"meshmark: blind, robust watermarking of triangle meshes (Rolland-Neviere et al., TIFS 2014)"};
+  CLI::App app{
+      "meshmark: blind, robust watermarking of triangle meshes (Rolland-Neviere et al., TIFS "
+      "2014)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "meshmark 0.1.0");
   int exit_code = cli::kOk;

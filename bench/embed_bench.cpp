@@ -26,7 +26,9 @@ const Mesh* load(const std::string& path) {
   return &cache.emplace(path, read_mesh(path, ro)).first->second;
 }
 
-std::string shared(const char* name) { return std::string(MESHMARK_SHARED_DIR) + "/meshes/" + name; }
+std::string shared(const char* name) {
+  return std::string(MESHMARK_SHARED_DIR) + "/meshes/" + name;
+}
 
 void embed_drs(benchmark::State& state, const std::string& path) {
   const Mesh* m = load(path);
@@ -53,10 +55,12 @@ void extract_drs(benchmark::State& state, const std::string& path) {
 
 }  // namespace
 
-BENCHMARK_CAPTURE(embed_drs, stanford_bunny_35k, shared("stanford-bunny.obj"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(embed_drs, stanford_bunny_35k, shared("stanford-bunny.obj"))
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(embed_drs, horse_48k, shared("horse.ply"))->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(embed_drs, igea_134k, shared("igea.ply"))->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(extract_drs, stanford_bunny_35k, shared("stanford-bunny.obj"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(extract_drs, stanford_bunny_35k, shared("stanford-bunny.obj"))
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(extract_drs, igea_134k, shared("igea.ply"))->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();

@@ -47,7 +47,8 @@ std::vector<int> random_permutation(std::size_t n, Random& rng) {
 
 Mesh attack_reorder(const Mesh& mesh, std::uint64_t seed) {
   Random rng(seed);
-  const std::vector<int> new_of_old = random_permutation(static_cast<std::size_t>(mesh.V.rows()), rng);
+  const std::vector<int> new_of_old =
+      random_permutation(static_cast<std::size_t>(mesh.V.rows()), rng);
   const std::vector<int> face_order = random_permutation(mesh.faces.size(), rng);
   Mesh out;
   out.format = mesh.format;
@@ -60,7 +61,8 @@ Mesh attack_reorder(const Mesh& mesh, std::uint64_t seed) {
     const auto n = static_cast<std::size_t>(e - b);
     face.resize(n);
     const std::size_t shift = n > 0 ? rng.index(n) : 0;
-    for (std::size_t c = 0; c < n; ++c) face[c] = new_of_old[mesh.faces.indices[b + (c + shift) % n]];
+    for (std::size_t c = 0; c < n; ++c)
+      face[c] = new_of_old[mesh.faces.indices[b + (c + shift) % n]];
     out.faces.push_back(face.data(), n);
   }
   out.F = triangulate(out.faces);

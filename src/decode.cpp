@@ -38,8 +38,10 @@ void bin_means(const Histogram& h, std::vector<double>& means, std::vector<int>&
     means[j] = counts[j] > 0 ? sums[j] / counts[j] : std::numeric_limits<double>::quiet_NaN();
 }
 
-ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const ExtractOptions& options) {
-  if (options.bits < 1) throw InvalidArgumentError(fmt::format("cannot extract {} bits", options.bits));
+ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                      const ExtractOptions& options) {
+  if (options.bits < 1)
+    throw InvalidArgumentError(fmt::format("cannot extract {} bits", options.bits));
   ExtractResult r;
   const auto referenced = referenced_vertices(F, V.rows());
   r.center = center_of_mass(V, F, referenced, options.center);

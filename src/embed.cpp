@@ -75,7 +75,8 @@ void build_problem(const Eigen::MatrixX3d& V, const PositionGroups& groups, cons
     const int first = groups.members[groups.offsets[g]];
     const double w = groups.offsets[g + 1] - groups.offsets[g];
     const Eigen::Vector3d u = (V.row(first).transpose() - h.center) / h.rho(first);
-    for (int k = groups.offsets[g]; k < groups.offsets[g + 1]; ++k) r.U.row(groups.members[k]) = u.transpose();
+    for (int k = groups.offsets[g]; k < groups.offsets[g + 1]; ++k)
+      r.U.row(groups.members[k]) = u.transpose();
     const int bin = h.bin[first];
     const double t = h.t(first);
     const bool extreme = h.rho(first) == h.rho_min || h.rho(first) == h.rho_max;
@@ -103,7 +104,8 @@ std::vector<double> signed_margins(const Histogram& h, const Payload& payload) {
   return margins;
 }
 
-void measure(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referenced, EmbedResult& res) {
+void measure(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referenced,
+             EmbedResult& res) {
   double sum = 0, n = 0;
   for (Eigen::Index i = 0; i < V.rows(); ++i) {
     const double d2 = (res.V.row(i) - V.row(i)).squaredNorm();
@@ -119,10 +121,14 @@ void measure(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referen
 
 const char* embed_status_name(EmbedStatus status) {
   switch (status) {
-    case EmbedStatus::Embedded: return "embedded";
-    case EmbedStatus::Infeasible: return "infeasible";
-    case EmbedStatus::NotConverged: return "not converged";
-    case EmbedStatus::InvalidMesh: return "invalid mesh";
+    case EmbedStatus::Embedded:
+      return "embedded";
+    case EmbedStatus::Infeasible:
+      return "infeasible";
+    case EmbedStatus::NotConverged:
+      return "not converged";
+    case EmbedStatus::InvalidMesh:
+      return "invalid mesh";
   }
   return "?";
 }
@@ -134,25 +140,31 @@ EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Pa
   EmbedResult res;
   res.V = V;
   const auto referenced = referenced_vertices(F, V.rows());
-  const PositionGroups groups =
-      options.keep_duplicates_together ? group_identical_positions(V, referenced) : singleton_groups(referenced);
+  const PositionGroups groups = options.keep_duplicates_together
+                                    ? group_identical_positions(V, referenced)
+                                    : singleton_groups(referenced);
   const Center c0 = center_of_mass(V, F, referenced, options.center);
   Round round;
   round.hist = build_histogram(V, referenced, c0.point, payload.size());
   const double s0 = round.hist.step;
   res.bin_width = s0;
-  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  auto elapsed = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  };
   if (!c0.well_defined || !round.hist.valid()) {
     res.status = EmbedStatus::InvalidMesh;
-    res.message = !c0.well_defined ? "the center of mass is not defined for this mesh"
-                                   : "no histogram: the mesh has no referenced vertex or all lie at one distance";
+    res.message =
+        !c0.well_defined
+            ? "the center of mass is not defined for this mesh"
+            : "no histogram: the mesh has no referenced vertex or all lie at one distance";
     res.seconds = elapsed();
     return res;
   }
   Eigen::VectorXd warm;
   for (int k = 0; k < options.max_rounds; ++k) {
     build_problem(res.V, groups, payload, options, round);
-    const QpResult sol = solve_separable_qp(round.qp, options.solver, warm.size() ? &warm : nullptr);
+    const QpResult sol =
+        solve_separable_qp(round.qp, options.solver, warm.size() ? &warm : nullptr);
     ++res.rounds;
     res.solver_iterations += sol.iterations;
     res.solver_status = sol.status;
@@ -161,10 +173,11 @@ EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Pa
       res.status = EmbedStatus::Infeasible;
       res.infeasible_bits = sol.infeasible_rows;
       res.V = V;
-      res.message = sol.infeasible_rows.empty()
-                        ? "the bits cannot be embedded while the center stays fixed"
-                        : fmt::format("{} bit(s) cannot reach their target inside their bins: {}",
-                                      sol.infeasible_rows.size(), fmt::join(sol.infeasible_rows, ", "));
+      res.message =
+          sol.infeasible_rows.empty()
+              ? "the bits cannot be embedded while the center stays fixed"
+              : fmt::format("{} bit(s) cannot reach their target inside their bins: {}",
+                            sol.infeasible_rows.size(), fmt::join(sol.infeasible_rows, ", "));
       res.seconds = elapsed();
       return res;
     }
@@ -180,7 +193,8 @@ EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Pa
     res.min_margin = *std::min_element(res.margins.begin(), res.margins.end());
     res.center_drift = (c.point - c0.point).norm() / s0;
     warm = sol.y;
-    if (sol.status == QpStatus::Solved && res.min_margin >= options.strength - options.margin_tolerance &&
+    if (sol.status == QpStatus::Solved &&
+        res.min_margin >= options.strength - options.margin_tolerance &&
         res.center_drift <= options.center_tolerance) {
       res.status = EmbedStatus::Embedded;
       break;
@@ -190,9 +204,11 @@ EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Pa
   measure(V, referenced, res);
   res.message = res.status == EmbedStatus::Embedded
                     ? fmt::format("{} bits embedded in {} round(s)", payload.size(), res.rounds)
-                    : fmt::format("after {} round(s): smallest margin {:.3g} (target {}), center drift {:.3g} bins, solver {}",
-                                  res.rounds, res.min_margin, options.strength, res.center_drift,
-                                  qp_status_name(res.solver_status));
+                    : fmt::format(
+                          "after {} round(s): smallest margin {:.3g} (target {}), center drift "
+                          "{:.3g} bins, solver {}",
+                          res.rounds, res.min_margin, options.strength, res.center_drift,
+                          qp_status_name(res.solver_status));
   res.seconds = elapsed();
   return res;
 }

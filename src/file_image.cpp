@@ -13,14 +13,19 @@ namespace meshmark::detail {
 int slot_type_size(SlotType type) {
   switch (type) {
     case SlotType::Int8:
-    case SlotType::UInt8: return 1;
+    case SlotType::UInt8:
+      return 1;
     case SlotType::Int16:
-    case SlotType::UInt16: return 2;
+    case SlotType::UInt16:
+      return 2;
     case SlotType::Int32:
     case SlotType::UInt32:
-    case SlotType::Float32: return 4;
-    case SlotType::Float64: return 8;
-    case SlotType::Text: return 0;
+    case SlotType::Float32:
+      return 4;
+    case SlotType::Float64:
+      return 8;
+    case SlotType::Text:
+      return 0;
   }
   return 0;
 }
@@ -56,30 +61,48 @@ T to_integer(double value) {
 
 double read_scalar(const char* data, SlotType type, bool big_endian) {
   switch (type) {
-    case SlotType::Int8: return load<std::int8_t>(data, big_endian);
-    case SlotType::UInt8: return load<std::uint8_t>(data, big_endian);
-    case SlotType::Int16: return load<std::int16_t>(data, big_endian);
-    case SlotType::UInt16: return load<std::uint16_t>(data, big_endian);
-    case SlotType::Int32: return load<std::int32_t>(data, big_endian);
-    case SlotType::UInt32: return load<std::uint32_t>(data, big_endian);
-    case SlotType::Float32: return load<float>(data, big_endian);
-    case SlotType::Float64: return load<double>(data, big_endian);
-    case SlotType::Text: break;
+    case SlotType::Int8:
+      return load<std::int8_t>(data, big_endian);
+    case SlotType::UInt8:
+      return load<std::uint8_t>(data, big_endian);
+    case SlotType::Int16:
+      return load<std::int16_t>(data, big_endian);
+    case SlotType::UInt16:
+      return load<std::uint16_t>(data, big_endian);
+    case SlotType::Int32:
+      return load<std::int32_t>(data, big_endian);
+    case SlotType::UInt32:
+      return load<std::uint32_t>(data, big_endian);
+    case SlotType::Float32:
+      return load<float>(data, big_endian);
+    case SlotType::Float64:
+      return load<double>(data, big_endian);
+    case SlotType::Text:
+      break;
   }
   return 0;
 }
 
 void write_scalar(char* data, SlotType type, bool big_endian, double value) {
   switch (type) {
-    case SlotType::Int8: return store(data, big_endian, to_integer<std::int8_t>(value));
-    case SlotType::UInt8: return store(data, big_endian, to_integer<std::uint8_t>(value));
-    case SlotType::Int16: return store(data, big_endian, to_integer<std::int16_t>(value));
-    case SlotType::UInt16: return store(data, big_endian, to_integer<std::uint16_t>(value));
-    case SlotType::Int32: return store(data, big_endian, to_integer<std::int32_t>(value));
-    case SlotType::UInt32: return store(data, big_endian, to_integer<std::uint32_t>(value));
-    case SlotType::Float32: return store(data, big_endian, static_cast<float>(value));
-    case SlotType::Float64: return store(data, big_endian, value);
-    case SlotType::Text: break;
+    case SlotType::Int8:
+      return store(data, big_endian, to_integer<std::int8_t>(value));
+    case SlotType::UInt8:
+      return store(data, big_endian, to_integer<std::uint8_t>(value));
+    case SlotType::Int16:
+      return store(data, big_endian, to_integer<std::int16_t>(value));
+    case SlotType::UInt16:
+      return store(data, big_endian, to_integer<std::uint16_t>(value));
+    case SlotType::Int32:
+      return store(data, big_endian, to_integer<std::int32_t>(value));
+    case SlotType::UInt32:
+      return store(data, big_endian, to_integer<std::uint32_t>(value));
+    case SlotType::Float32:
+      return store(data, big_endian, static_cast<float>(value));
+    case SlotType::Float64:
+      return store(data, big_endian, value);
+    case SlotType::Text:
+      break;
   }
 }
 

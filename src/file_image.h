@@ -10,15 +10,25 @@
 namespace meshmark {
 
 /// How one coordinate is stored in the file.
-enum class SlotType : std::uint8_t { Text, Int8, UInt8, Int16, UInt16, Int32, UInt32, Float32, Float64 };
+enum class SlotType : std::uint8_t {
+  Text,
+  Int8,
+  UInt8,
+  Int16,
+  UInt16,
+  Int32,
+  UInt32,
+  Float32,
+  Float64
+};
 
 /// One stored coordinate: where it is, how it is stored, and which vertex and axis it holds.
 struct CoordSlot {
-  std::uint64_t offset = 0;   ///< byte offset in FileImage::bytes
-  double original = 0;        ///< the value stored there
-  std::int32_t vertex = 0;    ///< the vertex (row of V) it belongs to
-  std::uint16_t length = 0;   ///< byte length (text token length, or the binary type's size)
-  std::uint8_t axis = 0;      ///< 0, 1, 2 for x, y, z
+  std::uint64_t offset = 0;  ///< byte offset in FileImage::bytes
+  double original = 0;       ///< the value stored there
+  std::int32_t vertex = 0;   ///< the vertex (row of V) it belongs to
+  std::uint16_t length = 0;  ///< byte length (text token length, or the binary type's size)
+  std::uint8_t axis = 0;     ///< 0, 1, 2 for x, y, z
   SlotType type = SlotType::Text;
   bool big_endian = false;
 };
@@ -26,10 +36,10 @@ struct CoordSlot {
 struct FileImage {
   FileFormat format = FileFormat::Obj;
   Encoding encoding = Encoding::Ascii;
-  std::string bytes;                ///< the whole source file
-  std::vector<CoordSlot> slots;     ///< in increasing offset order
-  Eigen::MatrixX3d V;               ///< positions as read (rows of the mesh)
-  std::size_t face_count = 0;       ///< faces as read, to detect changed connectivity
+  std::string bytes;             ///< the whole source file
+  std::vector<CoordSlot> slots;  ///< in increasing offset order
+  Eigen::MatrixX3d V;            ///< positions as read (rows of the mesh)
+  std::size_t face_count = 0;    ///< faces as read, to detect changed connectivity
   std::size_t face_index_count = 0;
 };
 

@@ -12,8 +12,8 @@ namespace meshmark {
 
 namespace {
 
-Eigen::Vector3d discrete_center(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referenced,
-                                double& count) {
+Eigen::Vector3d discrete_center(const Eigen::MatrixX3d& V,
+                                const std::vector<std::uint8_t>& referenced, double& count) {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   count = 0;
   for (Eigen::Index i = 0; i < V.rows(); ++i)
@@ -99,10 +99,17 @@ Histogram build_histogram(const Eigen::MatrixX3d& V, const std::vector<std::uint
 
 CenterKind center_from_letter(char letter) {
   switch (letter) {
-    case 'D': case 'd': return CenterKind::Discrete;
-    case 'S': case 's': return CenterKind::Surface;
-    case 'V': case 'v': return CenterKind::Volume;
-    default: break;
+    case 'D':
+    case 'd':
+      return CenterKind::Discrete;
+    case 'S':
+    case 's':
+      return CenterKind::Surface;
+    case 'V':
+    case 'v':
+      return CenterKind::Volume;
+    default:
+      break;
   }
   throw InvalidArgumentError(fmt::format("unknown center '{}' (expected D, S or V)", letter));
 }

@@ -13,8 +13,8 @@
 #include <fmt/format.h>
 
 #include "io_formats.h"
-#include "text_scan.h"
 #include "meshmark/error.h"
+#include "text_scan.h"
 
 namespace meshmark {
 
@@ -65,39 +65,49 @@ Mesh assemble(Parsed parsed, std::string bytes, FileFormat format, Encoding enco
 
 const char* format_name(FileFormat format) {
   switch (format) {
-    case FileFormat::Off: return "off";
-    case FileFormat::Obj: return "obj";
-    case FileFormat::Ply: return "ply";
-    case FileFormat::Stl: return "stl";
+    case FileFormat::Off:
+      return "off";
+    case FileFormat::Obj:
+      return "obj";
+    case FileFormat::Ply:
+      return "ply";
+    case FileFormat::Stl:
+      return "stl";
   }
   return "?";
 }
 
 const char* encoding_name(Encoding encoding) {
   switch (encoding) {
-    case Encoding::Ascii: return "ascii";
-    case Encoding::BinaryLittleEndian: return "binary_little_endian";
-    case Encoding::BinaryBigEndian: return "binary_big_endian";
+    case Encoding::Ascii:
+      return "ascii";
+    case Encoding::BinaryLittleEndian:
+      return "binary_little_endian";
+    case Encoding::BinaryBigEndian:
+      return "binary_big_endian";
   }
   return "?";
 }
 
 FileFormat format_from_path(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   if (ext == ".off") return FileFormat::Off;
   if (ext == ".obj") return FileFormat::Obj;
   if (ext == ".ply") return FileFormat::Ply;
   if (ext == ".stl") return FileFormat::Stl;
-  throw InvalidArgumentError(
-      fmt::format("{}: unknown mesh extension '{}' (expected .off, .obj, .ply or .stl)", path, ext));
+  throw InvalidArgumentError(fmt::format(
+      "{}: unknown mesh extension '{}' (expected .off, .obj, .ply or .stl)", path, ext));
 }
 
 std::string read_file(const std::string& path) {
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw IOError(fmt::format("{}: is a directory", path));
+  if (std::filesystem::is_directory(path, ec))
+    throw IOError(fmt::format("{}: is a directory", path));
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw IOError(fmt::format("{}: cannot open for reading: {}", path, std::strerror(errno)));
+  if (!in)
+    throw IOError(fmt::format("{}: cannot open for reading: {}", path, std::strerror(errno)));
   std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   if (in.bad()) throw IOError(fmt::format("{}: read error", path));
   return bytes;
@@ -106,10 +116,14 @@ std::string read_file(const std::string& path) {
 Mesh read_mesh_from_bytes(std::string bytes, FileFormat format, const std::string& name,
                           const ReadOptions& options) {
   switch (format) {
-    case FileFormat::Off: return detail::read_off(std::move(bytes), name, options);
-    case FileFormat::Obj: return detail::read_obj(std::move(bytes), name, options);
-    case FileFormat::Ply: return detail::read_ply(std::move(bytes), name, options);
-    case FileFormat::Stl: return detail::read_stl(std::move(bytes), name, options);
+    case FileFormat::Off:
+      return detail::read_off(std::move(bytes), name, options);
+    case FileFormat::Obj:
+      return detail::read_obj(std::move(bytes), name, options);
+    case FileFormat::Ply:
+      return detail::read_ply(std::move(bytes), name, options);
+    case FileFormat::Stl:
+      return detail::read_stl(std::move(bytes), name, options);
   }
   throw InvalidArgumentError("unknown format");
 }
@@ -130,10 +144,14 @@ std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format, const Write
       detail::image_applies(mesh, format, encoding))
     return detail::patch_image(*mesh.image, mesh.V);
   switch (format) {
-    case FileFormat::Off: return detail::write_off(mesh);
-    case FileFormat::Obj: return detail::write_obj(mesh);
-    case FileFormat::Ply: return detail::write_ply(mesh, encoding, options.single_precision);
-    case FileFormat::Stl: return detail::write_stl(mesh, encoding);
+    case FileFormat::Off:
+      return detail::write_off(mesh);
+    case FileFormat::Obj:
+      return detail::write_obj(mesh);
+    case FileFormat::Ply:
+      return detail::write_ply(mesh, encoding, options.single_precision);
+    case FileFormat::Stl:
+      return detail::write_stl(mesh, encoding);
   }
   throw InvalidArgumentError("unknown format");
 }
@@ -149,8 +167,9 @@ void write_file_atomically(const std::string& path, const std::string& bytes) {
   if (dir.empty()) dir = ".";
   std::string tmpl = (dir / ("." + target.filename().string() + ".meshmark-XXXXXX")).string();
   const int fd = ::mkstemp(tmpl.data());
-  if (fd < 0) throw IOError(fmt::format("{}: cannot create a temporary file in {}: {}", path,
-                                        dir.string(), std::strerror(errno)));
+  if (fd < 0)
+    throw IOError(fmt::format("{}: cannot create a temporary file in {}: {}", path, dir.string(),
+                              std::strerror(errno)));
   std::size_t done = 0;
   while (done < bytes.size()) {
     const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);

@@ -28,7 +28,7 @@ void append_position(std::string& out, const Eigen::MatrixX3d& V, Eigen::Index i
 
 /// What a reader found, before it becomes a Mesh.
 struct Parsed {
-  std::vector<double> xyz;     ///< 3 per vertex
+  std::vector<double> xyz;  ///< 3 per vertex
   Polygons faces;
   std::vector<CoordSlot> slots;
 };

@@ -17,7 +17,8 @@ void parse_vertex(const std::vector<Token>& tokens, const std::string& name, std
                   Parsed& parsed) {
   const auto i = static_cast<std::int32_t>(parsed.xyz.size() / 3);
   if (tokens.size() < 4)
-    fail(name, line, fmt::format("vertex {}: expected 3 coordinates, found {}", i + 1, tokens.size() - 1));
+    fail(name, line,
+         fmt::format("vertex {}: expected 3 coordinates, found {}", i + 1, tokens.size() - 1));
   for (int a = 0; a < 3; ++a) {
     const Token& t = tokens[a + 1];
     double x = 0;
@@ -26,8 +27,8 @@ void parse_vertex(const std::vector<Token>& tokens, const std::string& name, std
     if (!std::isfinite(x))
       fail(name, line, fmt::format("vertex {}: coordinate {} is not finite", i + 1, quote(t.text)));
     parsed.xyz.push_back(x);
-    parsed.slots.push_back({t.offset, x, i, static_cast<std::uint16_t>(t.text.size()),
-                            static_cast<std::uint8_t>(a)});
+    parsed.slots.push_back(
+        {t.offset, x, i, static_cast<std::uint16_t>(t.text.size()), static_cast<std::uint8_t>(a)});
   }
 }
 
@@ -42,17 +43,22 @@ void parse_face(const std::vector<Token>& tokens, const std::string& name, std::
     const auto slash = corner.find('/');
     std::int64_t idx = 0;
     if (!parse_int(corner.substr(0, slash), idx) || idx == 0)
-      fail(name, line, fmt::format("face {}: expected a vertex index, found {}", parsed.faces.size() + 1, quote(corner)));
+      fail(name, line,
+           fmt::format("face {}: expected a vertex index, found {}", parsed.faces.size() + 1,
+                       quote(corner)));
     if (idx < 0) {
       idx += nv;
       if (idx < 0)
-        fail(name, line, fmt::format("face {}: relative index {} points before the first vertex",
-                                     parsed.faces.size() + 1, quote(corner)));
+        fail(name, line,
+             fmt::format("face {}: relative index {} points before the first vertex",
+                         parsed.faces.size() + 1, quote(corner)));
     } else {
       idx -= 1;
     }
     if (idx > std::numeric_limits<int>::max())
-      fail(name, line, fmt::format("face {}: vertex index {} is out of range", parsed.faces.size() + 1, quote(corner)));
+      fail(name, line,
+           fmt::format("face {}: vertex index {} is out of range", parsed.faces.size() + 1,
+                       quote(corner)));
     face.push_back(static_cast<int>(idx));
   }
   parsed.faces.push_back(face.data(), face.size());
@@ -82,9 +88,11 @@ Mesh read_obj(std::string bytes, const std::string& name, const ReadOptions& opt
   for (std::size_t k = 0; k < parsed.faces.size(); ++k)
     for (auto c = parsed.faces.offsets[k]; c < parsed.faces.offsets[k + 1]; ++c)
       if (parsed.faces.indices[c] >= nv)
-        fail(name, face_line[k], fmt::format("face {}: vertex index {} is out of range [1, {}]", k + 1,
-                                             parsed.faces.indices[c] + 1, nv));
-  return assemble(std::move(parsed), std::move(bytes), FileFormat::Obj, Encoding::Ascii, name, options);
+        fail(name, face_line[k],
+             fmt::format("face {}: vertex index {} is out of range [1, {}]", k + 1,
+                         parsed.faces.indices[c] + 1, nv));
+  return assemble(std::move(parsed), std::move(bytes), FileFormat::Obj, Encoding::Ascii, name,
+                  options);
 }
 
 std::string write_obj(const Mesh& mesh) {

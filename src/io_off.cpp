@@ -34,7 +34,8 @@ bool next_tokens(LineScanner& lines, std::vector<Token>& tokens) {
   return false;
 }
 
-std::int64_t count_value(const Token& t, const std::string& name, std::size_t line, const char* what) {
+std::int64_t count_value(const Token& t, const std::string& name, std::size_t line,
+                         const char* what) {
   std::int64_t n = 0;
   if (!parse_int(t.text, n) || n < 0)
     fail(name, line, fmt::format("expected the {} count, found {}", what, quote(t.text)));
@@ -49,15 +50,18 @@ Mesh read_off(std::string bytes, const std::string& name, const ReadOptions& opt
   if (!next_tokens(lines, tokens)) fail(name, 0, "the file is empty");
   bool unsupported = false;
   if (!off_keyword(tokens[0].text, unsupported))
-    fail(name, lines.line_number(), fmt::format("expected an OFF header, found {}", quote(tokens[0].text)));
+    fail(name, lines.line_number(),
+         fmt::format("expected an OFF header, found {}", quote(tokens[0].text)));
   if (unsupported)
-    fail(name, lines.line_number(), fmt::format("{} (not 3D) is not supported", quote(tokens[0].text)));
+    fail(name, lines.line_number(),
+         fmt::format("{} (not 3D) is not supported", quote(tokens[0].text)));
   if (tokens.size() > 1 && tokens[1].text == "BINARY")
     fail(name, lines.line_number(), "binary OFF is not supported");
   // Counts on the header line itself or on the next line.
   std::vector<Token> counts(tokens.begin() + 1, tokens.end());
   if (counts.empty()) {
-    if (!next_tokens(lines, counts)) fail(name, lines.line_number(), "the file ends before the counts");
+    if (!next_tokens(lines, counts))
+      fail(name, lines.line_number(), "the file ends before the counts");
   }
   if (counts.size() < 2) fail(name, lines.line_number(), "expected vertex and face counts");
   const std::int64_t nv = count_value(counts[0], name, lines.line_number(), "vertex");
@@ -65,7 +69,8 @@ Mesh read_off(std::string bytes, const std::string& name, const ReadOptions& opt
   // Every vertex and face takes at least 2 bytes: reject absurd counts before allocating.
   if (nv > static_cast<std::int64_t>(bytes.size()) || nf > static_cast<std::int64_t>(bytes.size()))
     fail(name, lines.line_number(),
-         fmt::format("counts {} vertices, {} faces cannot fit in a file of {} bytes", nv, nf, bytes.size()));
+         fmt::format("counts {} vertices, {} faces cannot fit in a file of {} bytes", nv, nf,
+                     bytes.size()));
   Parsed parsed;
   parsed.xyz.reserve(static_cast<std::size_t>(nv) * 3);
   parsed.slots.reserve(static_cast<std::size_t>(nv) * 3);
@@ -73,16 +78,20 @@ Mesh read_off(std::string bytes, const std::string& name, const ReadOptions& opt
     if (!next_tokens(lines, tokens))
       fail(name, lines.line_number(), fmt::format("the file ends after {} of {} vertices", i, nv));
     if (tokens.size() < 3)
-      fail(name, lines.line_number(), fmt::format("vertex {}: expected 3 coordinates, found {}", i, tokens.size()));
+      fail(name, lines.line_number(),
+           fmt::format("vertex {}: expected 3 coordinates, found {}", i, tokens.size()));
     for (int a = 0; a < 3; ++a) {
       double x = 0;
       if (!parse_double(tokens[a].text, x))
-        fail(name, lines.line_number(), fmt::format("vertex {}: expected a number, found {}", i, quote(tokens[a].text)));
+        fail(name, lines.line_number(),
+             fmt::format("vertex {}: expected a number, found {}", i, quote(tokens[a].text)));
       if (!std::isfinite(x))
-        fail(name, lines.line_number(), fmt::format("vertex {}: coordinate {} is not finite", i, quote(tokens[a].text)));
+        fail(name, lines.line_number(),
+             fmt::format("vertex {}: coordinate {} is not finite", i, quote(tokens[a].text)));
       parsed.xyz.push_back(x);
       parsed.slots.push_back({tokens[a].offset, x, static_cast<std::int32_t>(i),
-                              static_cast<std::uint16_t>(tokens[a].text.size()), static_cast<std::uint8_t>(a)});
+                              static_cast<std::uint16_t>(tokens[a].text.size()),
+                              static_cast<std::uint8_t>(a)});
     }
   }
   std::vector<int> face;
@@ -91,21 +100,27 @@ Mesh read_off(std::string bytes, const std::string& name, const ReadOptions& opt
       fail(name, lines.line_number(), fmt::format("the file ends after {} of {} faces", k, nf));
     std::int64_t n = 0;
     if (!parse_int(tokens[0].text, n) || n < 0)
-      fail(name, lines.line_number(), fmt::format("face {}: expected a vertex count, found {}", k, quote(tokens[0].text)));
+      fail(name, lines.line_number(),
+           fmt::format("face {}: expected a vertex count, found {}", k, quote(tokens[0].text)));
     if (static_cast<std::int64_t>(tokens.size()) < n + 1)
-      fail(name, lines.line_number(), fmt::format("face {}: expected {} indices, found {}", k, n, tokens.size() - 1));
+      fail(name, lines.line_number(),
+           fmt::format("face {}: expected {} indices, found {}", k, n, tokens.size() - 1));
     face.clear();
     for (std::int64_t c = 0; c < n; ++c) {
       std::int64_t idx = 0;
       if (!parse_int(tokens[c + 1].text, idx))
-        fail(name, lines.line_number(), fmt::format("face {}: expected a vertex index, found {}", k, quote(tokens[c + 1].text)));
+        fail(name, lines.line_number(),
+             fmt::format("face {}: expected a vertex index, found {}", k,
+                         quote(tokens[c + 1].text)));
       if (idx < 0 || idx >= nv)
-        fail(name, lines.line_number(), fmt::format("face {}: vertex index {} is out of range [0, {})", k, idx, nv));
+        fail(name, lines.line_number(),
+             fmt::format("face {}: vertex index {} is out of range [0, {})", k, idx, nv));
       face.push_back(static_cast<int>(idx));
     }
     parsed.faces.push_back(face.data(), face.size());
   }
-  return assemble(std::move(parsed), std::move(bytes), FileFormat::Off, Encoding::Ascii, name, options);
+  return assemble(std::move(parsed), std::move(bytes), FileFormat::Off, Encoding::Ascii, name,
+                  options);
 }
 
 std::string write_off(const Mesh& mesh) {

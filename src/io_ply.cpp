@@ -19,8 +19,8 @@ namespace {
 struct Property {
   std::string name;
   bool is_list = false;
-  SlotType type = SlotType::Float32;        // item type for lists
-  SlotType count_type = SlotType::UInt8;    // lists only
+  SlotType type = SlotType::Float32;      // item type for lists
+  SlotType count_type = SlotType::UInt8;  // lists only
 };
 
 struct Element {
@@ -59,7 +59,8 @@ Header parse_header(const std::string& bytes, const std::string& name) {
   LineScanner lines(bytes);
   std::vector<Token> tokens;
   std::string_view line;
-  if (!lines.next(line) || line != "ply") fail(name, 1, "not a PLY file (the first line must be 'ply')");
+  if (!lines.next(line) || line != "ply")
+    fail(name, 1, "not a PLY file (the first line must be 'ply')");
   Header header;
   bool have_format = false;
   while (true) {
@@ -73,10 +74,14 @@ Header parse_header(const std::string& bytes, const std::string& name) {
     if (key == "format") {
       if (tokens.size() < 2) fail(name, ln, "format line without a format");
       const std::string_view f = tokens[1].text;
-      if (f == "ascii") header.encoding = Encoding::Ascii;
-      else if (f == "binary_little_endian") header.encoding = Encoding::BinaryLittleEndian;
-      else if (f == "binary_big_endian") header.encoding = Encoding::BinaryBigEndian;
-      else fail(name, ln, fmt::format("unknown format {}", quote(f)));
+      if (f == "ascii")
+        header.encoding = Encoding::Ascii;
+      else if (f == "binary_little_endian")
+        header.encoding = Encoding::BinaryLittleEndian;
+      else if (f == "binary_big_endian")
+        header.encoding = Encoding::BinaryBigEndian;
+      else
+        fail(name, ln, fmt::format("unknown format {}", quote(f)));
       have_format = true;
     } else if (key == "element") {
       std::int64_t count = 0;
@@ -115,7 +120,7 @@ enum class Role { Other, Vertex, Face, Strips };
 
 struct ElementPlan {
   Role role = Role::Other;
-  int axis_of[64];  // per property: 0..2 for x y z, -1 otherwise (properties beyond 64: other)
+  int axis_of[64];      // per property: 0..2 for x y z, -1 otherwise (properties beyond 64: other)
   int list_index = -1;  // property holding the indices (faces, strips)
 };
 
@@ -153,7 +158,8 @@ void unroll_strips(const std::vector<std::int64_t>& strip, Polygons& faces) {
   for (std::size_t k = 0; k <= strip.size(); ++k) {
     if (k < strip.size() && strip[k] >= 0) continue;
     for (std::size_t j = start + 2; j < k; ++j) {
-      int t[3] = {static_cast<int>(strip[j - 2]), static_cast<int>(strip[j - 1]), static_cast<int>(strip[j])};
+      int t[3] = {static_cast<int>(strip[j - 2]), static_cast<int>(strip[j - 1]),
+                  static_cast<int>(strip[j])};
       if ((j - start) % 2 == 1) std::swap(t[0], t[1]);
       if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) continue;
       faces.push_back(t, 3);
@@ -163,11 +169,13 @@ void unroll_strips(const std::vector<std::int64_t>& strip, Polygons& faces) {
 }
 
 // Appends the index list of face or strip `record` after checking the indices.
-void add_indices(const std::vector<std::int64_t>& list, Role role, std::int64_t nv, const Element& e,
-                 std::int64_t record, const std::string& name, std::size_t line, Parsed& parsed) {
+void add_indices(const std::vector<std::int64_t>& list, Role role, std::int64_t nv,
+                 const Element& e, std::int64_t record, const std::string& name, std::size_t line,
+                 Parsed& parsed) {
   for (std::int64_t idx : list) {
     if ((idx < 0 && !(role == Role::Strips && idx == -1)) || idx >= nv)
-      fail(name, line, fmt::format("{} {}: vertex index {} is out of range [0, {})", e.name, record, idx, nv));
+      fail(name, line,
+           fmt::format("{} {}: vertex index {} is out of range [0, {})", e.name, record, idx, nv));
   }
   if (role == Role::Strips) {
     unroll_strips(list, parsed.faces);
@@ -214,31 +222,38 @@ void read_ascii_body(const std::string& bytes, const Header& header, std::int64_
         const Property& p = e.properties[k];
         auto need = [&](const char* what) {
           if (!tokens.next(t))
-            fail(name, tokens.line(), fmt::format("the file ends inside {} {} ({} of property '{}')",
-                                                  e.name, r, what, p.name));
+            fail(name, tokens.line(),
+                 fmt::format("the file ends inside {} {} ({} of property '{}')", e.name, r, what,
+                             p.name));
         };
         std::int64_t n = 1;
         if (p.is_list) {
           need("the count");
           if (!parse_int(t.text, n) || n < 0)
-            fail(name, tokens.line(), fmt::format("{} {}: expected a list count, found {}", e.name, r, quote(t.text)));
+            fail(name, tokens.line(),
+                 fmt::format("{} {}: expected a list count, found {}", e.name, r, quote(t.text)));
         }
         list.clear();
         for (std::int64_t j = 0; j < n; ++j) {
           need("a value");
           double x = 0;
           if (!parse_double(t.text, x))
-            fail(name, tokens.line(), fmt::format("{} {}: property '{}': expected a number, found {}", e.name, r, p.name, quote(t.text)));
+            fail(name, tokens.line(),
+                 fmt::format("{} {}: property '{}': expected a number, found {}", e.name, r, p.name,
+                             quote(t.text)));
           const int axis = plan.role == Role::Vertex && k < 64 ? plan.axis_of[k] : -1;
           if (axis >= 0) {
             if (!std::isfinite(x))
-              fail(name, tokens.line(), fmt::format("vertex {}: coordinate {} is not finite", r, quote(t.text)));
+              fail(name, tokens.line(),
+                   fmt::format("vertex {}: coordinate {} is not finite", r, quote(t.text)));
             parsed.xyz[3 * r + axis] = x;
             parsed.slots.push_back({t.offset, x, static_cast<std::int32_t>(r),
-                                    static_cast<std::uint16_t>(t.text.size()), static_cast<std::uint8_t>(axis)});
+                                    static_cast<std::uint16_t>(t.text.size()),
+                                    static_cast<std::uint8_t>(axis)});
           } else if (static_cast<int>(k) == plan.list_index) {
             if (x != std::floor(x) || std::abs(x) > 2e9)
-              fail(name, tokens.line(), fmt::format("{} {}: {} is not a vertex index", e.name, r, quote(t.text)));
+              fail(name, tokens.line(),
+                   fmt::format("{} {}: {} is not a vertex index", e.name, r, quote(t.text)));
             list.push_back(static_cast<std::int64_t>(x));
           }
         }
@@ -264,8 +279,10 @@ void read_binary_body(const std::string& bytes, const Header& header, std::int64
       min_size += static_cast<std::size_t>(slot_type_size(p.is_list ? p.count_type : p.type));
     const std::size_t left = bytes.size() - pos;
     if (min_size > 0 && static_cast<std::uint64_t>(e.count) > left / min_size)
-      fail(name, 0, fmt::format("element '{}' declares {} records but only {} bytes remain (truncated file?)",
-                                e.name, e.count, left));
+      fail(
+          name, 0,
+          fmt::format("element '{}' declares {} records but only {} bytes remain (truncated file?)",
+                      e.name, e.count, left));
     for (std::int64_t r = 0; r < e.count; ++r) {
       for (std::size_t k = 0; k < e.properties.size(); ++k) {
         const Property& p = e.properties[k];
@@ -273,25 +290,30 @@ void read_binary_body(const std::string& bytes, const Header& header, std::int64
         if (p.is_list) {
           const auto cs = static_cast<std::size_t>(slot_type_size(p.count_type));
           if (bytes.size() - pos < cs)
-            fail(name, 0, fmt::format("the file ends inside {} {} (property '{}')", e.name, r, p.name));
+            fail(name, 0,
+                 fmt::format("the file ends inside {} {} (property '{}')", e.name, r, p.name));
           n = static_cast<std::int64_t>(read_scalar(bytes.data() + pos, p.count_type, big));
           pos += cs;
           if (n < 0) fail(name, 0, fmt::format("{} {}: negative list count {}", e.name, r, n));
         }
         const auto size = static_cast<std::size_t>(slot_type_size(p.type));
         if (static_cast<std::uint64_t>(n) > (bytes.size() - pos) / size)
-          fail(name, 0, fmt::format("the file ends inside {} {} (property '{}')", e.name, r, p.name));
+          fail(name, 0,
+               fmt::format("the file ends inside {} {} (property '{}')", e.name, r, p.name));
         const int axis = plan.role == Role::Vertex && k < 64 ? plan.axis_of[k] : -1;
         if (axis >= 0) {
           const double x = read_scalar(bytes.data() + pos, p.type, big);
-          if (!std::isfinite(x)) fail(name, 0, fmt::format("vertex {}: coordinate {} is not finite", r, "xyz"[axis]));
+          if (!std::isfinite(x))
+            fail(name, 0, fmt::format("vertex {}: coordinate {} is not finite", r, "xyz"[axis]));
           parsed.xyz[3 * r + axis] = x;
-          parsed.slots.push_back({pos, x, static_cast<std::int32_t>(r), static_cast<std::uint16_t>(size),
-                                  static_cast<std::uint8_t>(axis), p.type, big});
+          parsed.slots.push_back({pos, x, static_cast<std::int32_t>(r),
+                                  static_cast<std::uint16_t>(size), static_cast<std::uint8_t>(axis),
+                                  p.type, big});
         } else if (static_cast<int>(k) == plan.list_index) {
           list.resize(static_cast<std::size_t>(n));
           for (std::int64_t j = 0; j < n; ++j)
-            list[j] = static_cast<std::int64_t>(read_scalar(bytes.data() + pos + j * size, p.type, big));
+            list[j] =
+                static_cast<std::int64_t>(read_scalar(bytes.data() + pos + j * size, p.type, big));
           add_indices(list, plan.role, nv, e, r, name, 0, parsed);
         }
         pos += static_cast<std::size_t>(n) * size;
@@ -318,7 +340,8 @@ Mesh read_ply(std::string bytes, const std::string& name, const ReadOptions& opt
     read_ascii_body(bytes, header, nv, name, parsed);
   else
     read_binary_body(bytes, header, nv, name, parsed);
-  return assemble(std::move(parsed), std::move(bytes), FileFormat::Ply, header.encoding, name, options);
+  return assemble(std::move(parsed), std::move(bytes), FileFormat::Ply, header.encoding, name,
+                  options);
 }
 
 std::string write_ply(const Mesh& mesh, Encoding encoding, bool single_precision) {
@@ -331,8 +354,8 @@ std::string write_ply(const Mesh& mesh, Encoding encoding, bool single_precision
   if (encoding == Encoding::Ascii) {
     for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
       if (single_precision) {
-        out += fmt::format("{} {} {}", static_cast<float>(mesh.V(i, 0)), static_cast<float>(mesh.V(i, 1)),
-                           static_cast<float>(mesh.V(i, 2)));
+        out += fmt::format("{} {} {}", static_cast<float>(mesh.V(i, 0)),
+                           static_cast<float>(mesh.V(i, 1)), static_cast<float>(mesh.V(i, 2)));
       } else {
         append_position(out, mesh.V, i);
       }
@@ -352,10 +375,13 @@ std::string write_ply(const Mesh& mesh, Encoding encoding, bool single_precision
   std::size_t pos = out.size();
   out.resize(pos + static_cast<std::size_t>(mesh.V.rows()) * 3 * size);
   for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
-    for (int a = 0; a < 3; ++a, pos += size) write_scalar(out.data() + pos, type, big, mesh.V(i, a));
+    for (int a = 0; a < 3; ++a, pos += size)
+      write_scalar(out.data() + pos, type, big, mesh.V(i, a));
   for (std::size_t k = 0; k < mesh.faces.size(); ++k) {
     const auto n = mesh.faces.offsets[k + 1] - mesh.faces.offsets[k];
-    if (n > 255) throw InvalidArgumentError(fmt::format("face {} has {} vertices; PLY uchar counts allow 255", k, n));
+    if (n > 255)
+      throw InvalidArgumentError(
+          fmt::format("face {} has {} vertices; PLY uchar counts allow 255", k, n));
     out.resize(out.size() + 1 + static_cast<std::size_t>(n) * 4);
     write_scalar(out.data() + pos, SlotType::UInt8, big, static_cast<double>(n));
     pos += 1;

@@ -2,8 +2,8 @@
 // identical positions (exactly, or within ReadOptions::weld_tolerance) into shared vertices,
 // and the file image writes the triangles back unwelded, in their original order.
 
-#include <array>
 #include <Eigen/Geometry>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <numeric>
@@ -20,7 +20,7 @@ namespace meshmark::detail {
 namespace {
 
 struct Corners {
-  std::vector<double> xyz;          // 3 per corner
+  std::vector<double> xyz;            // 3 per corner
   std::vector<std::uint64_t> offset;  // 3 per corner: where each coordinate is stored
   std::vector<std::uint16_t> length;  // 3 per corner (text token length; 4 for binary)
 };
@@ -51,7 +51,8 @@ int find_root(std::vector<int>& parent, int i) {
 
 // Maps every corner to a vertex: first exact welding, then (tolerance > 0) union of the
 // unique points closer than the tolerance, found through a hash grid of that cell size.
-std::vector<int> weld(const std::vector<double>& xyz, double tolerance, std::vector<int>& first_corner) {
+std::vector<int> weld(const std::vector<double>& xyz, double tolerance,
+                      std::vector<int>& first_corner) {
   const std::size_t nc = xyz.size() / 3;
   std::unordered_map<Key, int, KeyHash> index;
   index.reserve(nc);
@@ -116,7 +117,8 @@ std::vector<int> weld(const std::vector<double>& xyz, double tolerance, std::vec
   return corner_vertex;
 }
 
-void check_finite(const double* p, std::size_t triangle, const std::string& name, std::size_t line) {
+void check_finite(const double* p, std::size_t triangle, const std::string& name,
+                  std::size_t line) {
   for (int a = 0; a < 3; ++a)
     if (!std::isfinite(p[a]))
       fail(name, line, fmt::format("triangle {}: coordinate {} is not finite", triangle, "xyz"[a]));
@@ -127,8 +129,9 @@ Corners read_binary_corners(const std::string& bytes, const std::string& name) {
   std::memcpy(&n, bytes.data() + 80, 4);  // little endian on every platform we build for
   const std::uint64_t expected = 84 + 50ull * n;
   if (expected != bytes.size())
-    fail(name, 0, fmt::format("binary STL declares {} triangles ({} bytes) but the file has {} bytes",
-                              n, expected, bytes.size()));
+    fail(name, 0,
+         fmt::format("binary STL declares {} triangles ({} bytes) but the file has {} bytes", n,
+                     expected, bytes.size()));
   Corners corners;
   corners.xyz.resize(9ull * n);
   corners.offset.resize(9ull * n);
@@ -167,27 +170,33 @@ Corners read_ascii_corners(const std::string& bytes, const std::string& name) {
     } else if (key == "vertex") {
       if (in_facet < 0) fail(name, ln, "vertex outside a facet");
       if (in_facet == 3) fail(name, ln, fmt::format("facet {} has more than 3 vertices", facets));
-      if (tokens.size() < 4) fail(name, ln, fmt::format("facet {}: vertex needs 3 coordinates", facets));
+      if (tokens.size() < 4)
+        fail(name, ln, fmt::format("facet {}: vertex needs 3 coordinates", facets));
       for (int a = 1; a <= 3; ++a) {
         double x = 0;
         if (!parse_double(tokens[a].text, x))
-          fail(name, ln, fmt::format("facet {}: expected a number, found {}", facets, quote(tokens[a].text)));
+          fail(name, ln,
+               fmt::format("facet {}: expected a number, found {}", facets, quote(tokens[a].text)));
         if (!std::isfinite(x))
-          fail(name, ln, fmt::format("facet {}: coordinate {} is not finite", facets, quote(tokens[a].text)));
+          fail(name, ln,
+               fmt::format("facet {}: coordinate {} is not finite", facets, quote(tokens[a].text)));
         corners.xyz.push_back(x);
         corners.offset.push_back(tokens[a].offset);
         corners.length.push_back(static_cast<std::uint16_t>(tokens[a].text.size()));
       }
       ++in_facet;
     } else if (key == "endfacet") {
-      if (in_facet != 3) fail(name, ln, fmt::format("facet {} has {} vertices, not 3", facets, std::max(in_facet, 0)));
+      if (in_facet != 3)
+        fail(name, ln,
+             fmt::format("facet {} has {} vertices, not 3", facets, std::max(in_facet, 0)));
       in_facet = -1;
       ++facets;
     } else {
       fail(name, ln, fmt::format("unknown keyword {}", quote(key)));
     }
   }
-  if (in_facet >= 0) fail(name, lines.line_number(), fmt::format("the file ends inside facet {}", facets));
+  if (in_facet >= 0)
+    fail(name, lines.line_number(), fmt::format("the file ends inside facet {}", facets));
   return corners;
 }
 
@@ -207,7 +216,8 @@ Mesh read_stl(std::string bytes, const std::string& name, const ReadOptions& opt
     std::memcpy(&n, bytes.data() + 80, 4);
     binary = 84 + 50ull * n == bytes.size() || !looks_ascii(bytes);
   } else if (!looks_ascii(bytes)) {
-    fail(name, 0, fmt::format("too short for a binary STL ({} bytes) and not ascii STL", bytes.size()));
+    fail(name, 0,
+         fmt::format("too short for a binary STL ({} bytes) and not ascii STL", bytes.size()));
   }
   Corners corners = binary ? read_binary_corners(bytes, name) : read_ascii_corners(bytes, name);
   std::vector<int> first_corner;
@@ -216,11 +226,17 @@ Mesh read_stl(std::string bytes, const std::string& name, const ReadOptions& opt
   parsed.xyz.resize(first_corner.size() * 3);
   for (std::size_t v = 0; v < first_corner.size(); ++v)
     for (int a = 0; a < 3; ++a) parsed.xyz[3 * v + a] = corners.xyz[3ull * first_corner[v] + a];
-  for (std::size_t t = 0; t < corner_vertex.size() / 3; ++t) parsed.faces.push_back(&corner_vertex[3 * t], 3);
+  for (std::size_t t = 0; t < corner_vertex.size() / 3; ++t)
+    parsed.faces.push_back(&corner_vertex[3 * t], 3);
   parsed.slots.resize(corners.xyz.size());
   for (std::size_t k = 0; k < corners.xyz.size(); ++k)
-    parsed.slots[k] = {corners.offset[k], corners.xyz[k], corner_vertex[k / 3], corners.length[k],
-                       static_cast<std::uint8_t>(k % 3), binary ? SlotType::Float32 : SlotType::Text, false};
+    parsed.slots[k] = {corners.offset[k],
+                       corners.xyz[k],
+                       corner_vertex[k / 3],
+                       corners.length[k],
+                       static_cast<std::uint8_t>(k % 3),
+                       binary ? SlotType::Float32 : SlotType::Text,
+                       false};
   const Encoding encoding = binary ? Encoding::BinaryLittleEndian : Encoding::Ascii;
   return assemble(std::move(parsed), std::move(bytes), FileFormat::Stl, encoding, name, options);
 }
@@ -228,7 +244,8 @@ Mesh read_stl(std::string bytes, const std::string& name, const ReadOptions& opt
 std::string write_stl(const Mesh& mesh, Encoding encoding) {
   const Eigen::MatrixX3i& F = mesh.F;
   auto normal = [&](Eigen::Index t) {
-    const Eigen::RowVector3d a = mesh.V.row(F(t, 0)), b = mesh.V.row(F(t, 1)), c = mesh.V.row(F(t, 2));
+    const Eigen::RowVector3d a = mesh.V.row(F(t, 0)), b = mesh.V.row(F(t, 1)),
+                             c = mesh.V.row(F(t, 2));
     const Eigen::RowVector3d n = (b - a).cross(c - a);
     const double len = n.norm();
     return len > 0 ? Eigen::RowVector3d(n / len) : Eigen::RowVector3d::Zero();
@@ -259,7 +276,8 @@ std::string write_stl(const Mesh& mesh, Encoding encoding) {
     const Eigen::RowVector3d nn = normal(t);
     for (int a = 0; a < 3; ++a) write_scalar(rec + 4 * a, SlotType::Float32, false, nn(a));
     for (int c = 0; c < 3; ++c)
-      for (int a = 0; a < 3; ++a) write_scalar(rec + 12 + 12 * c + 4 * a, SlotType::Float32, false, mesh.V(F(t, c), a));
+      for (int a = 0; a < 3; ++a)
+        write_scalar(rec + 12 + 12 * c + 4 * a, SlotType::Float32, false, mesh.V(F(t, c), a));
   }
   return out;
 }

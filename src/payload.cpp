@@ -8,7 +8,8 @@
 namespace meshmark {
 
 Payload payload_from_hex(std::string_view hex, int nbits) {
-  if (nbits < 1) throw InvalidArgumentError(fmt::format("the payload needs at least 1 bit, not {}", nbits));
+  if (nbits < 1)
+    throw InvalidArgumentError(fmt::format("the payload needs at least 1 bit, not {}", nbits));
   const std::string original(hex);
   if (hex.starts_with("0x") || hex.starts_with("0X")) hex.remove_prefix(2);
   if (hex.empty()) throw InvalidArgumentError("empty payload");
@@ -17,14 +18,21 @@ Payload payload_from_hex(std::string_view hex, int nbits) {
   for (auto it = hex.rbegin(); it != hex.rend(); ++it) {
     const char c = *it;
     int d = -1;
-    if (c >= '0' && c <= '9') d = c - '0';
-    else if (c >= 'a' && c <= 'f') d = c - 'a' + 10;
-    else if (c >= 'A' && c <= 'F') d = c - 'A' + 10;
-    if (d < 0) throw InvalidArgumentError(fmt::format("payload '{}': '{}' is not a hexadecimal digit", original, c));
+    if (c >= '0' && c <= '9')
+      d = c - '0';
+    else if (c >= 'a' && c <= 'f')
+      d = c - 'a' + 10;
+    else if (c >= 'A' && c <= 'F')
+      d = c - 'A' + 10;
+    if (d < 0)
+      throw InvalidArgumentError(
+          fmt::format("payload '{}': '{}' is not a hexadecimal digit", original, c));
     for (int k = 0; k < 4; ++k) value_bits.push_back(static_cast<std::uint8_t>((d >> k) & 1));
   }
   for (std::size_t k = static_cast<std::size_t>(nbits); k < value_bits.size(); ++k)
-    if (value_bits[k]) throw InvalidArgumentError(fmt::format("payload '{}' does not fit in {} bits", original, nbits));
+    if (value_bits[k])
+      throw InvalidArgumentError(
+          fmt::format("payload '{}' does not fit in {} bits", original, nbits));
   value_bits.resize(static_cast<std::size_t>(nbits), 0);
   Payload p;
   p.bits.assign(value_bits.rbegin(), value_bits.rend());  // most significant first

@@ -14,11 +14,11 @@ namespace {
 struct DualPoint {
   Eigen::VectorXd y;
   Eigen::VectorXd x;
-  double value = 0;        // dual objective
-  Eigen::VectorXd g;       // gradient: b - M x (m + 3)
-  Eigen::VectorXd hww;     // m, diagonal block of M_F D M_F^T
-  Eigen::Matrix3Xd hwe;    // 3 x m, coupling block
-  Eigen::Matrix3d hee;     // equality block
+  double value = 0;      // dual objective
+  Eigen::VectorXd g;     // gradient: b - M x (m + 3)
+  Eigen::VectorXd hww;   // m, diagonal block of M_F D M_F^T
+  Eigen::Matrix3Xd hwe;  // 3 x m, coupling block
+  Eigen::Matrix3d hee;   // equality block
 };
 
 void evaluate(const SeparableQp& qp, DualPoint& p) {
@@ -101,14 +101,18 @@ std::vector<int> unreachable_rows(const SeparableQp& qp, double tolerance) {
 
 const char* qp_status_name(QpStatus status) {
   switch (status) {
-    case QpStatus::Solved: return "solved";
-    case QpStatus::Infeasible: return "infeasible";
-    case QpStatus::IterationLimit: return "iteration limit";
+    case QpStatus::Solved:
+      return "solved";
+    case QpStatus::Infeasible:
+      return "infeasible";
+    case QpStatus::IterationLimit:
+      return "iteration limit";
   }
   return "?";
 }
 
-QpResult solve_separable_qp(const SeparableQp& qp, const QpSettings& settings, const Eigen::VectorXd* warm_y) {
+QpResult solve_separable_qp(const SeparableQp& qp, const QpSettings& settings,
+                            const Eigen::VectorXd* warm_y) {
   [[maybe_unused]] const Eigen::Index n = qp.h.size();
   const Eigen::Index m = qp.b.size();
   assert(qp.lo.size() == n && qp.hi.size() == n && qp.a.size() == n && qp.e.cols() == n);
@@ -136,7 +140,8 @@ QpResult solve_separable_qp(const SeparableQp& qp, const QpSettings& settings, c
     result.iterations = it + 1;
     // Levenberg-style regularization that fades as the gradient vanishes, so that rows whose
     // variables are all clipped still get a bounded step.
-    const double scale = std::max({p.hww.size() ? p.hww.maxCoeff() : 0.0, p.hee.diagonal().maxCoeff(), 1e-300});
+    const double scale =
+        std::max({p.hww.size() ? p.hww.maxCoeff() : 0.0, p.hee.diagonal().maxCoeff(), 1e-300});
     const double mu = scale * std::max(1e-15, std::min(1e-4, std::max(primal, comp)));
     const Eigen::VectorXd dy = newton_direction(p, m, mu);
     // Projected backtracking (Armijo along the projection arc) on the concave dual.
@@ -149,7 +154,8 @@ QpResult solve_separable_qp(const SeparableQp& qp, const QpSettings& settings, c
       // Near the optimum the change of the dual value drowns in rounding: a full step that
       // halves the KKT residual is taken on that evidence instead.
       double tp = 0, tc = 0;
-      const bool residual_halved = k == 0 && kkt_residual(trial, m, tp, tc) <= 0.5 * std::max(primal, comp);
+      const bool residual_halved =
+          k == 0 && kkt_residual(trial, m, tp, tc) <= 0.5 * std::max(primal, comp);
       if (residual_halved || trial.value >= p.value + 1e-4 * p.g.dot(trial.y - p.y)) {
         accepted = true;
         break;
@@ -157,11 +163,12 @@ QpResult solve_separable_qp(const SeparableQp& qp, const QpSettings& settings, c
     }
     if (!accepted) break;
     std::swap(p, trial);  // the trial point, Hessian included, becomes the iterate
-    if (!std::isfinite(p.value) || p.y.cwiseAbs().maxCoeff() > 1e30) return finish(QpStatus::Infeasible);
+    if (!std::isfinite(p.value) || p.y.cwiseAbs().maxCoeff() > 1e30)
+      return finish(QpStatus::Infeasible);
   }
   double primal = 0, comp = 0;
   return finish(kkt_residual(p, m, primal, comp) <= settings.tolerance ? QpStatus::Solved
-                                                                         : QpStatus::IterationLimit);
+                                                                       : QpStatus::IterationLimit);
 }
 
 }  // namespace meshmark

@@ -22,7 +22,9 @@ bool LineScanner::next(std::string_view& line) {
 }
 
 namespace {
-bool is_space(char c) { return c == ' ' || c == '\t' || c == '\f' || c == '\v' || c == '\0'; }
+bool is_space(char c) {
+  return c == ' ' || c == '\t' || c == '\f' || c == '\v' || c == '\0';
+}
 }  // namespace
 
 void tokenize(std::string_view line, std::size_t base_offset, std::vector<Token>& out,

@@ -79,7 +79,8 @@ TEST(EmbedDrs, OptimumMatchesIpoptOnSmallMeshes) {
   meshes.push_back({"generated bumpy sphere", bumpy_sphere(40, 60, 4)});
   for (const std::string name : {"elephant.off", "cow.off", "mech-holes-shark.off"})
     if (!cgal_mesh(name).empty()) meshes.push_back({name, read_mesh(cgal_mesh(name))});
-  if (!shared_mesh("spot.obj").empty()) meshes.push_back({"spot.obj", read_mesh(shared_mesh("spot.obj"))});
+  if (!shared_mesh("spot.obj").empty())
+    meshes.push_back({"spot.obj", read_mesh(shared_mesh("spot.obj"))});
   ASSERT_GE(meshes.size(), 1u);
   for (const Small& s : meshes) {
     SCOPED_TRACE(s.label);
@@ -91,7 +92,8 @@ TEST(EmbedDrs, OptimumMatchesIpoptOnSmallMeshes) {
     std::vector<int> referenced;
     Eigen::MatrixX3d dirs;
     const std::vector<int> bits(p.bits.begin(), p.bits.end());
-    const SparseQp qp = drs_reference_problem(s.mesh.V, s.mesh.F, bits, 0.05, 0.05, referenced, dirs);
+    const SparseQp qp =
+        drs_reference_problem(s.mesh.V, s.mesh.F, bits, 0.05, 0.05, referenced, dirs);
     const ReferenceSolution ref = solve_with_ipopt(qp);
     ASSERT_TRUE(ref.ok) << "Ipopt status " << ref.status;
     EXPECT_NEAR(ours.squared_displacement, ref.objective, 1e-6 * ref.objective);
@@ -100,14 +102,16 @@ TEST(EmbedDrs, OptimumMatchesIpoptOnSmallMeshes) {
     for (std::size_t k = 0; k < referenced.size(); ++k) {
       const Eigen::RowVector3d d = ours.V.row(referenced[k]) - s.mesh.V.row(referenced[k]);
       r(k) = d.dot(dirs.row(k));
-      EXPECT_LE((d - r(k) * dirs.row(k)).norm(), 1e-12 * (1 + std::abs(r(k)))) << "displacement is radial";
+      EXPECT_LE((d - r(k) * dirs.row(k)).norm(), 1e-12 * (1 + std::abs(r(k))))
+          << "displacement is radial";
       EXPECT_GE(r(k), qp.x_lo(k) - 1e-12);
       EXPECT_LE(r(k), qp.x_hi(k) + 1e-12);
     }
     Eigen::VectorXd Ar = Eigen::VectorXd::Zero(qp.row_lo.size());
     for (const auto& t : qp.A) Ar(t.row()) += t.value() * r(t.col());
     for (Eigen::Index j = 0; j < Ar.size(); ++j) EXPECT_GE(Ar(j), qp.row_lo(j) - 1e-9);
-    for (Eigen::Index j = 64; j < Ar.size(); ++j) EXPECT_NEAR(Ar(j), 0, 1e-9 * r.cwiseAbs().maxCoeff());
+    for (Eigen::Index j = 64; j < Ar.size(); ++j)
+      EXPECT_NEAR(Ar(j), 0, 1e-9 * r.cwiseAbs().maxCoeff());
   }
 }
 
@@ -140,7 +144,8 @@ TEST(EmbedDrs, RoundTripThroughFilesOnRealMeshes) {
       const auto bin = [&](const Radii& h, double rho) {
         return std::min<int>(std::floor((rho - h.lo) / ((h.hi - h.lo) / (n.bits + 2))), n.bits + 1);
       };
-      ASSERT_EQ(bin(before, before.rho(i)), bin(after, after.rho(i))) << "vertex " << i << " changed bin";
+      ASSERT_EQ(bin(before, before.rho(i)), bin(after, after.rho(i)))
+          << "vertex " << i << " changed bin";
     }
 
     // Through a file in the input's own format and encoding, then blind extraction.
@@ -171,13 +176,16 @@ TEST(EmbedDrs, UnreachableBitsAreNamedAndTheMeshIsLeftAlone) {
   const Radii rr = radii(m.V, m.F);
   const double s = (rr.hi - rr.lo) / 66;
   std::vector<int> count(66, 0);
-  for (Eigen::Index i = 0; i < m.V.rows(); ++i) ++count[std::min<int>(std::floor((rr.rho(i) - rr.lo) / s), 65)];
+  for (Eigen::Index i = 0; i < m.V.rows(); ++i)
+    ++count[std::min<int>(std::floor((rr.rho(i) - rr.lo) / s), 65)];
   std::vector<int> empty;
   for (int j = 0; j < 64; ++j)
     if (count[j + 1] == 0) empty.push_back(j);
   ASSERT_FALSE(empty.empty());
   for (int j : empty)
-    EXPECT_NE(std::find(r.infeasible_bits.begin(), r.infeasible_bits.end(), j), r.infeasible_bits.end()) << j;
+    EXPECT_NE(std::find(r.infeasible_bits.begin(), r.infeasible_bits.end(), j),
+              r.infeasible_bits.end())
+        << j;
 }
 
 TEST(EmbedDrs, SeamsStayClosed) {

@@ -39,7 +39,8 @@ TEST(Invariance, SimilarityTransformsKeepThePayloadAndTheBinMeans) {
       const Mesh t = attack_similarity(m, seed, so);
       // Independent check that this is a similarity: pairwise distance ratios are constant.
       const double ratio = (t.V.row(1) - t.V.row(0)).norm() / (m.V.row(1) - m.V.row(0)).norm();
-      EXPECT_NEAR((t.V.row(7) - t.V.row(3)).norm(), ratio * (m.V.row(7) - m.V.row(3)).norm(), 1e-9 * ratio);
+      EXPECT_NEAR((t.V.row(7) - t.V.row(3)).norm(), ratio * (m.V.row(7) - m.V.row(3)).norm(),
+                  1e-9 * ratio);
       const ExtractResult x = extract(t.V, t.F);
       EXPECT_EQ(bit_error_rate(x.bits, p), 0.0);
       for (int j = 0; j < 64; ++j) EXPECT_NEAR(x.means[j], reference.means[j], 1e-9);
@@ -48,7 +49,8 @@ TEST(Invariance, SimilarityTransformsKeepThePayloadAndTheBinMeans) {
 }
 
 TEST(Invariance, VertexAndFaceReorderingKeepsThePayload) {
-  for (const std::string& path : {shared_mesh("bunny.ply"), shared_mesh("spot.obj"), cgal_mesh("elephant.off")}) {
+  for (const std::string& path :
+       {shared_mesh("bunny.ply"), shared_mesh("spot.obj"), cgal_mesh("elephant.off")}) {
     if (path.empty()) continue;
     SCOPED_TRACE(path);
     const Payload p = random_payload(64, 7);
@@ -72,7 +74,8 @@ TEST(Invariance, RotationAloneChangesNoBinMean) {
   ASSERT_EQ(r.status, EmbedStatus::Embedded);
   ExtractOptions eo;
   eo.bits = 48;
-  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
   const Eigen::MatrixX3d rotated = r.V * R.transpose();
   const ExtractResult a = extract(r.V, m.F, eo), b = extract(rotated, m.F, eo);
   EXPECT_EQ(bit_error_rate(b.bits, p), 0.0);

@@ -88,11 +88,14 @@ TEST(IoRoundTrip, EveryFormatAndEncodingFromScratch) {
     WriteOptions wo;
     wo.encoding = c.encoding;
     wo.single_precision = c.single;
-    const Mesh back = read_mesh_from_bytes(write_mesh_to_bytes(m, c.format, wo), c.format, "roundtrip");
-    SCOPED_TRACE(std::string(format_name(c.format)) + " " + encoding_name(c.encoding) + (c.single ? " float32" : ""));
+    const Mesh back =
+        read_mesh_from_bytes(write_mesh_to_bytes(m, c.format, wo), c.format, "roundtrip");
+    SCOPED_TRACE(std::string(format_name(c.format)) + " " + encoding_name(c.encoding) +
+                 (c.single ? " float32" : ""));
     EXPECT_EQ(back.encoding, c.encoding);
     ASSERT_EQ(back.V.rows(), m.V.rows());
-    const Eigen::MatrixX3d expected = c.single ? Eigen::MatrixX3d(m.V.cast<float>().cast<double>()) : m.V;
+    const Eigen::MatrixX3d expected =
+        c.single ? Eigen::MatrixX3d(m.V.cast<float>().cast<double>()) : m.V;
     EXPECT_EQ(back.V, expected);  // shortest round-trip text and binary doubles are exact
     EXPECT_EQ(back.faces, m.faces);
   }
@@ -103,7 +106,8 @@ TEST(IoRoundTrip, StlAsciiAndBinaryWeldBackToTheSameTriangles) {
   for (Encoding enc : {Encoding::Ascii, Encoding::BinaryLittleEndian}) {
     WriteOptions wo;
     wo.encoding = enc;
-    const Mesh back = read_mesh_from_bytes(write_mesh_to_bytes(m, FileFormat::Stl, wo), FileFormat::Stl, "rt.stl");
+    const Mesh back = read_mesh_from_bytes(write_mesh_to_bytes(m, FileFormat::Stl, wo),
+                                           FileFormat::Stl, "rt.stl");
     ASSERT_EQ(back.V.rows(), m.V.rows()) << "distinct positions weld back to one vertex each";
     ASSERT_EQ(back.F.rows(), m.F.rows());
     const double tol = enc == Encoding::Ascii ? 0.0 : 1e-6;
@@ -114,11 +118,10 @@ TEST(IoRoundTrip, StlAsciiAndBinaryWeldBackToTheSameTriangles) {
 }
 
 TEST(IoFaithful, UnchangedMeshesWriteBackByteForByte) {
-  const std::vector<std::string> files = {shared_mesh("spot.obj"),   shared_mesh("spider.obj"),
-                                          shared_mesh("teapot.obj"), shared_mesh("bunny.ply"),
-                                          shared_mesh("horse.ply"),  shared_mesh("igea.ply"),
-                                          shared_mesh("featuretype.STL"), cgal_mesh("fandisk.off"),
-                                          cgal_mesh("pig.stl")};
+  const std::vector<std::string> files = {
+      shared_mesh("spot.obj"),        shared_mesh("spider.obj"), shared_mesh("teapot.obj"),
+      shared_mesh("bunny.ply"),       shared_mesh("horse.ply"),  shared_mesh("igea.ply"),
+      shared_mesh("featuretype.STL"), cgal_mesh("fandisk.off"),  cgal_mesh("pig.stl")};
   for (const std::string& f : files) {
     if (f.empty()) continue;
     SCOPED_TRACE(f);
@@ -174,8 +177,10 @@ TEST(IoFaithful, BinaryPlyChangesOnlyVertexCoordinateBytes) {
     const auto w = words(line);
     if (w.size() == 3 && w[0] == "element") {
       in_vertex = w[1] == "vertex";
-      if (in_vertex) nv = std::stoul(w[2]);
-      else break;  // the vertex element's properties are all we need
+      if (in_vertex)
+        nv = std::stoul(w[2]);
+      else
+        break;  // the vertex element's properties are all we need
     } else if (in_vertex && w.size() == 3 && w[0] == "property") {
       ASSERT_EQ(w[1], "float") << "this test expects float vertex properties";
       props.push_back(w[2]);
@@ -184,7 +189,8 @@ TEST(IoFaithful, BinaryPlyChangesOnlyVertexCoordinateBytes) {
   const std::size_t record = 4 * props.size();
   std::size_t axis_offset[3];
   for (int a = 0; a < 3; ++a)
-    axis_offset[a] = 4 * (std::find(props.begin(), props.end(), std::string(1, "xyz"[a])) - props.begin());
+    axis_offset[a] =
+        4 * (std::find(props.begin(), props.end(), std::string(1, "xyz"[a])) - props.begin());
 
   Mesh m = read_mesh(path);
   ASSERT_EQ(static_cast<std::size_t>(m.V.rows()), nv);
@@ -236,7 +242,8 @@ TEST(IoFaithful, TriangleStripsReadAsTrianglesAndArePreserved) {
   // Independent count: a closed genus-0 triangle mesh has F = 2V - 4 faces.
   EXPECT_EQ(m.F.rows(), 2 * m.V.rows() - 4);
   m.V.array() += 0.25;
-  const Mesh back = read_mesh_from_bytes(write_mesh_to_bytes(m, FileFormat::Ply), FileFormat::Ply, "igea-moved.ply");
+  const Mesh back = read_mesh_from_bytes(write_mesh_to_bytes(m, FileFormat::Ply), FileFormat::Ply,
+                                         "igea-moved.ply");
   EXPECT_EQ(back.F, m.F);
   EXPECT_LE((back.V - m.V.cast<float>().cast<double>()).cwiseAbs().maxCoeff(), 0.0);
 }
@@ -261,7 +268,8 @@ TEST(IoFaithful, BinaryStlWritesCornersBackUnweldedInOrder) {
   for (std::uint32_t t = 0; t < nt; ++t) {
     const std::size_t rec = 84 + 50ull * t;
     EXPECT_EQ(out.substr(rec, 12), original.substr(rec, 12)) << "normal of triangle " << t;
-    EXPECT_EQ(out.substr(rec + 48, 2), original.substr(rec + 48, 2)) << "attribute of triangle " << t;
+    EXPECT_EQ(out.substr(rec + 48, 2), original.substr(rec + 48, 2))
+        << "attribute of triangle " << t;
     for (int k = 0; k < 9; ++k) {
       const float before = load_float(original, rec + 12 + 4 * k);
       EXPECT_EQ(load_float(out, rec + 12 + 4 * k), static_cast<float>(before + d(k % 3)));
@@ -283,7 +291,8 @@ TEST(IoFaithful, ExactWeldCountsDistinctCornerPositions) {
   for (std::uint32_t t = 0; t < nt; ++t)
     for (int c = 0; c < 3; ++c) {
       const std::size_t off = 84 + 50ull * t + 12 + 12 * c;
-      distinct.insert({load_float(bytes, off) + 0.0f, load_float(bytes, off + 4) + 0.0f, load_float(bytes, off + 8) + 0.0f});
+      distinct.insert({load_float(bytes, off) + 0.0f, load_float(bytes, off + 4) + 0.0f,
+                       load_float(bytes, off + 8) + 0.0f});
     }
   EXPECT_EQ(static_cast<std::size_t>(m.V.rows()), distinct.size());
 }

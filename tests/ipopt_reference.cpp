@@ -32,7 +32,8 @@ Bool eval_g(Index, Number* x, Bool, Index m, Number* g, UserDataPtr user) {
   for (const auto& t : qp.A) g[t.row()] += t.value() * x[t.col()];
   return 1;
 }
-Bool eval_jac_g(Index, Number*, Bool, Index, Index, Index* rows, Index* cols, Number* values, UserDataPtr user) {
+Bool eval_jac_g(Index, Number*, Bool, Index, Index, Index* rows, Index* cols, Number* values,
+                UserDataPtr user) {
   const auto& qp = *static_cast<Data*>(user)->qp;
   for (std::size_t k = 0; k < qp.A.size(); ++k) {
     if (values) {
@@ -44,8 +45,8 @@ Bool eval_jac_g(Index, Number*, Bool, Index, Index, Index* rows, Index* cols, Nu
   }
   return 1;
 }
-Bool eval_h(Index n, Number*, Bool, Number obj_factor, Index, Number*, Bool, Index, Index* rows, Index* cols,
-            Number* values, UserDataPtr user) {
+Bool eval_h(Index n, Number*, Bool, Number obj_factor, Index, Number*, Bool, Index, Index* rows,
+            Index* cols, Number* values, UserDataPtr user) {
   const auto& qp = *static_cast<Data*>(user)->qp;
   for (Index i = 0; i < n; ++i) {
     if (values) {
@@ -65,8 +66,8 @@ ReferenceSolution solve_with_ipopt(const SparseQp& qp) {
   const auto m = static_cast<Index>(qp.row_lo.size());
   Eigen::VectorXd xl = qp.x_lo, xu = qp.x_hi, gl = qp.row_lo, gu = qp.row_hi;
   IpoptProblem problem = CreateIpoptProblem(n, xl.data(), xu.data(), m, gl.data(), gu.data(),
-                                            static_cast<Index>(qp.A.size()), n, 0, eval_f, eval_g, eval_grad_f,
-                                            eval_jac_g, eval_h);
+                                            static_cast<Index>(qp.A.size()), n, 0, eval_f, eval_g,
+                                            eval_grad_f, eval_jac_g, eval_h);
   AddIpoptIntOption(problem, const_cast<char*>("print_level"), 0);
   AddIpoptNumOption(problem, const_cast<char*>("tol"), 1e-13);
   AddIpoptNumOption(problem, const_cast<char*>("bound_relax_factor"), 0.0);
@@ -79,7 +80,8 @@ ReferenceSolution solve_with_ipopt(const SparseQp& qp) {
   sol.x = (qp.x_lo + qp.x_hi) / 2;
   Data data{&qp};
   Number obj = 0;
-  const auto status = IpoptSolve(problem, sol.x.data(), nullptr, &obj, nullptr, nullptr, nullptr, &data);
+  const auto status =
+      IpoptSolve(problem, sol.x.data(), nullptr, &obj, nullptr, nullptr, nullptr, &data);
   FreeIpoptProblem(problem);
   sol.status = static_cast<int>(status);
   sol.ok = status == Solve_Succeeded || status == Solved_To_Acceptable_Level;
@@ -87,8 +89,9 @@ ReferenceSolution solve_with_ipopt(const SparseQp& qp) {
   return sol;
 }
 
-SparseQp drs_reference_problem(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const std::vector<int>& bits,
-                               double alpha, double G, std::vector<int>& referenced, Eigen::MatrixX3d& directions) {
+SparseQp drs_reference_problem(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                               const std::vector<int>& bits, double alpha, double G,
+                               std::vector<int>& referenced, Eigen::MatrixX3d& directions) {
   std::set<int> used(F.data(), F.data() + F.size());
   referenced.assign(used.begin(), used.end());
   const auto n = static_cast<Eigen::Index>(referenced.size());
@@ -133,9 +136,9 @@ SparseQp drs_reference_problem(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i
   for (int a = 0; a < 3; ++a) qp.row_lo(nb + a) = qp.row_hi(nb + a) = 0;
   for (Eigen::Index k = 0; k < n; ++k) {
     const int b = bin[k];
-    if (b >= 1 && b <= nb)
-      qp.A.emplace_back(b - 1, k, (bits[b - 1] ? 1.0 : -1.0) / (count(b) * s));
-    for (int a = 0; a < 3; ++a) qp.A.emplace_back(nb + a, k, directions(k, a) / static_cast<double>(n));
+    if (b >= 1 && b <= nb) qp.A.emplace_back(b - 1, k, (bits[b - 1] ? 1.0 : -1.0) / (count(b) * s));
+    for (int a = 0; a < 3; ++a)
+      qp.A.emplace_back(nb + a, k, directions(k, a) / static_cast<double>(n));
   }
   return qp;
 }

@@ -26,10 +26,10 @@ TEST(Mesh, ReferencedVerticesMarksOnlyVerticesOfTriangles) {
 
 TEST(Mesh, GroupsIdenticalPositionsIncludingSignedZero) {
   Eigen::MatrixX3d V(6, 3);
-  V << 0, 0, 0,   //
-      1, 2, 3,    //
-      -0.0, 0, 0, // same as vertex 0
-      1, 2, 3,    // same as vertex 1
+  V << 0, 0, 0,                  //
+      1, 2, 3,                   //
+      -0.0, 0, 0,                // same as vertex 0
+      1, 2, 3,                   // same as vertex 1
       1, 2, 3.0000001, 0, 0, 0;  // vertex 5 unreferenced below
   const std::vector<std::uint8_t> referenced = {1, 1, 1, 1, 1, 0};
   const PositionGroups g = group_identical_positions(V, referenced);

@@ -69,11 +69,15 @@ void expect_kkt(const SeparableQp& qp, const QpResult& r, double tol) {
     if (qp.row[i] >= 0) rows(qp.row[i]) += qp.a(i) * r.x(i);
     ex += qp.e.col(i) * r.x(i);
     // Stationarity over the box: 2 h x - (M^T y)_i is >= 0 at lo, <= 0 at hi, 0 inside.
-    const double z = (qp.row[i] >= 0 ? qp.a(i) * r.y(qp.row[i]) : 0.0) + qp.e.col(i).dot(r.y.tail<3>());
+    const double z =
+        (qp.row[i] >= 0 ? qp.a(i) * r.y(qp.row[i]) : 0.0) + qp.e.col(i).dot(r.y.tail<3>());
     const double grad = 2 * qp.h(i) * r.x(i) - z;
-    if (qp.lo(i) < r.x(i) && r.x(i) < qp.hi(i)) EXPECT_NEAR(grad, 0, 1e-8);
-    else if (r.x(i) == qp.lo(i) && qp.lo(i) < qp.hi(i)) EXPECT_GE(grad, -1e-8);
-    else if (r.x(i) == qp.hi(i) && qp.lo(i) < qp.hi(i)) EXPECT_LE(grad, 1e-8);
+    if (qp.lo(i) < r.x(i) && r.x(i) < qp.hi(i))
+      EXPECT_NEAR(grad, 0, 1e-8);
+    else if (r.x(i) == qp.lo(i) && qp.lo(i) < qp.hi(i))
+      EXPECT_GE(grad, -1e-8);
+    else if (r.x(i) == qp.hi(i) && qp.lo(i) < qp.hi(i))
+      EXPECT_LE(grad, 1e-8);
   }
   for (Eigen::Index j = 0; j < m; ++j) {
     EXPECT_GE(rows(j), qp.b(j) - tol);
@@ -95,7 +99,8 @@ TEST(SeparableQp, MatchesIpoptOnRandomProblems) {
     const auto ref = test::solve_with_ipopt(as_reference(qp));
     ASSERT_TRUE(ref.ok) << "Ipopt status " << ref.status;
     EXPECT_NEAR(ours.objective, ref.objective, 1e-7 * ref.objective);
-    EXPECT_LE(ours.objective, ref.objective * (1 + 1e-9)) << "an exact optimum is never worse than Ipopt's";
+    EXPECT_LE(ours.objective, ref.objective * (1 + 1e-9))
+        << "an exact optimum is never worse than Ipopt's";
     EXPECT_LE((ours.x - ref.x).cwiseAbs().maxCoeff(), 1e-5);
   }
 }

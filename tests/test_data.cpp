@@ -37,14 +37,15 @@ Mesh bumpy_sphere(int n_theta, int n_phi, unsigned seed) {
   const int nv = n_theta * n_phi + 2;
   Eigen::MatrixX3d V(nv, 3);
   auto radius = [&](double th, double ph) {
-    return 1.0 + a * std::sin(3 * th) * std::cos(2 * ph) + b * std::cos(5 * ph) + c * std::sin(2 * th + ph) +
-           d * std::cos(4 * th);
+    return 1.0 + a * std::sin(3 * th) * std::cos(2 * ph) + b * std::cos(5 * ph) +
+           c * std::sin(2 * th + ph) + d * std::cos(4 * th);
   };
   for (int i = 0; i < n_theta; ++i)
     for (int j = 0; j < n_phi; ++j) {
       const double th = M_PI * (i + 1) / (n_theta + 1), ph = 2 * M_PI * j / n_phi;
       const double r = radius(th, ph);
-      V.row(i * n_phi + j) << r * std::sin(th) * std::cos(ph), r * std::sin(th) * std::sin(ph), r * std::cos(th);
+      V.row(i * n_phi + j) << r * std::sin(th) * std::cos(ph), r * std::sin(th) * std::sin(ph),
+          r * std::cos(th);
     }
   V.row(nv - 2) << 0, 0, radius(0, 0);
   V.row(nv - 1) << 0, 0, -radius(M_PI, 0);
@@ -61,7 +62,8 @@ Mesh bumpy_sphere(int n_theta, int n_phi, unsigned seed) {
     tris.emplace_back(nv - 1, base + (j + 1) % n_phi, base + j);
   }
   Eigen::MatrixX3i F(static_cast<Eigen::Index>(tris.size()), 3);
-  for (std::size_t k = 0; k < tris.size(); ++k) F.row(static_cast<Eigen::Index>(k)) = tris[k].transpose();
+  for (std::size_t k = 0; k < tris.size(); ++k)
+    F.row(static_cast<Eigen::Index>(k)) = tris[k].transpose();
   return make_mesh(std::move(V), std::move(F));
 }
 

@@ -26,8 +26,9 @@ Mesh bumpy_sphere(int n_theta, int n_phi, unsigned seed);
 }  // namespace meshmark::test
 
 /// Skips the current test when path is empty, naming what is missing.
-#define MESHMARK_REQUIRE(path, what)                                                     \
-  do {                                                                                   \
-    if ((path).empty()) GTEST_SKIP() << "skipped: " << (what) << " is not available "    \
-                                     << "(needs ../shared/meshes or libcgal-demo data)"; \
+#define MESHMARK_REQUIRE(path, what)                                   \
+  do {                                                                 \
+    if ((path).empty())                                                \
+      GTEST_SKIP() << "skipped: " << (what) << " is not available "    \
+                   << "(needs ../shared/meshes or libcgal-demo data)"; \
   } while (0)

@@ -14,8 +14,8 @@ namespace meshmark {
 
 /// Options of extract.
 struct ExtractOptions {
-  int bits = 64;                               ///< payload length nb (nB = nb + 2 bins)
-  CenterKind center = CenterKind::Discrete;    ///< the variant's center
+  int bits = 64;                             ///< payload length nb (nB = nb + 2 bins)
+  CenterKind center = CenterKind::Discrete;  ///< the variant's center
 };
 
 /// Value of an erased bit (its bin is empty) in ExtractResult::bits.
@@ -38,7 +38,8 @@ struct ExtractResult {
 
 /// Decodes nb bits from V, F (#V x 3, #F x 3). Unreferenced vertices are ignored. A mesh
 /// whose vertices all lie at one distance gives all erasures.
-ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const ExtractOptions& options = {});
+ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                      const ExtractOptions& options = {});
 
 /// Per-bin mean of t over bins 1..nb of a histogram: means[j], counts[j] for bin j + 1.
 void bin_means(const Histogram& h, std::vector<double>& means, std::vector<int>& counts);

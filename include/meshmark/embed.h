@@ -19,16 +19,16 @@ namespace meshmark {
 /// Options of embed. Units: strength and bin offset are fractions of a bin width.
 struct EmbedOptions {
   CenterKind center = CenterKind::Discrete;  ///< the variant's center (D implemented)
-  double strength = 0.05;     ///< alpha in (0, 1/2): each bin mean moves to 1/2 +- alpha
-  double bin_offset = 0.05;   ///< G in [0, 1/2): vertices stay inside [G, 1 - G] of their bin
-  int max_rounds = 10;        ///< linearize-and-solve rounds at most
+  double strength = 0.05;    ///< alpha in (0, 1/2): each bin mean moves to 1/2 +- alpha
+  double bin_offset = 0.05;  ///< G in [0, 1/2): vertices stay inside [G, 1 - G] of their bin
+  int max_rounds = 10;       ///< linearize-and-solve rounds at most
   /// A bit "decodes with its margin" when m_j (tbar_j - 1/2) >= strength - margin_tolerance.
   double margin_tolerance = 1e-9;
   /// The center may move by at most this many bin widths.
   double center_tolerance = 1e-9;
   /// Vertices at bit-identical positions (unwelded seams) move as one, so seams stay closed.
   bool keep_duplicates_together = true;
-  QpSettings solver;          ///< settings of the exact QP solver
+  QpSettings solver;  ///< settings of the exact QP solver
 };
 
 /// Outcome of embed.
@@ -42,13 +42,13 @@ enum class EmbedStatus {
 /// What embed did.
 struct EmbedResult {
   EmbedStatus status = EmbedStatus::InvalidMesh;
-  std::string message;              ///< one line for a person
-  Eigen::MatrixX3d V;               ///< #V x 3 watermarked positions
-  std::vector<int> infeasible_bits; ///< bits j whose bin j + 1 cannot reach its target
-  int rounds = 0;                   ///< solves performed
-  int solver_iterations = 0;        ///< Newton iterations over all rounds
+  std::string message;                        ///< one line for a person
+  Eigen::MatrixX3d V;                         ///< #V x 3 watermarked positions
+  std::vector<int> infeasible_bits;           ///< bits j whose bin j + 1 cannot reach its target
+  int rounds = 0;                             ///< solves performed
+  int solver_iterations = 0;                  ///< Newton iterations over all rounds
   QpStatus solver_status = QpStatus::Solved;  ///< last solve's status
-  double kkt_residual = 0;          ///< last solve's max KKT residual (bin-width units)
+  double kkt_residual = 0;                    ///< last solve's max KKT residual (bin-width units)
   std::vector<double> margins;      ///< per bit, m_j (tbar_j - 1/2) after embedding (signed)
   double min_margin = 0;            ///< smallest of margins
   double squared_displacement = 0;  ///< sum_i |p_i^w - p_i|^2 (model units squared)

@@ -34,11 +34,11 @@ Center center_of_mass(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
 struct Histogram {
   Eigen::Vector3d center = Eigen::Vector3d::Zero();
   double rho_min = 0, rho_max = 0;
-  double step = 0;         ///< s = (rho_max - rho_min) / nB
-  int bins = 0;            ///< nB
-  Eigen::VectorXd rho;     ///< per vertex distance (NaN for unreferenced vertices)
-  std::vector<int> bin;    ///< per vertex bin B_i in [0, nB), -1 for unreferenced
-  Eigen::VectorXd t;       ///< per vertex position inside its bin, (rho - rho_min)/s - B_i
+  double step = 0;               ///< s = (rho_max - rho_min) / nB
+  int bins = 0;                  ///< nB
+  Eigen::VectorXd rho;           ///< per vertex distance (NaN for unreferenced vertices)
+  std::vector<int> bin;          ///< per vertex bin B_i in [0, nB), -1 for unreferenced
+  Eigen::VectorXd t;             ///< per vertex position inside its bin, (rho - rho_min)/s - B_i
   int argmin = -1, argmax = -1;  ///< a vertex attaining rho_min, rho_max
   /// False when there is nothing to histogram (no referenced vertex, or all at one distance).
   bool valid() const { return step > 0; }

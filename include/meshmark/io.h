@@ -57,7 +57,8 @@ struct WriteOptions {
 void write_mesh(const std::string& path, const Mesh& mesh, const WriteOptions& options = {});
 
 /// The bytes write_mesh would write (without touching the disk).
-std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format, const WriteOptions& options = {});
+std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format,
+                                const WriteOptions& options = {});
 
 /// The format an extension names. \throw InvalidArgumentError when it names none.
 FileFormat format_from_path(const std::string& path);

@@ -35,9 +35,9 @@ struct FileImage;
 
 /// A triangle mesh as meshmark computes on it, plus what its file carried.
 struct Mesh {
-  Eigen::MatrixX3d V;      ///< #V x 3 positions
-  Eigen::MatrixX3i F;      ///< #F x 3 triangles (polygons fan-triangulated), 0-based
-  Polygons faces;          ///< the faces as the file gave them (polygons, strips unrolled)
+  Eigen::MatrixX3d V;  ///< #V x 3 positions
+  Eigen::MatrixX3i F;  ///< #F x 3 triangles (polygons fan-triangulated), 0-based
+  Polygons faces;      ///< the faces as the file gave them (polygons, strips unrolled)
   FileFormat format = FileFormat::Obj;  ///< format of the source file
   Encoding encoding = Encoding::Ascii;  ///< encoding of the source file
   std::string source_path;              ///< the path it was read from, if any
@@ -69,9 +69,9 @@ double bounding_box_diagonal(const Eigen::MatrixX3d& V, const std::vector<std::u
 /// group_of[i] is the group of vertex i (-1 for unreferenced), members are listed per group in
 /// compressed rows. Groups are numbered in order of their first vertex.
 struct PositionGroups {
-  std::vector<int> group_of;            ///< size nv
-  std::vector<int> offsets{0};          ///< size count() + 1
-  std::vector<int> members;             ///< vertex indices, grouped
+  std::vector<int> group_of;    ///< size nv
+  std::vector<int> offsets{0};  ///< size count() + 1
+  std::vector<int> members;     ///< vertex indices, grouped
   int count() const { return static_cast<int>(offsets.size()) - 1; }
 };
 

@@ -22,19 +22,19 @@ namespace meshmark {
 
 /// The problem, n variables and m watermark rows.
 struct SeparableQp {
-  Eigen::VectorXd h;      ///< n, cost weights, > 0
-  Eigen::VectorXd lo;     ///< n, lower bounds
-  Eigen::VectorXd hi;     ///< n, upper bounds, >= lo
-  std::vector<int> row;   ///< n, the watermark row holding x_i, or -1
-  Eigen::VectorXd a;      ///< n, coefficient of x_i in its row (ignored when row(i) = -1)
-  Eigen::VectorXd b;      ///< m, right-hand sides of the rows
-  Eigen::Matrix3Xd e;     ///< 3 x n, columns of the equality constraint
+  Eigen::VectorXd h;     ///< n, cost weights, > 0
+  Eigen::VectorXd lo;    ///< n, lower bounds
+  Eigen::VectorXd hi;    ///< n, upper bounds, >= lo
+  std::vector<int> row;  ///< n, the watermark row holding x_i, or -1
+  Eigen::VectorXd a;     ///< n, coefficient of x_i in its row (ignored when row(i) = -1)
+  Eigen::VectorXd b;     ///< m, right-hand sides of the rows
+  Eigen::Matrix3Xd e;    ///< 3 x n, columns of the equality constraint
 };
 
 /// Solver settings.
 struct QpSettings {
-  int max_iterations = 100;     ///< Newton iterations
-  double tolerance = 1e-11;     ///< on the KKT residuals (rows and equalities, absolute)
+  int max_iterations = 100;  ///< Newton iterations
+  double tolerance = 1e-11;  ///< on the KKT residuals (rows and equalities, absolute)
 };
 
 /// Outcome of a solve.
