@@ -229,3 +229,26 @@ TEST(EmbedDrs, OptionsOutOfRangeThrow) {
   EXPECT_THROW(embed(m.V, m.F, p, o), InvalidArgumentError);
   EXPECT_THROW(embed(m.V, m.F, Payload{}, {}), InvalidArgumentError);
 }
+
+TEST(EmbedDrs, WatermarkedObjDiffersFromItsOriginalOnlyInVertexPositions) {
+  const std::string path = shared_mesh("spider.obj");
+  MESHMARK_REQUIRE(path, "spider.obj");
+  Mesh m = read_mesh(path);
+  const EmbedResult r = embed(m.V, m.F, random_payload(24, 8));
+  ASSERT_EQ(r.status, EmbedStatus::Embedded) << r.message;
+  m.V = r.V;
+  const auto a = split_lines(read_file(path)),
+             b = split_lines(write_mesh_to_bytes(m, FileFormat::Obj));
+  ASSERT_EQ(a.size(), b.size());
+  int changed_vertex_lines = 0;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    const auto wa = words(a[k]);
+    if (!wa.empty() && wa[0] == "v") {
+      changed_vertex_lines += a[k] != b[k];
+      EXPECT_EQ(words(b[k]).size(), wa.size());
+    } else {
+      EXPECT_EQ(a[k], b[k]) << "line " << k + 1 << " is not a vertex line and changed";
+    }
+  }
+  EXPECT_GT(changed_vertex_lines, 0);
+}

@@ -27,28 +27,6 @@ Mesh sphere_with_a_quad() {
   return m;
 }
 
-std::vector<std::string> split_lines(const std::string& s) {
-  std::vector<std::string> lines;
-  std::size_t start = 0;
-  while (start <= s.size()) {
-    const std::size_t end = s.find('\n', start);
-    if (end == std::string::npos) {
-      lines.push_back(s.substr(start));
-      break;
-    }
-    lines.push_back(s.substr(start, end - start));
-    start = end + 1;
-  }
-  return lines;
-}
-
-std::vector<std::string> words(const std::string& line) {
-  std::istringstream in(line);
-  std::vector<std::string> w;
-  for (std::string t; in >> t;) w.push_back(t);
-  return w;
-}
-
 // Moves every k-th vertex by a small random offset; returns the new positions.
 Eigen::MatrixX3d moved(const Eigen::MatrixX3d& V, int k, std::uint64_t seed) {
   Random rng(seed);

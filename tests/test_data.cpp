@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <random>
+#include <sstream>
 
 namespace meshmark::test {
 
@@ -65,6 +66,24 @@ Mesh bumpy_sphere(int n_theta, int n_phi, unsigned seed) {
   for (std::size_t k = 0; k < tris.size(); ++k)
     F.row(static_cast<Eigen::Index>(k)) = tris[k].transpose();
   return make_mesh(std::move(V), std::move(F));
+}
+
+std::vector<std::string> split_lines(const std::string& text) {
+  std::vector<std::string> lines;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t end = text.find('\n', start);
+    lines.push_back(text.substr(start, end == std::string::npos ? std::string::npos : end - start));
+    if (end == std::string::npos) return lines;
+    start = end + 1;
+  }
+}
+
+std::vector<std::string> words(const std::string& line) {
+  std::istringstream in(line);
+  std::vector<std::string> w;
+  for (std::string t; in >> t;) w.push_back(t);
+  return w;
 }
 
 }  // namespace meshmark::test

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <vector>
 
 #include "meshmark/mesh.h"
 
@@ -22,6 +23,12 @@ std::string scratch_dir();
 /// A closed, irregular test surface generated in code: a sphere of n_theta x n_phi vertices
 /// whose radius varies smoothly with the direction (so the histogram is spread), seeded.
 Mesh bumpy_sphere(int n_theta, int n_phi, unsigned seed);
+
+/// The lines of a text (split at '\n', terminators dropped).
+std::vector<std::string> split_lines(const std::string& text);
+
+/// The whitespace-separated words of a line.
+std::vector<std::string> words(const std::string& line);
 
 }  // namespace meshmark::test
 
