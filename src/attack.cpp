@@ -1,11 +1,20 @@
+// Attacks that need no CGAL: similarity, reordering, noise, quantization, smoothing, triangle
+// soup, cropping, format conversion, and the chain parser. Simplification and subdivision
+// live in cgal_simplify.cpp and cgal_subdivide.cpp.
+
 #include "meshmark/attack.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <numeric>
 
+#include <fmt/format.h>
+
 #include "meshmark/error.h"
+#include "meshmark/io.h"
 #include "meshmark/random.h"
+#include "text_scan.h"
 
 namespace meshmark {
 
@@ -37,12 +46,25 @@ Mesh attack_similarity(const Mesh& mesh, std::uint64_t seed, const SimilarityOpt
 }
 
 namespace {
+
 std::vector<int> random_permutation(std::size_t n, Random& rng) {
   std::vector<int> p(n);
   std::iota(p.begin(), p.end(), 0);
   for (std::size_t i = n; i > 1; --i) std::swap(p[i - 1], p[rng.index(i)]);
   return p;
 }
+
+// A mesh made of new positions and polygons, with the source's format but no file image.
+Mesh rebuilt(const Mesh& like, Eigen::MatrixX3d V, Polygons faces) {
+  Mesh out;
+  out.format = like.format;
+  out.encoding = like.encoding;
+  out.V = std::move(V);
+  out.F = triangulate(faces);
+  out.faces = std::move(faces);
+  return out;
+}
+
 }  // namespace
 
 Mesh attack_reorder(const Mesh& mesh, std::uint64_t seed) {
@@ -50,11 +72,9 @@ Mesh attack_reorder(const Mesh& mesh, std::uint64_t seed) {
   const std::vector<int> new_of_old =
       random_permutation(static_cast<std::size_t>(mesh.V.rows()), rng);
   const std::vector<int> face_order = random_permutation(mesh.faces.size(), rng);
-  Mesh out;
-  out.format = mesh.format;
-  out.encoding = mesh.encoding;
-  out.V.resize(mesh.V.rows(), 3);
-  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) out.V.row(new_of_old[i]) = mesh.V.row(i);
+  Eigen::MatrixX3d V(mesh.V.rows(), 3);
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) V.row(new_of_old[i]) = mesh.V.row(i);
+  Polygons faces;
   std::vector<int> face;
   for (int k : face_order) {
     const auto b = mesh.faces.offsets[k], e = mesh.faces.offsets[k + 1];
@@ -63,9 +83,248 @@ Mesh attack_reorder(const Mesh& mesh, std::uint64_t seed) {
     const std::size_t shift = n > 0 ? rng.index(n) : 0;
     for (std::size_t c = 0; c < n; ++c)
       face[c] = new_of_old[mesh.faces.indices[b + (c + shift) % n]];
-    out.faces.push_back(face.data(), n);
+    faces.push_back(face.data(), n);
   }
-  out.F = triangulate(out.faces);
+  return rebuilt(mesh, std::move(V), std::move(faces));
+}
+
+Mesh attack_noise(const Mesh& mesh, double amplitude, NoiseReference reference,
+                  std::uint64_t seed) {
+  if (!(amplitude >= 0))
+    throw InvalidArgumentError(fmt::format("noise amplitude {} is negative", amplitude));
+  const auto used = referenced_vertices(mesh.F, mesh.V.rows());
+  double length = bounding_box_diagonal(mesh.V, used);
+  if (reference == NoiseReference::MeanRadius) {
+    Eigen::RowVector3d c = Eigen::RowVector3d::Zero();
+    double n = 0;
+    for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+      if (used[i]) c += mesh.V.row(i), n += 1;
+    c /= std::max(n, 1.0);
+    length = 0;
+    for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+      if (used[i]) length += (mesh.V.row(i) - c).norm();
+    length /= std::max(n, 1.0);
+  }
+  const double A = amplitude * length;
+  Random rng(seed);
+  Mesh out = mesh;
+  for (Eigen::Index i = 0; i < out.V.rows(); ++i)
+    for (int a = 0; a < 3; ++a) out.V(i, a) += rng.uniform(-A, A);
+  return out;
+}
+
+Mesh attack_quantize(const Mesh& mesh, int bits) {
+  if (bits < 1 || bits > 52)
+    throw InvalidArgumentError(fmt::format("quantization to {} bits (expected 1 to 52)", bits));
+  Mesh out = mesh;
+  if (mesh.V.rows() == 0) return out;
+  const double levels = std::ldexp(1.0, bits) - 1;
+  for (int a = 0; a < 3; ++a) {
+    const double lo = mesh.V.col(a).minCoeff(), hi = mesh.V.col(a).maxCoeff();
+    const double step = (hi - lo) / levels;
+    if (step <= 0) continue;
+    for (Eigen::Index i = 0; i < out.V.rows(); ++i)
+      out.V(i, a) = lo + std::round((mesh.V(i, a) - lo) / step) * step;
+  }
+  return out;
+}
+
+namespace {
+// One umbrella step p_i += factor (mean of neighbors - p_i).
+void umbrella_step(const Adjacency& adj, double factor, Eigen::MatrixX3d& V) {
+  const Eigen::MatrixX3d P = V;
+  for (Eigen::Index i = 0; i < V.rows(); ++i) {
+    const int d = adj.degree(static_cast<int>(i));
+    if (d == 0) continue;
+    Eigen::RowVector3d mean = Eigen::RowVector3d::Zero();
+    for (int k = adj.offsets[i]; k < adj.offsets[i + 1]; ++k) mean += P.row(adj.indices[k]);
+    V.row(i) += factor * (mean / d - P.row(i));
+  }
+}
+}  // namespace
+
+Mesh attack_smooth_laplacian(const Mesh& mesh, int iterations, double lambda) {
+  if (iterations < 0) throw InvalidArgumentError("smoothing iterations must be >= 0");
+  const Adjacency adj = vertex_adjacency(mesh.F, mesh.V.rows());
+  Mesh out = mesh;
+  for (int k = 0; k < iterations; ++k) umbrella_step(adj, lambda, out.V);
+  return out;
+}
+
+Mesh attack_smooth_taubin(const Mesh& mesh, int iterations, double lambda, double k_pb) {
+  if (iterations < 0) throw InvalidArgumentError("smoothing iterations must be >= 0");
+  const double mu = 1.0 / (k_pb - 1.0 / lambda);
+  const Adjacency adj = vertex_adjacency(mesh.F, mesh.V.rows());
+  Mesh out = mesh;
+  for (int k = 0; k < iterations; ++k) {
+    umbrella_step(adj, lambda, out.V);
+    umbrella_step(adj, mu, out.V);
+  }
+  return out;
+}
+
+Mesh attack_triangle_soup(const Mesh& mesh, double ratio, std::uint64_t seed,
+                          double noise_amplitude) {
+  if (!(ratio > 0))
+    throw InvalidArgumentError(fmt::format("soup edge ratio {} must be positive", ratio));
+  const Eigen::Index nt = mesh.F.rows();
+  Eigen::MatrixX3d V(3 * nt, 3);
+  Polygons faces;
+  for (Eigen::Index t = 0; t < nt; ++t) {
+    const Eigen::RowVector3d c =
+        (mesh.V.row(mesh.F(t, 0)) + mesh.V.row(mesh.F(t, 1)) + mesh.V.row(mesh.F(t, 2))) / 3;
+    int tri[3];
+    for (int k = 0; k < 3; ++k) {
+      V.row(3 * t + k) = c + ratio * (mesh.V.row(mesh.F(t, k)) - c);
+      tri[k] = static_cast<int>(3 * t + k);
+    }
+    faces.push_back(tri, 3);
+  }
+  return attack_noise(rebuilt(mesh, std::move(V), std::move(faces)), noise_amplitude,
+                      NoiseReference::Diagonal, seed);
+}
+
+Mesh attack_crop(const Mesh& mesh, double fraction, std::uint64_t seed) {
+  if (!(fraction >= 0 && fraction < 1))
+    throw InvalidArgumentError(fmt::format("crop fraction {} is outside [0, 1)", fraction));
+  Random rng(seed);
+  const Eigen::Vector3d dir =
+      Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal()).normalized();
+  const auto used = referenced_vertices(mesh.F, mesh.V.rows());
+  std::vector<int> order;
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    if (used[i]) order.push_back(static_cast<int>(i));
+  const auto n_remove =
+      static_cast<std::size_t>(std::llround(fraction * static_cast<double>(order.size())));
+  // The n_remove vertices farthest along dir lie beyond a plane orthogonal to it.
+  std::nth_element(
+      order.begin(), order.begin() + static_cast<std::ptrdiff_t>(order.size() - n_remove),
+      order.end(), [&](int a, int b) { return mesh.V.row(a).dot(dir) < mesh.V.row(b).dot(dir); });
+  std::vector<char> removed(static_cast<std::size_t>(mesh.V.rows()), 0);
+  for (std::size_t k = order.size() - n_remove; k < order.size(); ++k) removed[order[k]] = 1;
+  std::vector<int> new_index(static_cast<std::size_t>(mesh.V.rows()), -1);
+  int kept = 0;
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    if (!removed[i]) new_index[i] = kept++;
+  Eigen::MatrixX3d V(kept, 3);
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    if (new_index[i] >= 0) V.row(new_index[i]) = mesh.V.row(i);
+  Polygons faces;
+  std::vector<int> face;
+  for (std::size_t k = 0; k < mesh.faces.size(); ++k) {
+    face.clear();
+    bool keep = true;
+    for (auto c = mesh.faces.offsets[k]; c < mesh.faces.offsets[k + 1] && keep; ++c) {
+      keep = new_index[mesh.faces.indices[c]] >= 0;
+      face.push_back(new_index[mesh.faces.indices[c]]);
+    }
+    if (keep) faces.push_back(face.data(), face.size());
+  }
+  return rebuilt(mesh, std::move(V), std::move(faces));
+}
+
+Mesh attack_format(const Mesh& mesh, const std::string& format, bool single_precision) {
+  const FileFormat f = format_from_path("x." + format);
+  WriteOptions wo;
+  wo.single_precision = single_precision;
+  wo.keep_source = false;
+  if (f == FileFormat::Ply || f == FileFormat::Stl) wo.encoding = Encoding::BinaryLittleEndian;
+  ReadOptions ro;
+  ro.keep_image = false;
+  Mesh out = read_mesh_from_bytes(write_mesh_to_bytes(mesh, f, wo), f, "converted." + format, ro);
+  out.format = mesh.format;
+  out.encoding = mesh.encoding;
+  return out;
+}
+
+const std::vector<std::pair<std::string, std::string>>& attack_kinds() {
+  static const std::vector<std::pair<std::string, std::string>> kinds = {
+      {"reorder", "random vertex and face order (strength ignored)"},
+      {"similarity", "random rotation, translation and uniform scale up to STRENGTH (default 2)"},
+      {"noise", "uniform noise, amplitude STRENGTH x bounding-box diagonal (paper)"},
+      {"noise-radius",
+       "uniform noise, amplitude STRENGTH x mean vertex-to-center distance (benchmark)"},
+      {"quant", "coordinates quantized to STRENGTH bits over the bounding box"},
+      {"smooth", "Laplacian smoothing, lambda 0.3, STRENGTH iterations"},
+      {"taubin", "Taubin smoothing (0.5, k_pb 0.1), STRENGTH iterations"},
+      {"soup", "triangle soup, edges rescaled by STRENGTH, 0.01 % noise"},
+      {"simplify", "Lindstrom-Turk edge collapse down to STRENGTH x the faces"},
+      {"loop", "STRENGTH iterations of Loop subdivision (default 1)"},
+      {"midpoint", "STRENGTH iterations of midpoint subdivision (default 1)"},
+      {"sqrt3", "STRENGTH iterations of sqrt(3) subdivision (default 1)"},
+      {"crop", "remove the STRENGTH fraction of vertices beyond a random plane"},
+      {"float32", "binary PLY with float32 coordinates, and back"},
+      {"to-obj", "written as OBJ and read back"},
+      {"to-off", "written as OFF and read back"},
+      {"to-stl", "written as binary STL (float32, unwelded) and read back (welded)"},
+  };
+  return kinds;
+}
+
+std::vector<AttackStep> parse_attack_chain(const std::string& text) {
+  std::vector<AttackStep> steps;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t end = std::min(text.find(',', start), text.size());
+    const std::string item = text.substr(start, end - start);
+    const std::size_t colon = item.find(':');
+    AttackStep step;
+    step.kind = item.substr(0, colon);
+    const bool known = std::any_of(attack_kinds().begin(), attack_kinds().end(),
+                                   [&](const auto& k) { return k.first == step.kind; });
+    if (!known)
+      throw InvalidArgumentError(fmt::format("unknown attack '{}' in '{}'", step.kind, text));
+    if (colon != std::string::npos &&
+        !detail::parse_double(std::string_view(item).substr(colon + 1), step.strength))
+      throw InvalidArgumentError(fmt::format("attack '{}': strength '{}' is not a number",
+                                             step.kind, item.substr(colon + 1)));
+    steps.push_back(step);
+    start = end + 1;
+  }
+  return steps;
+}
+
+namespace {
+int whole(const AttackStep& s, int fallback) {
+  const double v = s.strength == 0 ? fallback : s.strength;
+  if (v != std::floor(v) || v < 0 || v > 1e6)
+    throw InvalidArgumentError(
+        fmt::format("attack '{}' needs a whole number, not {}", s.kind, s.strength));
+  return static_cast<int>(v);
+}
+}  // namespace
+
+Mesh apply_attack(const Mesh& mesh, const AttackStep& s, std::uint64_t seed) {
+  const std::string& k = s.kind;
+  if (k == "reorder") return attack_reorder(mesh, seed);
+  if (k == "similarity") {
+    SimilarityOptions o;
+    if (s.strength != 0) o.max_scale = s.strength;
+    return attack_similarity(mesh, seed, o);
+  }
+  if (k == "noise") return attack_noise(mesh, s.strength, NoiseReference::Diagonal, seed);
+  if (k == "noise-radius") return attack_noise(mesh, s.strength, NoiseReference::MeanRadius, seed);
+  if (k == "quant") return attack_quantize(mesh, whole(s, 0));
+  if (k == "smooth") return attack_smooth_laplacian(mesh, whole(s, 0));
+  if (k == "taubin") return attack_smooth_taubin(mesh, whole(s, 0));
+  if (k == "soup") return attack_triangle_soup(mesh, s.strength, seed);
+  if (k == "simplify") return attack_simplify(mesh, s.strength);
+  if (k == "loop") return attack_subdivide(mesh, Subdivision::Loop, whole(s, 1));
+  if (k == "midpoint") return attack_subdivide(mesh, Subdivision::Midpoint, whole(s, 1));
+  if (k == "sqrt3") return attack_subdivide(mesh, Subdivision::Sqrt3, whole(s, 1));
+  if (k == "crop") return attack_crop(mesh, s.strength, seed);
+  if (k == "float32") return attack_format(mesh, "ply", true);
+  if (k == "to-obj") return attack_format(mesh, "obj", false);
+  if (k == "to-off") return attack_format(mesh, "off", false);
+  if (k == "to-stl") return attack_format(mesh, "stl", false);
+  throw InvalidArgumentError(fmt::format("unknown attack '{}'", k));
+}
+
+Mesh apply_attack_chain(const Mesh& mesh, const std::vector<AttackStep>& steps,
+                        std::uint64_t seed) {
+  Mesh out = mesh;
+  Random seeds(seed);
+  for (const AttackStep& s : steps) out = apply_attack(out, s, seeds.next());
   return out;
 }
 

@@ -65,6 +65,29 @@ double bounding_box_diagonal(const Eigen::MatrixX3d& V, const std::vector<std::u
   return any ? (hi - lo).norm() : 0.0;
 }
 
+Adjacency vertex_adjacency(const Eigen::MatrixX3i& F, Eigen::Index nv) {
+  std::vector<std::pair<int, int>> edges;
+  edges.reserve(static_cast<std::size_t>(F.rows()) * 6);
+  for (Eigen::Index t = 0; t < F.rows(); ++t)
+    for (int c = 0; c < 3; ++c) {
+      const int a = F(t, c), b = F(t, (c + 1) % 3);
+      if (a == b) continue;
+      edges.emplace_back(a, b);
+      edges.emplace_back(b, a);
+    }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  Adjacency adj;
+  adj.offsets.assign(static_cast<std::size_t>(nv) + 1, 0);
+  adj.indices.reserve(edges.size());
+  for (const auto& [a, b] : edges) {
+    ++adj.offsets[a + 1];
+    adj.indices.push_back(b);
+  }
+  std::partial_sum(adj.offsets.begin(), adj.offsets.end(), adj.offsets.begin());
+  return adj;
+}
+
 PositionGroups group_identical_positions(const Eigen::MatrixX3d& V,
                                          const std::vector<std::uint8_t>& referenced) {
   const auto nv = static_cast<int>(V.rows());

@@ -1,17 +1,20 @@
 #pragma once
 /// \file attack.h
-/// Attacks of the mesh watermarking literature (Wang et al., SMI 2010 benchmark; the TIFS 2014
-/// paper's section V), deterministic for a seed. Each returns a new mesh; those that keep the
-/// connectivity keep the file image too, so the result can be written back in its format.
+/// Attacks of the mesh watermarking literature (the TIFS 2014 paper's section V; the
+/// benchmark of Wang et al., SMI 2010), deterministic for a seed, working on real meshes with
+/// their defects. Each returns a new mesh; attacks that keep the connectivity keep the file
+/// image too, so the result can be written back in its format.
 
 #include <cstdint>
+#include <string>
+#include <vector>
 
 #include "meshmark/mesh.h"
 
 namespace meshmark {
 
 /// Similarity transform: a uniformly random rotation, a translation of up to `translation`
-/// times the bounding-box diagonal in each axis, and a uniform scale drawn in
+/// times the bounding-box diagonal in each axis, and a uniform scale drawn log-uniformly in
 /// [1 / max_scale, max_scale]. Distance ratios are preserved.
 struct SimilarityOptions {
   double translation = 1.0;  ///< fraction of the bounding-box diagonal
@@ -27,5 +30,73 @@ Mesh attack_reorder(const Mesh& mesh, std::uint64_t seed);
 
 /// Uniformly random rotation matrix (Shoemake's quaternion method).
 Eigen::Matrix3d random_rotation(std::uint64_t seed);
+
+/// What the noise amplitude is relative to.
+enum class NoiseReference {
+  Diagonal,    ///< the bounding-box diagonal, as in the TIFS 2014 paper
+  MeanRadius,  ///< the mean distance of the vertices to their centroid, as in Wang et al.
+};
+
+/// Adds uniform noise in [-A, A] to every coordinate of every vertex, A = amplitude times the
+/// reference length. Keeps the file image.
+Mesh attack_noise(const Mesh& mesh, double amplitude, NoiseReference reference, std::uint64_t seed);
+
+/// Rounds every coordinate onto a grid of 2^bits levels per axis spanning the bounding box
+/// (step (max - min) / (2^bits - 1)). 1 <= bits <= 52. Keeps the file image.
+Mesh attack_quantize(const Mesh& mesh, int bits);
+
+/// Laplacian smoothing, `iterations` times p_i += lambda (mean of the one-ring - p_i), all
+/// vertices (boundary included; vertices without neighbors stay). Keeps the file image.
+Mesh attack_smooth_laplacian(const Mesh& mesh, int iterations, double lambda = 0.3);
+
+/// Taubin smoothing (lambda | mu), `iterations` pairs of steps; mu from the pass-band
+/// frequency k_pb: 1/lambda + 1/mu = k_pb. Keeps the file image.
+Mesh attack_smooth_taubin(const Mesh& mesh, int iterations, double lambda = 0.5, double k_pb = 0.1);
+
+/// Triangle soup (TIFS 2014, sec. V-B): faces disconnected (three new vertices each), each
+/// triangle scaled about its centroid by `ratio` (every edge rescaled, opening holes or making
+/// overlaps), then uniform noise of noise_amplitude times the diagonal (0.01 % by default).
+Mesh attack_triangle_soup(const Mesh& mesh, double ratio, std::uint64_t seed,
+                          double noise_amplitude = 1e-4);
+
+/// Removes `fraction` of the referenced vertices, those farthest along a random direction
+/// (the side of a plane), with the faces that touch them; remaining vertices keep their order.
+Mesh attack_crop(const Mesh& mesh, double fraction, std::uint64_t seed);
+
+/// Writes the mesh to bytes in another format/encoding and reads it back (float32 storage
+/// rounds the coordinates). single_precision selects float32 for binary PLY.
+Mesh attack_format(const Mesh& mesh, const std::string& format, bool single_precision);
+
+/// Edge-collapse simplification to `ratio` of the faces (0 < ratio <= 1), Lindstrom-Turk cost
+/// and placement (CGAL Surface_mesh_simplification). The input is first turned into a
+/// manifold CGAL can collapse: duplicate points merged, degenerate faces removed, the soup
+/// oriented (which splits non-manifold edges and vertices; CGAL's orient_polygon_soup).
+/// \throw InvalidArgumentError for a ratio outside (0, 1].
+Mesh attack_simplify(const Mesh& mesh, double ratio);
+
+/// Subdivision schemes.
+enum class Subdivision { Loop, Midpoint, Sqrt3 };
+
+/// `iterations` steps of Loop, midpoint (linear 1-to-4) or sqrt(3) subdivision (CGAL
+/// Subdivision_method_3), after the same repair as attack_simplify.
+Mesh attack_subdivide(const Mesh& mesh, Subdivision scheme, int iterations);
+
+/// One step of an attack chain: a kind and its strength.
+struct AttackStep {
+  std::string kind;  ///< see attack_kinds()
+  double strength = 0;
+};
+
+/// The kinds apply_attack knows, with the meaning of their strength, one line each.
+const std::vector<std::pair<std::string, std::string>>& attack_kinds();
+
+/// Parses "noise:0.001,quant:10" into steps. \throw InvalidArgumentError naming the bad step.
+std::vector<AttackStep> parse_attack_chain(const std::string& text);
+
+/// Applies one step (seeded). \throw InvalidArgumentError for an unknown kind or strength.
+Mesh apply_attack(const Mesh& mesh, const AttackStep& step, std::uint64_t seed);
+
+/// Applies a chain, step k seeded with a value derived from seed and k.
+Mesh apply_attack_chain(const Mesh& mesh, const std::vector<AttackStep>& steps, std::uint64_t seed);
 
 }  // namespace meshmark

@@ -65,6 +65,17 @@ std::vector<std::uint8_t> referenced_vertices(const Eigen::MatrixX3i& F, Eigen::
 /// (all vertices when mask is empty). 0 for an empty set.
 double bounding_box_diagonal(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& mask = {});
 
+/// The one-ring of every vertex (neighbors through an edge of F), in compressed rows:
+/// neighbors of i are indices[offsets[i] .. offsets[i+1]), sorted, without repetition.
+struct Adjacency {
+  std::vector<int> offsets;
+  std::vector<int> indices;
+  int degree(int i) const { return offsets[i + 1] - offsets[i]; }
+};
+
+/// Builds the vertex adjacency of F over nv vertices (isolated vertices have degree 0).
+Adjacency vertex_adjacency(const Eigen::MatrixX3i& F, Eigen::Index nv);
+
 /// Groups of referenced vertices at bit-identical positions (unwelded seams, duplicates):
 /// group_of[i] is the group of vertex i (-1 for unreferenced), members are listed per group in
 /// compressed rows. Groups are numbered in order of their first vertex.

@@ -1,0 +1,25 @@
+#pragma once
+// Internal: conversion between meshmark's Mesh and a CGAL Surface_mesh, with the repair CGAL
+// needs for edge collapse and subdivision. Included only by the cgal_*.cpp translation units,
+// so that CGAL's templates stay out of the rest of the build.
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Surface_mesh.h>
+
+#include "meshmark/mesh.h"
+
+namespace meshmark::detail {
+
+using CgalKernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using SurfaceMesh = CGAL::Surface_mesh<CgalKernel::Point_3>;
+
+/// The referenced triangles of mesh as a CGAL surface mesh: the triangles are taken as a
+/// polygon soup, duplicate points merged and degenerate or duplicate triangles removed
+/// (repair_polygon_soup), the soup oriented, which duplicates the vertices along non-manifold
+/// edges and at non-manifold vertices (orient_polygon_soup), then turned into a mesh.
+SurfaceMesh to_surface_mesh(const Mesh& mesh);
+
+/// Back to V and F (garbage collected), with the format of `like` and no file image.
+Mesh from_surface_mesh(SurfaceMesh& sm, const Mesh& like);
+
+}  // namespace meshmark::detail

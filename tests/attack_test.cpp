@@ -1,0 +1,250 @@
+// Each attack's defining property, on real meshes, checked from scratch.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+
+#include "meshmark/attack.h"
+#include "meshmark/error.h"
+#include "meshmark/io.h"
+#include "test_data.h"
+
+using namespace meshmark;
+using namespace meshmark::test;
+
+namespace {
+
+Mesh real(const std::string& path) {
+  return read_mesh(path);
+}
+
+std::size_t undirected_edges(const Eigen::MatrixX3i& F) {
+  std::set<std::pair<int, int>> edges;
+  for (Eigen::Index t = 0; t < F.rows(); ++t)
+    for (int c = 0; c < 3; ++c) edges.insert(std::minmax(F(t, c), F(t, (c + 1) % 3)));
+  return edges.size();
+}
+
+bool closed_two_manifold_edges(const Eigen::MatrixX3i& F) {
+  std::map<std::pair<int, int>, int> count;
+  for (Eigen::Index t = 0; t < F.rows(); ++t)
+    for (int c = 0; c < 3; ++c) ++count[std::minmax(F(t, c), F(t, (c + 1) % 3))];
+  for (const auto& [e, n] : count)
+    if (n != 2) return false;
+  return true;
+}
+
+double diagonal(const Eigen::MatrixX3d& V) {
+  return (V.colwise().maxCoeff() - V.colwise().minCoeff()).norm();
+}
+
+}  // namespace
+
+TEST(Attack, NoiseStaysWithinItsAmplitudeForBothReferences) {
+  const std::string path = shared_mesh("bunny.ply");
+  MESHMARK_REQUIRE(path, "bunny.ply");
+  const Mesh m = real(path);
+  // bunny.ply has unreferenced vertices: the references are over the referenced ones.
+  const auto used = referenced_vertices(m.F, m.V.rows());
+  Eigen::RowVector3d lo = Eigen::RowVector3d::Constant(1e300), hi = -lo,
+                     c = Eigen::RowVector3d::Zero();
+  double n = 0;
+  for (Eigen::Index i = 0; i < m.V.rows(); ++i)
+    if (used[i])
+      lo = lo.cwiseMin(m.V.row(i)), hi = hi.cwiseMax(m.V.row(i)), c += m.V.row(i), n += 1;
+  c /= n;
+  double mean_radius = 0;
+  for (Eigen::Index i = 0; i < m.V.rows(); ++i)
+    if (used[i]) mean_radius += (m.V.row(i) - c).norm() / n;
+  const double diag = (hi - lo).norm();
+  for (auto [ref, length] : {std::pair{NoiseReference::Diagonal, diag},
+                             std::pair{NoiseReference::MeanRadius, mean_radius}}) {
+    const double A = 0.003 * length;
+    const Mesh a = attack_noise(m, 0.003, ref, 5);
+    const double biggest = (a.V - m.V).cwiseAbs().maxCoeff();
+    EXPECT_LE(biggest, A * (1 + 1e-12));
+    EXPECT_GE(biggest, 0.95 * A) << "uniform noise over 24k coordinates comes close to its bound";
+  }
+}
+
+TEST(Attack, QuantizedPointsLieOnTheGrid) {
+  const std::string path = shared_mesh("horse.ply");
+  MESHMARK_REQUIRE(path, "horse.ply");
+  const Mesh m = real(path);
+  for (int bits : {7, 10, 12}) {
+    const Mesh q = attack_quantize(m, bits);
+    for (int a = 0; a < 3; ++a) {
+      const double lo = m.V.col(a).minCoeff(), hi = m.V.col(a).maxCoeff();
+      const double step = (hi - lo) / (std::pow(2.0, bits) - 1);
+      std::set<long> levels;
+      for (Eigen::Index i = 0; i < q.V.rows(); ++i) {
+        const double k = (q.V(i, a) - lo) / step;
+        EXPECT_NEAR(k, std::round(k), 1e-6);
+        EXPECT_LE(std::abs(q.V(i, a) - m.V(i, a)), 0.5 * step * (1 + 1e-9));
+        levels.insert(std::lround(k));
+      }
+      EXPECT_LE(levels.size(), std::size_t{1} << bits);
+    }
+  }
+}
+
+TEST(Attack, SimplificationReachesTheFaceTargetWithinOnePercent) {
+  for (const std::string& path :
+       {shared_mesh("horse.ply"), shared_mesh("bunny.ply"), cgal_mesh("fandisk.off")}) {
+    if (path.empty()) continue;
+    SCOPED_TRACE(path);
+    const Mesh m = real(path);
+    for (double ratio : {0.7, 0.3, 0.1}) {
+      const Mesh s = attack_simplify(m, ratio);
+      const double target = ratio * static_cast<double>(m.F.rows());
+      EXPECT_NEAR(static_cast<double>(s.F.rows()), target, 0.01 * target) << ratio;
+      EXPECT_LT(s.V.rows(), m.V.rows());
+    }
+  }
+}
+
+TEST(Attack, SubdivisionVertexAndFaceCountsOnAClosedMesh) {
+  const std::string path = shared_mesh("horse.ply");
+  MESHMARK_REQUIRE(path, "horse.ply");
+  const Mesh m = real(path);
+  ASSERT_TRUE(closed_two_manifold_edges(m.F)) << "the horse is expected to be closed";
+  const auto V = static_cast<std::size_t>(m.V.rows()), F = static_cast<std::size_t>(m.F.rows());
+  const std::size_t E = undirected_edges(m.F);
+  const Mesh loop = attack_subdivide(m, Subdivision::Loop, 1);
+  EXPECT_EQ(static_cast<std::size_t>(loop.V.rows()), V + E);
+  EXPECT_EQ(static_cast<std::size_t>(loop.F.rows()), 4 * F);
+  const Mesh mid = attack_subdivide(m, Subdivision::Midpoint, 1);
+  EXPECT_EQ(static_cast<std::size_t>(mid.V.rows()), V + E);
+  EXPECT_EQ(static_cast<std::size_t>(mid.F.rows()), 4 * F);
+  // Midpoint subdivision keeps the old vertices and puts the new ones on the old edges.
+  EXPECT_EQ(Eigen::MatrixX3d(mid.V.topRows(m.V.rows())), m.V);
+  const Mesh s3 = attack_subdivide(m, Subdivision::Sqrt3, 1);
+  EXPECT_EQ(static_cast<std::size_t>(s3.V.rows()), V + F);
+  EXPECT_EQ(static_cast<std::size_t>(s3.F.rows()), 3 * F);
+  const Mesh loop2 = attack_subdivide(m, Subdivision::Loop, 2);
+  EXPECT_EQ(static_cast<std::size_t>(loop2.F.rows()), 16 * F);
+}
+
+TEST(Attack, SubdivisionHandlesOpenAndNonManifoldMeshes) {
+  for (const std::string& path : {shared_mesh("bunny.ply"), shared_mesh("stanford-bunny.obj"),
+                                  cgal_mesh("mech-holes-shark.off")}) {
+    if (path.empty()) continue;
+    const Mesh m = real(path);
+    for (Subdivision s : {Subdivision::Loop, Subdivision::Sqrt3, Subdivision::Midpoint}) {
+      const Mesh d = attack_subdivide(m, s, 1);
+      EXPECT_GT(d.F.rows(), 2 * m.F.rows() * 9 / 10) << path;
+      EXPECT_TRUE(d.V.allFinite());
+      // Subdivision smooths but does not move the surface far: the bounding box stays.
+      EXPECT_LE((d.V.colwise().maxCoeff() - m.V.colwise().maxCoeff()).norm(), 0.05 * diagonal(m.V));
+    }
+  }
+}
+
+TEST(Attack, CroppingRemovesTheAskedFraction) {
+  const std::string path = shared_mesh("stanford-bunny.obj");
+  MESHMARK_REQUIRE(path, "stanford-bunny.obj");
+  const Mesh m = real(path);
+  const auto used = referenced_vertices(m.F, m.V.rows());
+  const auto n_ref = std::count(used.begin(), used.end(), 1);
+  for (double fraction : {0.05, 0.2, 0.5}) {
+    const Mesh c = attack_crop(m, fraction, 11);
+    EXPECT_EQ(m.V.rows() - c.V.rows(), std::llround(fraction * static_cast<double>(n_ref)));
+    for (Eigen::Index t = 0; t < c.F.rows(); ++t) EXPECT_LT(c.F.row(t).maxCoeff(), c.V.rows());
+  }
+}
+
+TEST(Attack, TriangleSoupHasThreeVerticesPerFaceAndScaledEdges) {
+  const std::string path = shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(path, "spot.obj");
+  const Mesh m = real(path);
+  const double ratio = 0.8, A = 1e-4 * diagonal(m.V);
+  const Mesh s = attack_triangle_soup(m, ratio, 3);
+  ASSERT_EQ(s.F.rows(), m.F.rows());
+  EXPECT_EQ(s.V.rows(), 3 * m.F.rows());
+  std::set<int> seen;
+  for (Eigen::Index t = 0; t < s.F.rows(); ++t)
+    for (int c = 0; c < 3; ++c)
+      EXPECT_TRUE(seen.insert(s.F(t, c)).second) << "vertices are not shared";
+  for (Eigen::Index t = 0; t < m.F.rows(); ++t)
+    for (int c = 0; c < 3; ++c) {
+      const double before = (m.V.row(m.F(t, c)) - m.V.row(m.F(t, (c + 1) % 3))).norm();
+      const double after = (s.V.row(s.F(t, c)) - s.V.row(s.F(t, (c + 1) % 3))).norm();
+      EXPECT_NEAR(after, ratio * before, 2 * std::sqrt(3.0) * A);
+    }
+}
+
+TEST(Attack, LaplacianSmoothingStepMatchesAHandComputation) {
+  const Mesh m = bumpy_sphere(6, 8, 4);
+  const Mesh s = attack_smooth_laplacian(m, 1, 0.3);
+  std::vector<std::set<int>> ring(m.V.rows());
+  for (Eigen::Index t = 0; t < m.F.rows(); ++t)
+    for (int c = 0; c < 3; ++c) {
+      ring[m.F(t, c)].insert(m.F(t, (c + 1) % 3));
+      ring[m.F(t, (c + 1) % 3)].insert(m.F(t, c));
+    }
+  for (Eigen::Index i = 0; i < m.V.rows(); ++i) {
+    Eigen::RowVector3d mean = Eigen::RowVector3d::Zero();
+    for (int j : ring[i]) mean += m.V.row(j) / static_cast<double>(ring[i].size());
+    EXPECT_LE((s.V.row(i) - (m.V.row(i) + 0.3 * (mean - m.V.row(i)))).norm(), 1e-14);
+  }
+}
+
+TEST(Attack, TaubinShrinksLessThanLaplacian) {
+  const std::string path = shared_mesh("horse.ply");
+  MESHMARK_REQUIRE(path, "horse.ply");
+  const Mesh m = real(path);
+  const double d0 = diagonal(m.V);
+  const double lap = diagonal(attack_smooth_laplacian(m, 20, 0.5).V),
+               tau = diagonal(attack_smooth_taubin(m, 10).V);
+  EXPECT_LT(lap, d0);
+  EXPECT_LT(std::abs(tau - d0), std::abs(lap - d0));
+}
+
+TEST(Attack, Float32StorageRoundsToFloat) {
+  const Mesh m = bumpy_sphere(9, 9, 1);
+  const Mesh f = attack_format(m, "ply", true);
+  EXPECT_EQ(f.V, Eigen::MatrixX3d(m.V.cast<float>().cast<double>()));
+  EXPECT_NE(f.V, m.V);
+}
+
+TEST(Attack, SameSeedSameBytesForEveryKind) {
+  const std::string path = shared_mesh("bunny.ply");
+  MESHMARK_REQUIRE(path, "bunny.ply");
+  const Mesh m = real(path);
+  for (const auto& [kind, what] : attack_kinds()) {
+    SCOPED_TRACE(kind);
+    AttackStep step{kind, 0};
+    if (kind == "noise" || kind == "noise-radius") step.strength = 0.002;
+    if (kind == "quant") step.strength = 9;
+    if (kind == "smooth" || kind == "taubin") step.strength = 3;
+    if (kind == "soup") step.strength = 0.9;
+    if (kind == "simplify") step.strength = 0.5;
+    if (kind == "crop") step.strength = 0.1;
+    const Mesh a = apply_attack(m, step, 77), b = apply_attack(m, step, 77);
+    EXPECT_EQ(write_mesh_to_bytes(a, FileFormat::Ply), write_mesh_to_bytes(b, FileFormat::Ply));
+  }
+  EXPECT_NE(attack_noise(m, 0.001, NoiseReference::Diagonal, 1).V,
+            attack_noise(m, 0.001, NoiseReference::Diagonal, 2).V);
+}
+
+TEST(Attack, ChainsParseAndApplyInOrder) {
+  const Mesh m = bumpy_sphere(12, 12, 2);
+  const auto steps = parse_attack_chain("noise:0.001,quant:10");
+  ASSERT_EQ(steps.size(), 2u);
+  EXPECT_EQ(steps[0].kind, "noise");
+  EXPECT_DOUBLE_EQ(steps[1].strength, 10);
+  const Mesh a = apply_attack_chain(m, steps, 5);
+  // Quantization came last: every coordinate is on the 10-bit grid of the noisy mesh's box.
+  for (int c = 0; c < 3; ++c) {
+    const double lo = a.V.col(c).minCoeff(), step = (a.V.col(c).maxCoeff() - lo) / 1023;
+    for (Eigen::Index i = 0; i < a.V.rows(); ++i) {
+      const double k = (a.V(i, c) - lo) / step;
+      EXPECT_NEAR(k, std::round(k), 1e-6);
+    }
+  }
+  EXPECT_THROW(parse_attack_chain("noise:0.1,blur:3"), InvalidArgumentError);
+  EXPECT_THROW(parse_attack_chain("noise:abc"), InvalidArgumentError);
+  EXPECT_THROW(attack_simplify(m, 1.5), InvalidArgumentError);
+  EXPECT_THROW(attack_quantize(m, 0), InvalidArgumentError);
+}
