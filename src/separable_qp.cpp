@@ -50,7 +50,8 @@ void evaluate(const SeparableQp& qp, DualPoint& p) {
     }
   }
   p.g.head(m) += qp.b;
-  p.value = value + qp.b.dot(p.y.head(m));
+  p.g.tail<3>() += qp.c;
+  p.value = value + qp.b.dot(p.y.head(m)) + qp.c.dot(ye);
 }
 
 // Residual of the KKT conditions that x(y) does not satisfy by construction.

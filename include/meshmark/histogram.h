@@ -8,27 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "meshmark/center.h"
+
 namespace meshmark {
-
-/// The center of mass, first letter of a variant: D (discrete), S (surface), V (volume).
-enum class CenterKind { Discrete, Surface, Volume };
-
-/// The center and whether it is well defined.
-struct Center {
-  Eigen::Vector3d point = Eigen::Vector3d::Zero();
-  /// False for a volume center of an open or inconsistently oriented mesh (|sum w_f| tiny
-  /// against sum |w_f|), or a surface center of a mesh with no area.
-  bool well_defined = true;
-  /// Volume center: |sum w_f| / sum |w_f| (1 for a closed, consistently oriented mesh);
-  /// surface center: total area; discrete: number of referenced vertices.
-  double quality = 0;
-};
-
-/// Computes the center of mass of the referenced vertices (D), of the triangles weighted by
-/// area (S), or of the tetrahedra (O, p0, p1, p2) weighted by signed volume with O the
-/// discrete center (V). V: #V x 3, F: #F x 3, referenced: size #V (referenced_vertices()).
-Center center_of_mass(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
-                      const std::vector<std::uint8_t>& referenced, CenterKind kind);
 
 /// The histogram of distances to a center, nB = nb + 2 bins over [rho_min, rho_max].
 struct Histogram {
@@ -48,8 +30,5 @@ struct Histogram {
 /// Bin of vertex i: floor((rho_i - rho_min) / s), clamped to nB - 1.
 Histogram build_histogram(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referenced,
                           const Eigen::Vector3d& center, int nbits);
-
-/// Parses "D", "S", "V" (any case). \throw InvalidArgumentError otherwise.
-CenterKind center_from_letter(char letter);
 
 }  // namespace meshmark

@@ -5,7 +5,7 @@
 ///
 ///     minimize    sum_i h_i x_i^2
 ///     subject to  sum_{i : row(i) = j} a_i x_i >= b_j      for every watermark row j
-///                 sum_i e_i x_i = 0                        (3 rows: the center stays)
+///                 sum_i e_i x_i = c                        (3 rows: the center stays)
 ///                 lo_i <= x_i <= hi_i
 ///
 /// The watermark rows have disjoint supports. The Lagrangian dual has only m + 3 unknowns:
@@ -29,6 +29,7 @@ struct SeparableQp {
   Eigen::VectorXd a;     ///< n, coefficient of x_i in its row (ignored when row(i) = -1)
   Eigen::VectorXd b;     ///< m, right-hand sides of the rows
   Eigen::Matrix3Xd e;    ///< 3 x n, columns of the equality constraint
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();  ///< right-hand side of the equality
 };
 
 /// Solver settings.

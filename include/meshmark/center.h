@@ -1,0 +1,56 @@
+#pragma once
+/// \file center.h
+/// The three centers of mass of the framework (../shared/spec/WATERMARK.md sections 1 and 3;
+/// TIFS 2014 section IV-A) and their Jacobians dC/dp_i, which linearize the constraint that
+/// the center must not move.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+namespace meshmark {
+
+/// The center of mass, first letter of a variant: D (discrete), S (surface), V (volume).
+enum class CenterKind { Discrete, Surface, Volume };
+
+/// The center and whether it is well defined.
+struct Center {
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  /// False for a volume center of an open or inconsistently oriented mesh (|sum w_f| tiny
+  /// against sum |w_f|), or a surface center of a mesh with no area.
+  bool well_defined = true;
+  /// Volume center: |sum w_f| / sum |w_f| (1 for a closed, consistently oriented mesh);
+  /// surface center: total area; discrete: number of referenced vertices.
+  double quality = 0;
+};
+
+/// Below this |sum w_f| / sum |w_f| the volume center is reported as ill-defined.
+inline constexpr double kVolumeCenterMinQuality = 1e-3;
+
+/// Computes the center of mass of the referenced vertices (D), of the triangles weighted by
+/// area (S), or of the tetrahedra (O, p0, p1, p2) weighted by signed volume with O the
+/// discrete center (V). V: #V x 3, F: #F x 3, referenced: size #V (referenced_vertices()).
+Center center_of_mass(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                      const std::vector<std::uint8_t>& referenced, CenterKind kind);
+
+/// The center and the 3 x 3 Jacobian J_i = dC/dp_i of every vertex (zero for unreferenced
+/// vertices), stored as J[i].
+struct CenterJacobians {
+  Center center;
+  std::vector<Eigen::Matrix3d> J;
+};
+
+/// Analytic Jacobians (WATERMARK.md section 3, item 2): D: I / n; S: (1/A) sum_f [(c_f - C)
+/// grad_i A_f^T + A_f / 3 I]; V: (1/W) sum_f [(c_f - C) grad_i w_f^T + w_f / 4 I], plus, for
+/// V, the dependence through the reference point O (the discrete center), which vanishes on
+/// closed meshes and makes the Jacobian exact on open ones.
+CenterJacobians center_jacobians(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                                 const std::vector<std::uint8_t>& referenced, CenterKind kind);
+
+/// Parses "D", "S", "V" (any case). \throw InvalidArgumentError otherwise.
+CenterKind center_from_letter(char letter);
+
+/// 'D', 'S' or 'V'.
+char center_letter(CenterKind kind);
+
+}  // namespace meshmark
