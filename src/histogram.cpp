@@ -3,7 +3,6 @@
 #include <cmath>
 #include <limits>
 
-
 namespace meshmark {
 
 Histogram build_histogram(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referenced,

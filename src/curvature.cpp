@@ -1,0 +1,133 @@
+#include "meshmark/curvature.h"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+namespace meshmark {
+
+namespace {
+
+// Unique undirected edges with their signed dihedral angle (0 on boundary and non-manifold
+// edges), and for every vertex the edges incident to it.
+struct EdgeTable {
+  std::vector<std::array<int, 2>> ends;
+  std::vector<double> beta;
+  Adjacency incident;  // vertex -> edge ids (reusing the compressed-row layout)
+};
+
+EdgeTable dihedral_edges(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
+  std::vector<std::array<int, 4>> half;  // (min, max, face, +1 if the face runs min->max)
+  half.reserve(static_cast<std::size_t>(F.rows()) * 3);
+  for (Eigen::Index t = 0; t < F.rows(); ++t)
+    for (int c = 0; c < 3; ++c) {
+      const int a = F(t, c), b = F(t, (c + 1) % 3);
+      if (a != b)
+        half.push_back({std::min(a, b), std::max(a, b), static_cast<int>(t), a < b ? 1 : -1});
+    }
+  std::sort(half.begin(), half.end());
+  auto normal = [&](int t) {
+    const Eigen::Vector3d p0 = V.row(F(t, 0)), p1 = V.row(F(t, 1)), p2 = V.row(F(t, 2));
+    const Eigen::Vector3d n = (p1 - p0).cross(p2 - p0);
+    const double len = n.norm();
+    return len > 0 ? Eigen::Vector3d(n / len) : Eigen::Vector3d::Zero();
+  };
+  EdgeTable table;
+  for (std::size_t k = 0; k < half.size();) {
+    std::size_t e = k;
+    while (e < half.size() && half[e][0] == half[k][0] && half[e][1] == half[k][1]) ++e;
+    double beta = 0;
+    if (e - k == 2 && half[k][3] != half[k + 1][3]) {  // manifold, consistently oriented
+      // f1 runs a -> b (a = min), f2 runs b -> a.
+      const int f1 = half[k][3] > 0 ? half[k][2] : half[k + 1][2];
+      const int f2 = half[k][3] > 0 ? half[k + 1][2] : half[k][2];
+      const Eigen::Vector3d n1 = normal(f1), n2 = normal(f2);
+      const Eigen::Vector3d dir = V.row(half[k][1]) - V.row(half[k][0]);
+      const double len = dir.norm();
+      if (len > 0) beta = std::atan2(n1.cross(n2).dot(dir / len), n1.dot(n2));
+    }
+    table.ends.push_back({half[k][0], half[k][1]});
+    table.beta.push_back(beta);
+    k = e;
+  }
+  const auto nv = static_cast<std::size_t>(V.rows());
+  table.incident.offsets.assign(nv + 1, 0);
+  for (const auto& [a, b] : table.ends)
+    ++table.incident.offsets[a + 1], ++table.incident.offsets[b + 1];
+  for (std::size_t i = 0; i < nv; ++i) table.incident.offsets[i + 1] += table.incident.offsets[i];
+  table.incident.indices.resize(2 * table.ends.size());
+  std::vector<int> fill(table.incident.offsets.begin(), table.incident.offsets.end() - 1);
+  for (std::size_t e = 0; e < table.ends.size(); ++e)
+    for (int v : table.ends[e]) table.incident.indices[fill[v]++] = static_cast<int>(e);
+  return table;
+}
+
+// Length of the part of segment [a, b] inside the ball (c, r).
+double length_inside(const Eigen::RowVector3d& a, const Eigen::RowVector3d& b,
+                     const Eigen::RowVector3d& c, double r) {
+  const Eigen::RowVector3d d = b - a, f = a - c;
+  const double A = d.squaredNorm();
+  if (A == 0) return 0;
+  const double B = 2 * f.dot(d), Cc = f.squaredNorm() - r * r;
+  const double disc = B * B - 4 * A * Cc;
+  if (disc <= 0) return 0;
+  const double sq = std::sqrt(disc);
+  const double t0 = std::max(0.0, (-B - sq) / (2 * A)), t1 = std::min(1.0, (-B + sq) / (2 * A));
+  return t1 > t0 ? (t1 - t0) * std::sqrt(A) : 0;
+}
+
+}  // namespace
+
+CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                                      double radius) {
+  const Eigen::Index nv = V.rows();
+  CurvatureField field;
+  field.kmin = Eigen::VectorXd::Zero(nv);
+  field.kmax = Eigen::VectorXd::Zero(nv);
+  const EdgeTable edges = dihedral_edges(V, F);
+  const Adjacency adj = vertex_adjacency(F, nv);
+  // A third of the incident triangle areas per vertex: the ball's surface area is the sum over
+  // the vertices inside it.
+  Eigen::VectorXd vertex_area = Eigen::VectorXd::Zero(nv);
+  for (Eigen::Index t = 0; t < F.rows(); ++t) {
+    const Eigen::Vector3d p0 = V.row(F(t, 0)), p1 = V.row(F(t, 1)), p2 = V.row(F(t, 2));
+    const double a = 0.5 * (p1 - p0).cross(p2 - p0).norm() / 3;
+    for (int c = 0; c < 3; ++c) vertex_area(F(t, c)) += a;
+  }
+  std::vector<int> stamp(static_cast<std::size_t>(nv), -1), edge_stamp(edges.ends.size(), -1),
+      queue;
+  for (Eigen::Index i = 0; i < nv; ++i) {
+    if (adj.degree(static_cast<int>(i)) == 0) continue;
+    const Eigen::RowVector3d c = V.row(i);
+    Eigen::Matrix3d T = Eigen::Matrix3d::Zero();
+    double area = 0;
+    for_each_vertex_in_ball(
+        V, adj, static_cast<int>(i), c, radius, stamp, queue, static_cast<int>(i), [&](int v) {
+          area += vertex_area(v);
+          for (int k = edges.incident.offsets[v]; k < edges.incident.offsets[v + 1]; ++k) {
+            const int e = edges.incident.indices[k];
+            if (edge_stamp[e] == i || edges.beta[e] == 0) continue;
+            edge_stamp[e] = static_cast<int>(i);
+            const Eigen::RowVector3d a = V.row(edges.ends[e][0]), b = V.row(edges.ends[e][1]);
+            const double inside = length_inside(a, b, c, radius);
+            if (inside == 0) continue;
+            const Eigen::Vector3d dir = (b - a).normalized().transpose();
+            T.noalias() += (edges.beta[e] * inside) * dir * dir.transpose();
+          }
+        });
+    if (area <= 0) continue;
+    T /= area;
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(T, Eigen::EigenvaluesOnly);
+    Eigen::Vector3d ev = eig.eigenvalues();
+    std::sort(ev.data(), ev.data() + 3,
+              [](double x, double y) { return std::abs(x) < std::abs(y); });
+    // The smallest magnitude belongs to the normal; the other two are the principal curvatures.
+    field.kmin(i) = ev(1);
+    field.kmax(i) = ev(2);
+  }
+  return field;
+}
+
+}  // namespace meshmark

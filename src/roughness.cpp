@@ -1,0 +1,99 @@
+#include "meshmark/roughness.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+
+#include "meshmark/curvature.h"
+#include "meshmark/mesh.h"
+
+namespace meshmark {
+
+namespace {
+
+Eigen::VectorXd vertex_areas(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
+  Eigen::VectorXd area = Eigen::VectorXd::Zero(V.rows());
+  for (Eigen::Index t = 0; t < F.rows(); ++t) {
+    const Eigen::RowVector3d e1 = V.row(F(t, 1)) - V.row(F(t, 0)),
+                             e2 = V.row(F(t, 2)) - V.row(F(t, 0));
+    const double a = 0.5 * e1.cross(e2).norm() / 3;
+    for (int c = 0; c < 3; ++c) area(F(t, c)) += a;
+  }
+  return area;
+}
+
+// Gaussian-weighted, area-weighted average of `values` (#V x k) over balls of 2 sigma.
+Eigen::MatrixXd gaussian_average(const Eigen::MatrixX3d& V, const Adjacency& adj,
+                                 const Eigen::VectorXd& area, const Eigen::MatrixXd& values,
+                                 double sigma) {
+  Eigen::MatrixXd out = values;
+  std::vector<int> stamp(static_cast<std::size_t>(V.rows()), -1), queue;
+  const double inv = 1.0 / (2 * sigma * sigma);
+  for (Eigen::Index i = 0; i < V.rows(); ++i) {
+    if (adj.degree(static_cast<int>(i)) == 0) continue;
+    const Eigen::RowVector3d c = V.row(i);
+    Eigen::RowVectorXd sum = Eigen::RowVectorXd::Zero(values.cols());
+    double weight = 0;
+    for_each_vertex_in_ball(
+        V, adj, static_cast<int>(i), c, 2 * sigma, stamp, queue, static_cast<int>(i), [&](int v) {
+          const double w = area(v) * std::exp(-(V.row(v) - c).squaredNorm() * inv);
+          sum += w * values.row(v);
+          weight += w;
+        });
+    if (weight > 0) out.row(i) = sum / weight;
+  }
+  return out;
+}
+
+}  // namespace
+
+RoughnessField roughness_field(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                               const RoughnessOptions& o) {
+  const auto used = referenced_vertices(F, V.rows());
+  const double D = bounding_box_diagonal(V, used);
+  const Adjacency adj = vertex_adjacency(F, V.rows());
+  const Eigen::VectorXd area = vertex_areas(V, F);
+  const Eigen::VectorXd c = normal_cycle_curvature(V, F, o.curvature_radius * D).magnitude();
+  const Eigen::MatrixX3d smoothed = gaussian_average(V, adj, area, V, o.smoothing_sigma * D);
+  const Eigen::VectorXd cs =
+      normal_cycle_curvature(smoothed, F, o.curvature_radius * D).magnitude();
+  RoughnessField field;
+  field.roughness =
+      D * gaussian_average(V, adj, area, (c - cs).cwiseAbs(), o.window_sigma * D).col(0);
+  std::vector<double> sorted;
+  for (Eigen::Index i = 0; i < V.rows(); ++i)
+    if (used[i]) sorted.push_back(field.roughness(i));
+  field.smoothness = Eigen::VectorXd::Ones(V.rows());
+  if (sorted.empty()) return field;
+  std::sort(sorted.begin(), sorted.end());
+  auto quantile = [&](double q) {
+    return sorted[static_cast<std::size_t>(q * static_cast<double>(sorted.size() - 1))];
+  };
+  const double cap = quantile(o.outlier_quantile);
+  if (cap > 0)
+    for (Eigen::Index i = 0; i < V.rows(); ++i)
+      if (used[i]) field.smoothness(i) = 1 - std::min(field.roughness(i), cap) / cap;
+  std::vector<double> smooth;
+  for (Eigen::Index i = 0; i < V.rows(); ++i)
+    if (used[i]) smooth.push_back(field.smoothness(i));
+  std::nth_element(
+      smooth.begin(),
+      smooth.begin() + static_cast<std::ptrdiff_t>(0.8 * static_cast<double>(smooth.size() - 1)),
+      smooth.end());
+  field.smooth_threshold =
+      std::min(0.8, smooth[static_cast<std::size_t>(0.8 * static_cast<double>(smooth.size() - 1))]);
+  return field;
+}
+
+Eigen::Vector3i heat_color(double value) {
+  const double v = std::clamp(value, 0.0, 1.0);
+  // Blue -> cyan -> green -> yellow -> red.
+  const double r = std::clamp(1.5 - std::abs(4 * v - 3), 0.0, 1.0);
+  const double g = std::clamp(1.5 - std::abs(4 * v - 2), 0.0, 1.0);
+  const double b = std::clamp(1.5 - std::abs(4 * v - 1), 0.0, 1.0);
+  return Eigen::Vector3i(static_cast<int>(std::lround(255 * r)),
+                         static_cast<int>(std::lround(255 * g)),
+                         static_cast<int>(std::lround(255 * b)));
+}
+
+}  // namespace meshmark
