@@ -22,20 +22,9 @@ struct EmbedArgs {
   bool json = false;
 };
 
-void apply_variant(const std::string& variant, EmbedOptions& options) {
-  if (variant.size() != 3)
-    throw InvalidArgumentError(fmt::format("variant '{}' is not three letters", variant));
-  options.center = center_from_letter(variant[0]);
-  if (std::toupper(variant[1]) != 'R' || std::toupper(variant[2]) != 'S')
-    throw InvalidArgumentError(
-        fmt::format("variant '{}': only radial directions (R) with the squared-error cost (S) are "
-                    "implemented so far",
-                    variant));
-}
-
 int run(const EmbedArgs& a) {
   EmbedOptions options = a.embed;
-  apply_variant(a.variant, options);
+  options.variant = parse_variant(a.variant);
   const Payload payload = payload_from_hex(a.payload, a.bits);
   Mesh mesh = read_input(a.input, a.in);
   const EmbedResult r = embed(mesh.V, mesh.F, payload, options);
@@ -57,6 +46,7 @@ int run(const EmbedArgs& a) {
                         {"vertices", mesh.V.rows()},
                         {"rounds", r.rounds},
                         {"solver_iterations", r.solver_iterations},
+                        {"radial_fallbacks", r.radial_fallbacks},
                         {"solver_status", qp_status_name(r.solver_status)},
                         {"kkt_residual", r.kkt_residual},
                         {"min_margin", r.min_margin},
@@ -97,7 +87,10 @@ void register_embed(CLI::App& app, int& exit_code) {
   sub->add_option("--payload", args->payload, "payload in hexadecimal (bin 1's bit first)")
       ->required();
   sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, 1 << 20));
-  sub->add_option("--variant", args->variant, "center, direction, cost: DRS");
+  sub->add_option("--variant", args->variant,
+                  "center (D S V), direction (R N S), cost (S Q L); default DRS");
+  sub->add_option("--lambda", args->embed.lambda,
+                  "costs Q and L: weight of the squared error, in [0, 1]");
   sub->add_option("--strength", args->embed.strength,
                   "alpha in (0, 1/2): target distance of bin means from 1/2");
   sub->add_option("--bin-offset", args->embed.bin_offset,

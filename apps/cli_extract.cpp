@@ -8,6 +8,7 @@
 #include "cli.h"
 #include "meshmark/decode.h"
 #include "meshmark/error.h"
+#include "meshmark/variant.h"
 
 namespace meshmark::cli {
 
@@ -25,7 +26,7 @@ int run(const ExtractArgs& a) {
     throw InvalidArgumentError(fmt::format("variant '{}' is not three letters", a.variant));
   ExtractOptions options;
   options.bits = a.bits;
-  options.center = center_from_letter(a.variant[0]);
+  options.center = parse_variant(a.variant).center;
   std::optional<Payload> expected;
   if (!a.expect.empty()) expected = payload_from_hex(a.expect, a.bits);
   const Mesh mesh = read_input(a.input, a.in);

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "embed_problem.h"
 #include "meshmark/decode.h"
 #include "meshmark/error.h"
 #include "meshmark/mesh.h"
@@ -15,22 +16,15 @@ namespace meshmark {
 
 namespace {
 
-// Per-group data of one round: groups of identical positions share one unknown.
-struct Round {
-  Histogram hist;
-  SeparableQp qp;
-  Eigen::MatrixX3d U;  // per vertex unit direction of displacement (radial)
-};
-
 void check_options(const Payload& payload, const EmbedOptions& o) {
   if (payload.size() < 1) throw InvalidArgumentError("the payload is empty");
   if (!(o.strength > 0 && o.strength < 0.5))
     throw InvalidArgumentError(fmt::format("strength {} is outside (0, 1/2)", o.strength));
   if (!(o.bin_offset >= 0 && o.bin_offset < 0.5))
     throw InvalidArgumentError(fmt::format("bin offset {} is outside [0, 1/2)", o.bin_offset));
+  if (!(o.lambda >= 0 && o.lambda <= 1))
+    throw InvalidArgumentError(fmt::format("lambda {} is outside [0, 1]", o.lambda));
   if (o.max_rounds < 1) throw InvalidArgumentError("max_rounds must be at least 1");
-  if (o.center != CenterKind::Discrete)
-    throw InvalidArgumentError("only the discrete center (variant DRS) is implemented so far");
 }
 
 PositionGroups singleton_groups(const std::vector<std::uint8_t>& referenced) {
@@ -43,54 +37,6 @@ PositionGroups singleton_groups(const std::vector<std::uint8_t>& referenced) {
     g.offsets.push_back(static_cast<int>(g.members.size()));
   }
   return g;
-}
-
-// The quadratic program of one round in units of the bin width: x_g = r_g / s.
-// Cost sum_i r_i^2 (variant ..S); watermark rows m_j (1/N_j) sum (t_i + x_i) - 1/2 >= alpha;
-// center rows sum_i J_i u_i x_i = 0 with J_i = I / n for the discrete center; boxes
-// [G - t_i, 1 - G - t_i], zero for the vertices attaining rho_min or rho_max.
-void build_problem(const Eigen::MatrixX3d& V, const PositionGroups& groups, const Payload& payload,
-                   const EmbedOptions& o, Round& r) {
-  const Histogram& h = r.hist;
-  const int nb = payload.size(), ng = groups.count();
-  std::vector<double> means;
-  std::vector<int> counts;
-  bin_means(h, means, counts);
-  double n_ref = 0;
-  for (int b : h.bin) n_ref += b >= 0;
-  r.U.resize(V.rows(), 3);
-  SeparableQp& qp = r.qp;
-  qp.h.resize(ng);
-  qp.lo.resize(ng);
-  qp.hi.resize(ng);
-  qp.a.resize(ng);
-  qp.row.assign(static_cast<std::size_t>(ng), -1);
-  qp.e.resize(3, ng);
-  qp.b.resize(nb);
-  for (int j = 0; j < nb; ++j) {
-    const double m = payload.bits[j] ? 1.0 : -1.0;
-    qp.b(j) = counts[j] > 0 ? o.strength - m * (means[j] - 0.5) : o.strength;
-  }
-  for (int g = 0; g < ng; ++g) {
-    const int first = groups.members[groups.offsets[g]];
-    const double w = groups.offsets[g + 1] - groups.offsets[g];
-    const Eigen::Vector3d u = (V.row(first).transpose() - h.center) / h.rho(first);
-    for (int k = groups.offsets[g]; k < groups.offsets[g + 1]; ++k)
-      r.U.row(groups.members[k]) = u.transpose();
-    const int bin = h.bin[first];
-    const double t = h.t(first);
-    const bool extreme = h.rho(first) == h.rho_min || h.rho(first) == h.rho_max;
-    qp.h(g) = w;
-    qp.lo(g) = extreme ? 0.0 : o.bin_offset - t;
-    qp.hi(g) = extreme ? 0.0 : 1.0 - o.bin_offset - t;
-    qp.e.col(g) = (w / n_ref) * u;
-    qp.a(g) = 0;
-    if (bin >= 1 && bin <= nb) {
-      const int j = bin - 1;
-      qp.row[g] = j;
-      qp.a(g) = (payload.bits[j] ? 1.0 : -1.0) * w / counts[j];
-    }
-  }
 }
 
 // Signed margins m_j (tbar_j - 1/2) of the payload's bits in a histogram (-1/2 when empty).
@@ -107,6 +53,7 @@ std::vector<double> signed_margins(const Histogram& h, const Payload& payload) {
 void measure(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referenced,
              EmbedResult& res) {
   double sum = 0, n = 0;
+  res.squared_displacement = 0;
   for (Eigen::Index i = 0; i < V.rows(); ++i) {
     const double d2 = (res.V.row(i) - V.row(i)).squaredNorm();
     res.squared_displacement += d2;
@@ -115,6 +62,26 @@ void measure(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referen
   res.rms_displacement = n > 0 ? std::sqrt(sum / n) : 0;
   const double diag = bounding_box_diagonal(V, referenced);
   res.rms_percent = diag > 0 ? 100.0 * res.rms_displacement / diag : 0;
+}
+
+// Everything the rounds share: groups, adjacency (L), the roughness field (S), the center.
+detail::EmbedContext make_context(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                                  const Payload& payload, const EmbedOptions& o) {
+  detail::EmbedContext ctx;
+  ctx.F = &F;
+  ctx.payload = &payload;
+  ctx.options = &o;
+  ctx.referenced = referenced_vertices(F, V.rows());
+  ctx.groups = o.keep_duplicates_together ? group_identical_positions(V, ctx.referenced)
+                                          : singleton_groups(ctx.referenced);
+  if (o.variant.cost == CostKind::Laplacian) ctx.adjacency = vertex_adjacency(F, V.rows());
+  if (o.variant.direction == DirectionKind::Smooth) {
+    const RoughnessField field = roughness_field(V, F, o.roughness);
+    ctx.smoothness = field.smoothness;
+    ctx.smooth_threshold = field.smooth_threshold;
+  }
+  ctx.original_center = center_of_mass(V, F, ctx.referenced, o.variant.center).point;
+  return ctx;
 }
 
 }  // namespace
@@ -137,38 +104,37 @@ EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Pa
                   const EmbedOptions& options) {
   check_options(payload, options);
   const auto start = std::chrono::steady_clock::now();
-  EmbedResult res;
-  res.V = V;
-  const auto referenced = referenced_vertices(F, V.rows());
-  const PositionGroups groups = options.keep_duplicates_together
-                                    ? group_identical_positions(V, referenced)
-                                    : singleton_groups(referenced);
-  const Center c0 = center_of_mass(V, F, referenced, options.center);
-  Round round;
-  round.hist = build_histogram(V, referenced, c0.point, payload.size());
-  const double s0 = round.hist.step;
-  res.bin_width = s0;
   auto elapsed = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   };
-  if (!c0.well_defined || !round.hist.valid()) {
-    res.status = EmbedStatus::InvalidMesh;
-    res.message =
-        !c0.well_defined
-            ? "the center of mass is not defined for this mesh"
-            : "no histogram: the mesh has no referenced vertex or all lie at one distance";
-    res.seconds = elapsed();
-    return res;
-  }
+  EmbedResult res;
+  res.V = V;
+  const detail::EmbedContext ctx = make_context(V, F, payload, options);
+  detail::RoundProblem round;
+  AdmmQpSolver admm;
   Eigen::VectorXd warm;
   for (int k = 0; k < options.max_rounds; ++k) {
-    build_problem(res.V, groups, payload, options, round);
-    const QpResult sol =
-        solve_separable_qp(round.qp, options.solver, warm.size() ? &warm : nullptr);
+    if (!detail::build_round(ctx, res.V, round, res.message)) {
+      res.status = EmbedStatus::InvalidMesh;
+      res.V = V;
+      res.seconds = elapsed();
+      return res;
+    }
+    const double s = round.hist.step;
+    if (k == 0) res.bin_width = s;
+    QpResult sol;
+    if (options.variant.cost == CostKind::Laplacian) {
+      admm.set_hessian(round.H, options.admm);
+      sol = admm.solve(round.qp);
+    } else {
+      sol = solve_separable_qp(round.qp, options.solver, warm.size() ? &warm : nullptr);
+      warm = sol.y;
+    }
     ++res.rounds;
     res.solver_iterations += sol.iterations;
     res.solver_status = sol.status;
     res.kkt_residual = std::max(sol.primal_residual, sol.complementarity);
+    res.radial_fallbacks = round.radial_fallbacks;
     if (sol.status == QpStatus::Infeasible) {
       res.status = EmbedStatus::Infeasible;
       res.infeasible_bits = sol.infeasible_rows;
@@ -181,29 +147,28 @@ EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Pa
       res.seconds = elapsed();
       return res;
     }
+    const auto& groups = ctx.groups;
     for (int g = 0; g < groups.count(); ++g)
-      for (int q = groups.offsets[g]; q < groups.offsets[g + 1]; ++q) {
-        const int i = groups.members[q];
-        res.V.row(i) += (round.hist.step * sol.x(g)) * round.U.row(i);
-      }
-    // Decode as a receiver would and stop once every bit holds its margin and the center stays.
-    const Center c = center_of_mass(res.V, F, referenced, options.center);
-    round.hist = build_histogram(res.V, referenced, c.point, payload.size());
-    res.margins = signed_margins(round.hist, payload);
+      for (int q = groups.offsets[g]; q < groups.offsets[g + 1]; ++q)
+        res.V.row(groups.members[q]) += (s * sol.x(g)) * round.U.row(g);
+    // Decode as a receiver would; stop once every bit holds its margin and the center stays.
+    const Center c = center_of_mass(res.V, F, ctx.referenced, options.variant.center);
+    const Histogram h = build_histogram(res.V, ctx.referenced, c.point, payload.size());
+    res.margins = signed_margins(h, payload);
     res.min_margin = *std::min_element(res.margins.begin(), res.margins.end());
-    res.center_drift = (c.point - c0.point).norm() / s0;
-    warm = sol.y;
+    res.center_drift = (c.point - ctx.original_center).norm() / res.bin_width;
+    res.status = EmbedStatus::NotConverged;
     if (sol.status == QpStatus::Solved &&
         res.min_margin >= options.strength - options.margin_tolerance &&
         res.center_drift <= options.center_tolerance) {
       res.status = EmbedStatus::Embedded;
       break;
     }
-    res.status = EmbedStatus::NotConverged;
   }
-  measure(V, referenced, res);
+  measure(V, ctx.referenced, res);
   res.message = res.status == EmbedStatus::Embedded
-                    ? fmt::format("{} bits embedded in {} round(s)", payload.size(), res.rounds)
+                    ? fmt::format("{} bits embedded with {} in {} round(s)", payload.size(),
+                                  options.variant.name(), res.rounds)
                     : fmt::format(
                           "after {} round(s): smallest margin {:.3g} (target {}), center drift "
                           "{:.3g} bins, solver {}",

@@ -1,5 +1,6 @@
 #include "meshmark/mesh.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <numeric>
 
@@ -86,6 +87,31 @@ Adjacency vertex_adjacency(const Eigen::MatrixX3i& F, Eigen::Index nv) {
   }
   std::partial_sum(adj.offsets.begin(), adj.offsets.end(), adj.offsets.begin());
   return adj;
+}
+
+Eigen::MatrixX3d face_normals(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
+  Eigen::MatrixX3d N(F.rows(), 3);
+  for (Eigen::Index t = 0; t < F.rows(); ++t) {
+    const Eigen::RowVector3d n =
+        (V.row(F(t, 1)) - V.row(F(t, 0))).cross(V.row(F(t, 2)) - V.row(F(t, 0)));
+    const double len = n.norm();
+    N.row(t) = len > 0 ? Eigen::RowVector3d(n / len) : Eigen::RowVector3d::Zero();
+  }
+  return N;
+}
+
+Eigen::MatrixX3d vertex_normals(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
+  Eigen::MatrixX3d N = Eigen::MatrixX3d::Zero(V.rows(), 3);
+  for (Eigen::Index t = 0; t < F.rows(); ++t) {
+    const Eigen::RowVector3d n =
+        (V.row(F(t, 1)) - V.row(F(t, 0))).cross(V.row(F(t, 2)) - V.row(F(t, 0)));
+    for (int c = 0; c < 3; ++c) N.row(F(t, c)) += n;
+  }
+  for (Eigen::Index i = 0; i < V.rows(); ++i) {
+    const double len = N.row(i).norm();
+    if (len > 0) N.row(i) /= len;
+  }
+  return N;
 }
 
 PositionGroups group_identical_positions(const Eigen::MatrixX3d& V,

@@ -10,25 +10,31 @@
 #include <string>
 #include <vector>
 
+#include "meshmark/admm_qp.h"
 #include "meshmark/histogram.h"
 #include "meshmark/payload.h"
+#include "meshmark/roughness.h"
 #include "meshmark/separable_qp.h"
+#include "meshmark/variant.h"
 
 namespace meshmark {
 
 /// Options of embed. Units: strength and bin offset are fractions of a bin width.
 struct EmbedOptions {
-  CenterKind center = CenterKind::Discrete;  ///< the variant's center (D implemented)
+  Variant variant;           ///< center, direction and cost (default DRS)
+  double lambda = 0.5;       ///< costs Q and L: weight of the squared error, in [0, 1]
   double strength = 0.05;    ///< alpha in (0, 1/2): each bin mean moves to 1/2 +- alpha
   double bin_offset = 0.05;  ///< G in [0, 1/2): vertices stay inside [G, 1 - G] of their bin
   int max_rounds = 10;       ///< linearize-and-solve rounds at most
   /// A bit "decodes with its margin" when m_j (tbar_j - 1/2) >= strength - margin_tolerance.
-  double margin_tolerance = 1e-9;
+  double margin_tolerance = 1e-6;
   /// The center may move by at most this many bin widths.
-  double center_tolerance = 1e-9;
+  double center_tolerance = 1e-6;
   /// Vertices at bit-identical positions (unwelded seams) move as one, so seams stay closed.
   bool keep_duplicates_together = true;
-  QpSettings solver;  ///< settings of the exact QP solver
+  QpSettings solver;           ///< the exact separable solver (costs S and Q)
+  AdmmSettings admm;           ///< the sparse solver (cost L)
+  RoughnessOptions roughness;  ///< direction S: constants of the roughness field
 };
 
 /// Outcome of embed.
@@ -36,7 +42,8 @@ enum class EmbedStatus {
   Embedded,      ///< every bit decodes with its margin, center within tolerance
   Infeasible,    ///< some bits cannot reach their targets (infeasible_bits); V unchanged
   NotConverged,  ///< max_rounds or the solver's iteration limit reached; V is the last round's
-  InvalidMesh,   ///< no histogram can be built (no referenced vertex, all at one distance)
+  InvalidMesh,   ///< no histogram (no referenced vertex, all at one distance), or a volume
+                 ///< center that is ill-defined (open or inconsistently oriented mesh)
 };
 
 /// What embed did.
@@ -46,7 +53,8 @@ struct EmbedResult {
   Eigen::MatrixX3d V;                         ///< #V x 3 watermarked positions
   std::vector<int> infeasible_bits;           ///< bits j whose bin j + 1 cannot reach its target
   int rounds = 0;                             ///< solves performed
-  int solver_iterations = 0;                  ///< Newton iterations over all rounds
+  int solver_iterations = 0;                  ///< Newton (S, Q) or ADMM (L) iterations, all rounds
+  int radial_fallbacks = 0;                   ///< vertices whose direction missed their bin (C1)
   QpStatus solver_status = QpStatus::Solved;  ///< last solve's status
   double kkt_residual = 0;                    ///< last solve's max KKT residual (bin-width units)
   std::vector<double> margins;      ///< per bit, m_j (tbar_j - 1/2) after embedding (signed)

@@ -76,6 +76,13 @@ struct Adjacency {
 /// Builds the vertex adjacency of F over nv vertices (isolated vertices have degree 0).
 Adjacency vertex_adjacency(const Eigen::MatrixX3i& F, Eigen::Index nv);
 
+/// Unit vertex normals: the normalized sum of the (area-weighted) face normals around each
+/// vertex; zero where that sum vanishes (isolated vertices, cancelling faces). #V x 3.
+Eigen::MatrixX3d vertex_normals(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F);
+
+/// Unit face normals (zero for degenerate faces). #F x 3.
+Eigen::MatrixX3d face_normals(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F);
+
 /// Groups of referenced vertices at bit-identical positions (unwelded seams, duplicates):
 /// group_of[i] is the group of vertex i (-1 for unreferenced), members are listed per group in
 /// compressed rows. Groups are numbered in order of their first vertex.

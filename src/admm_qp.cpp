@@ -1,0 +1,82 @@
+#include "meshmark/admm_qp.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "meshmark/error.h"
+
+namespace meshmark {
+
+void AdmmQpSolver::set_hessian(const Eigen::SparseMatrix<double>& H, const AdmmSettings& settings) {
+  settings_ = settings;
+  H_ = H;
+  const Eigen::VectorXd d = 2 * H.diagonal();
+  rho_ = settings.rho > 0
+             ? settings.rho
+             : std::sqrt(std::max(d.minCoeff(), 1e-12) * std::max(d.maxCoeff(), 1e-12));
+  Eigen::SparseMatrix<double> K = 2 * H;
+  K.diagonal().array() += rho_;
+  K.makeCompressed();
+  if (!analyzed_ || K.nonZeros() != pattern_nonzeros_) {
+    llt_.analyzePattern(K);
+    analyzed_ = true;
+    pattern_nonzeros_ = K.nonZeros();
+  }
+  llt_.factorize(K);
+  if (llt_.info() != Eigen::Success) throw Error("ADMM: the Hessian is not positive semidefinite");
+}
+
+QpResult AdmmQpSolver::solve(const SeparableQp& qp, const Eigen::VectorXd* warm_z,
+                             const Eigen::VectorXd* warm_u) {
+  const Eigen::Index n = qp.lo.size(), m = qp.b.size();
+  QpResult result;
+  Eigen::VectorXd z = warm_z && warm_z->size() == n ? *warm_z : qp.lo.cwiseMax(0.0).cwiseMin(qp.hi);
+  u_ = warm_u && warm_u->size() == n ? *warm_u : Eigen::VectorXd::Zero(n);
+  // The projection problem: min |d|^2 with z = v + d inside the constraint set.
+  SeparableQp proj = qp;
+  proj.h = Eigen::VectorXd::Ones(n);
+  Eigen::VectorXd y;  // projection multipliers, for warm starts
+  Eigen::VectorXd x(n), z_prev(n), v(n);
+  const double alpha = settings_.relaxation;
+  for (int it = 0; it < settings_.max_iterations; ++it) {
+    x = llt_.solve(rho_ * (z - u_));
+    const Eigen::VectorXd xr = alpha * x + (1 - alpha) * z;
+    v = xr + u_;
+    // Shift the constraints to the unknown d = z - v.
+    proj.lo = qp.lo - v;
+    proj.hi = qp.hi - v;
+    proj.b = qp.b;
+    proj.c = qp.c;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      if (qp.row[i] >= 0) proj.b(qp.row[i]) -= qp.a(i) * v(i);
+      proj.c -= qp.e.col(i) * v(i);
+    }
+    const QpResult p = solve_separable_qp(proj, {}, y.size() ? &y : nullptr);
+    if (p.status == QpStatus::Infeasible) {
+      result.status = QpStatus::Infeasible;
+      result.infeasible_rows = p.infeasible_rows;
+      result.x = z;
+      return result;
+    }
+    y = p.y;
+    z_prev = z;
+    z = v + p.x;
+    u_ += xr - z;
+    result.iterations = it + 1;
+    result.primal_residual = (x - z).cwiseAbs().maxCoeff();
+    result.complementarity = rho_ * (z - z_prev).cwiseAbs().maxCoeff();
+    if (result.primal_residual <= settings_.tolerance &&
+        result.complementarity <= settings_.tolerance) {
+      result.status = QpStatus::Solved;
+      break;
+    }
+  }
+  if (result.status != QpStatus::Solved) result.status = QpStatus::IterationLimit;
+  result.x = z;
+  result.y = y;
+  result.objective = z.dot(H_.selfadjointView<Eigen::Lower>() * z);
+  (void)m;
+  return result;
+}
+
+}  // namespace meshmark

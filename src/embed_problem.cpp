@@ -1,0 +1,166 @@
+#include "embed_problem.h"
+
+#include <Eigen/Geometry>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "meshmark/decode.h"
+#include "meshmark/shell_interval.h"
+
+namespace meshmark::detail {
+
+namespace {
+
+// The variant's direction for group g (first member `first`), before any fallback.
+Eigen::Vector3d group_direction(const EmbedContext& ctx, const Eigen::MatrixX3d& N, int g,
+                                int first, const Eigen::Vector3d& rhohat) {
+  const DirectionKind kind = ctx.options->variant.direction;
+  if (kind == DirectionKind::Radial) return rhohat;
+  Eigen::Vector3d n = Eigen::Vector3d::Zero();
+  for (int k = ctx.groups.offsets[g]; k < ctx.groups.offsets[g + 1]; ++k)
+    n += N.row(ctx.groups.members[k]).transpose();
+  if (n.norm() == 0) return rhohat;
+  n.normalize();
+  if (kind == DirectionKind::Normal) return n;
+  // S: radial where rough; in smooth areas the radial direction projected on the tangent plane.
+  if (ctx.smoothness(first) <= ctx.smooth_threshold) return rhohat;
+  const Eigen::Vector3d tangent = rhohat - rhohat.dot(n) * n;
+  const double len = tangent.norm();
+  return len > 1e-9 ? Eigen::Vector3d(tangent / len) : rhohat;
+}
+
+// Laplacian-cost Hessian over groups: lambda diag(w) + (1 - lambda) B^T B, where row block i
+// of B is u_g(i) e_g(i)^T - (1 / |N1(i)|) sum_j u_g(j) e_g(j)^T (WATERMARK.md section 3).
+Eigen::SparseMatrix<double> laplacian_hessian(const EmbedContext& ctx, const Eigen::MatrixX3d& U,
+                                              double lambda) {
+  const auto& groups = ctx.groups;
+  const auto ng = static_cast<Eigen::Index>(groups.count());
+  std::vector<Eigen::Triplet<double>> tb;
+  Eigen::Index row = 0;
+  for (std::size_t i = 0; i < groups.group_of.size(); ++i) {
+    const int gi = groups.group_of[i];
+    const int deg = ctx.adjacency.degree(static_cast<int>(i));
+    if (gi < 0 || deg == 0) continue;
+    for (int a = 0; a < 3; ++a) tb.emplace_back(row + a, gi, U(gi, a));
+    for (int k = ctx.adjacency.offsets[i]; k < ctx.adjacency.offsets[i + 1]; ++k) {
+      const int gj = groups.group_of[ctx.adjacency.indices[k]];
+      if (gj < 0) continue;
+      for (int a = 0; a < 3; ++a) tb.emplace_back(row + a, gj, -U(gj, a) / deg);
+    }
+    row += 3;
+  }
+  Eigen::SparseMatrix<double> B(row, ng);
+  B.setFromTriplets(tb.begin(), tb.end());
+  Eigen::SparseMatrix<double> H = (1 - lambda) * Eigen::SparseMatrix<double>(B.transpose() * B);
+  for (Eigen::Index g = 0; g < ng; ++g)
+    H.coeffRef(g, g) += lambda * (groups.offsets[g + 1] - groups.offsets[g]);
+  H.makeCompressed();
+  return H;
+}
+
+}  // namespace
+
+bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProblem& round,
+                 std::string& message) {
+  const EmbedOptions& o = *ctx.options;
+  const Payload& payload = *ctx.payload;
+  const Eigen::MatrixX3i& F = *ctx.F;
+  const int nb = payload.size(), ng = ctx.groups.count();
+  const CenterJacobians cj = center_jacobians(V, F, ctx.referenced, o.variant.center);
+  round.center = cj.center;
+  if (!cj.center.well_defined) {
+    message = fmt::format(
+        "the {} center is ill-defined for this mesh (|sum of signed volumes| / sum of volumes = "
+        "{:.2g}): "
+        "open or inconsistently oriented",
+        center_letter(o.variant.center), cj.center.quality);
+    return false;
+  }
+  round.hist = build_histogram(V, ctx.referenced, cj.center.point, nb);
+  const Histogram& h = round.hist;
+  if (!h.valid()) {
+    message =
+        "no histogram: the mesh has no referenced vertex or all lie at one distance from the "
+        "center";
+    return false;
+  }
+  const double s = h.step;
+  std::vector<double> means;
+  std::vector<int> counts;
+  bin_means(h, means, counts);
+  const bool need_normals = o.variant.direction != DirectionKind::Radial;
+  const Eigen::MatrixX3d N = need_normals ? vertex_normals(V, F) : Eigen::MatrixX3d();
+
+  SeparableQp& qp = round.qp;
+  qp.h.resize(ng);
+  qp.lo.resize(ng);
+  qp.hi.resize(ng);
+  qp.a = Eigen::VectorXd::Zero(ng);
+  qp.row.assign(static_cast<std::size_t>(ng), -1);
+  qp.e.resize(3, ng);
+  qp.b.resize(nb);
+  for (int j = 0; j < nb; ++j) {
+    const double m = payload.bits[j] ? 1.0 : -1.0;
+    qp.b(j) = counts[j] > 0 ? o.strength - m * (means[j] - 0.5) : o.strength;
+  }
+  qp.c = (ctx.original_center - cj.center.point) / s;  // bring the center back where it was
+  round.U.resize(ng, 3);
+  round.radial_fallbacks = 0;
+  for (int g = 0; g < ng; ++g) {
+    const int first = ctx.groups.members[ctx.groups.offsets[g]];
+    const double w = ctx.groups.offsets[g + 1] - ctx.groups.offsets[g];
+    const double rho = h.rho(first), t = h.t(first);
+    const int bin = h.bin[first];
+    const Eigen::Vector3d rhohat = (V.row(first).transpose() - cj.center.point) / rho;
+    Eigen::Vector3d u = group_direction(ctx, N, g, first, rhohat);
+    const bool extreme = rho == h.rho_min || rho == h.rho_max;
+    if (extreme) {
+      u = rhohat;
+      qp.lo(g) = qp.hi(g) = 0;
+    } else if (u == rhohat) {
+      qp.lo(g) = o.bin_offset - t;
+      qp.hi(g) = 1 - o.bin_offset - t;
+    } else {
+      const double lower = h.rho_min + s * (bin + o.bin_offset),
+                   upper = h.rho_min + s * (bin + 1 - o.bin_offset);
+      const ShellInterval iv = shell_interval(rho, rhohat.dot(u), lower, upper);
+      if (iv.empty()) {  // C1: this direction cannot reach the bin's shell
+        u = rhohat;
+        ++round.radial_fallbacks;
+        qp.lo(g) = o.bin_offset - t;
+        qp.hi(g) = 1 - o.bin_offset - t;
+      } else {
+        qp.lo(g) = iv.lo / s;
+        qp.hi(g) = iv.hi / s;
+      }
+    }
+    round.U.row(g) = u.transpose();
+    Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+    for (int k = ctx.groups.offsets[g]; k < ctx.groups.offsets[g + 1]; ++k)
+      J += cj.J[ctx.groups.members[k]];
+    qp.e.col(g) = J * u;
+    if (bin >= 1 && bin <= nb) {
+      qp.row[g] = bin - 1;
+      qp.a(g) = (payload.bits[bin - 1] ? 1.0 : -1.0) * w * rhohat.dot(u) / counts[bin - 1];
+    }
+    qp.h(g) = w;
+  }
+  if (o.variant.cost == CostKind::Quadric) {
+    // q_i = sum over the faces around i of (u . n_f)^2: the quadric error of moving along u.
+    const Eigen::MatrixX3d FN = face_normals(V, F);
+    Eigen::VectorXd q = Eigen::VectorXd::Zero(ng);
+    for (Eigen::Index t = 0; t < F.rows(); ++t)
+      for (int c = 0; c < 3; ++c) {
+        const int g = ctx.groups.group_of[F(t, c)];
+        const double d = round.U.row(g).dot(FN.row(t));
+        q(g) += d * d;
+      }
+    qp.h = o.lambda * qp.h + (1 - o.lambda) * q;
+    qp.h = qp.h.cwiseMax(1e-12 * qp.h.maxCoeff());  // keep the cost strictly convex
+  }
+  if (o.variant.cost == CostKind::Laplacian) round.H = laplacian_hessian(ctx, round.U, o.lambda);
+  return true;
+}
+
+}  // namespace meshmark::detail

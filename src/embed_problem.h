@@ -1,0 +1,42 @@
+#pragma once
+// Internal: the quadratic program of one embedding round (WATERMARK.md section 3), in units of
+// the bin width s (x_g = r_g / s), over groups of vertices at identical positions.
+
+#include <Eigen/SparseCore>
+
+#include "meshmark/center.h"
+#include "meshmark/embed.h"
+#include "meshmark/histogram.h"
+#include "meshmark/mesh.h"
+
+namespace meshmark::detail {
+
+/// What stays the same over the rounds of one embedding.
+struct EmbedContext {
+  const Eigen::MatrixX3i* F = nullptr;
+  std::vector<std::uint8_t> referenced;
+  PositionGroups groups;
+  Adjacency adjacency;         // cost L only
+  Eigen::VectorXd smoothness;  // direction S only
+  double smooth_threshold = 0.8;
+  Eigen::Vector3d original_center = Eigen::Vector3d::Zero();
+  const Payload* payload = nullptr;
+  const EmbedOptions* options = nullptr;
+};
+
+/// One round's problem.
+struct RoundProblem {
+  Histogram hist;
+  Center center;
+  SeparableQp qp;                 // constraints; qp.h is the diagonal cost (S, Q)
+  Eigen::SparseMatrix<double> H;  // cost L: the full Hessian over groups
+  Eigen::MatrixX3d U;             // per group, the unit direction of displacement
+  int radial_fallbacks = 0;
+};
+
+/// Builds the round's problem at positions V. Returns false when the histogram or the center
+/// is not defined (the message says which).
+bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProblem& round,
+                 std::string& message);
+
+}  // namespace meshmark::detail
