@@ -2,6 +2,8 @@
 // every failure to one line on stderr and a documented exit code (see cli.h and the README).
 
 #include <fmt/format.h>
+#include <malloc.h>
+
 #include <filesystem>
 
 #include "cli.h"
@@ -53,6 +55,10 @@ void write_output(const std::string& path, const std::string& input_path, const 
 
 int main(int argc, char** argv) {
   using namespace meshmark;
+  // Large temporaries (a vector per vertex) come and go in the solvers' loops: keep them on
+  // the heap instead of mapping and unmapping pages each time.
+  mallopt(M_MMAP_THRESHOLD, 1 << 30);
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
   CLI::App app{
       "meshmark: blind, robust watermarking of triangle meshes (Rolland-Neviere et al., TIFS "
       "2014)"};

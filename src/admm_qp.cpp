@@ -7,23 +7,46 @@
 
 namespace meshmark {
 
-void AdmmQpSolver::set_hessian(const Eigen::SparseMatrix<double>& H, const AdmmSettings& settings) {
+void AdmmQpSolver::set_hessian(const Eigen::SparseMatrix<double>& H, const AdmmSettings& settings, bool refactor) {
   settings_ = settings;
   H_ = H;
-  const Eigen::VectorXd d = 2 * H.diagonal();
-  rho_ = settings.rho > 0
-             ? settings.rho
-             : std::sqrt(std::max(d.minCoeff(), 1e-12) * std::max(d.maxCoeff(), 1e-12));
-  Eigen::SparseMatrix<double> K = 2 * H;
-  K.diagonal().array() += rho_;
-  K.makeCompressed();
-  if (!analyzed_ || K.nonZeros() != pattern_nonzeros_) {
-    llt_.analyzePattern(K);
-    analyzed_ = true;
-    pattern_nonzeros_ = K.nonZeros();
+  if (!factored_ || refactor) {
+    const Eigen::VectorXd d = 2 * H.diagonal();
+    rho_ = settings.rho > 0 ? settings.rho : std::sqrt(std::max(d.minCoeff(), 1e-12) * std::max(d.maxCoeff(), 1e-12));
   }
-  llt_.factorize(K);
-  if (llt_.info() != Eigen::Success) throw Error("ADMM: the Hessian is not positive semidefinite");
+  K_ = 2 * H;
+  K_.diagonal().array() += rho_;
+  K_.makeCompressed();
+  if (!factored_ || refactor) {
+    ichol_.compute(K_);
+    if (ichol_.info() != Eigen::Success) throw Error("ADMM: incomplete Cholesky failed (is the Hessian positive semidefinite?)");
+    factored_ = true;
+  }
+}
+
+// Preconditioned conjugate gradients on K x = rhs from guess, to a relative residual of
+// cg_tolerance. Works in the solver's scratch vectors: no allocation per iteration.
+Eigen::VectorXd AdmmQpSolver::solve_x(const Eigen::VectorXd& rhs, const Eigen::VectorXd& guess) const {
+  Eigen::VectorXd x = guess;
+  r_.noalias() = rhs - K_ * x;
+  const double target = settings_.cg_tolerance * std::max(rhs.norm(), 1e-300);
+  if (r_.norm() <= target) return x;
+  z_ = ichol_.solve(r_);
+  p_ = z_;
+  double rz = r_.dot(z_);
+  for (int k = 0; k < 1000; ++k) {
+    ++cg_iterations_;
+    Kp_.noalias() = K_ * p_;
+    const double step = rz / p_.dot(Kp_);
+    x += step * p_;
+    r_ -= step * Kp_;
+    if (r_.norm() <= target) return x;
+    z_ = ichol_.solve(r_);
+    const double rz_next = r_.dot(z_);
+    p_ = z_ + (rz_next / rz) * p_;
+    rz = rz_next;
+  }
+  throw Error("ADMM: the x-step's conjugate gradients did not converge");
 }
 
 QpResult AdmmQpSolver::solve(const SeparableQp& qp, const Eigen::VectorXd* warm_z,
@@ -36,10 +59,11 @@ QpResult AdmmQpSolver::solve(const SeparableQp& qp, const Eigen::VectorXd* warm_
   SeparableQp proj = qp;
   proj.h = Eigen::VectorXd::Ones(n);
   Eigen::VectorXd y;  // projection multipliers, for warm starts
-  Eigen::VectorXd x(n), z_prev(n), v(n);
+  Eigen::VectorXd x = z, z_prev(n), v(n);
+  cg_iterations_ = 0;
   const double alpha = settings_.relaxation;
   for (int it = 0; it < settings_.max_iterations; ++it) {
-    x = llt_.solve(rho_ * (z - u_));
+    x = solve_x(rho_ * (z - u_), x);
     const Eigen::VectorXd xr = alpha * x + (1 - alpha) * z;
     v = xr + u_;
     // Shift the constraints to the unknown d = z - v.

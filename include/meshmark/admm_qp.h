@@ -12,7 +12,7 @@
 /// so a fixed rho converges fast. The answer z satisfies every constraint exactly; primal and
 /// dual residuals measure its optimality.
 
-#include <Eigen/SparseCholesky>
+#include <Eigen/IterativeLinearSolvers>
 #include <Eigen/SparseCore>
 #include <memory>
 
@@ -24,33 +24,41 @@ namespace meshmark {
 struct AdmmSettings {
   double rho = 0;            ///< penalty; 0 picks sqrt(smallest * largest diagonal of 2H)
   double relaxation = 1.6;   ///< over-relaxation alpha in (0, 2)
-  double tolerance = 1e-10;  ///< on |x - z|_inf and rho |z - z_prev|_inf
+  double tolerance = 1e-9;  ///< on |x - z|_inf and rho |z - z_prev|_inf
   int max_iterations = 5000;
+  double cg_tolerance = 1e-8;  ///< relative residual of each x-step (ADMM tolerates inexact steps)
 };
 
 /// Reusable solver: set_hessian once per Hessian, solve as often as needed.
 class AdmmQpSolver {
  public:
-  /// Factorizes 2 H + rho I. H: n x n, symmetric positive semidefinite (only its lower
-  /// triangle is read). The symbolic analysis is kept while the sparsity pattern is the same.
-  void set_hessian(const Eigen::SparseMatrix<double>& H, const AdmmSettings& settings = {});
+  /// Takes a new Hessian H (n x n, symmetric positive semidefinite, both triangles stored).
+  /// The first call (or refactor = true) computes the incomplete Cholesky preconditioner of
+  /// 2 H + rho I; later calls keep it.
+  void set_hessian(const Eigen::SparseMatrix<double>& H, const AdmmSettings& settings = {}, bool refactor = false);
   /// Solves over the constraints of qp (qp.h is ignored). warm_z and warm_u (size n) start the
   /// iteration where a previous solve ended. QpResult::x is z; primal_residual is |x - z|_inf;
   /// complementarity holds the dual residual rho |z - z_prev|_inf; iterations counts ADMM steps.
+  /// \throw Error when the x-step's conjugate gradients fail (H not positive semidefinite).
   QpResult solve(const SeparableQp& qp, const Eigen::VectorXd* warm_z = nullptr,
                  const Eigen::VectorXd* warm_u = nullptr);
   /// The scaled dual u of the last solve (for warm starts).
   const Eigen::VectorXd& scaled_dual() const { return u_; }
   double rho() const { return rho_; }
+  /// Conjugate-gradient iterations of the last solve, over all its ADMM steps.
+  int cg_iterations() const { return cg_iterations_; }
 
  private:
-  Eigen::SparseMatrix<double> H_;
-  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> llt_;
-  bool analyzed_ = false;
-  Eigen::Index pattern_nonzeros_ = -1;
+  Eigen::VectorXd solve_x(const Eigen::VectorXd& rhs, const Eigen::VectorXd& guess) const;
+
+  Eigen::SparseMatrix<double> H_, K_;  // K = 2 H + rho I
+  Eigen::IncompleteCholesky<double> ichol_;
+  bool factored_ = false;
   double rho_ = 1;
   AdmmSettings settings_;
   Eigen::VectorXd u_;
+  mutable int cg_iterations_ = 0;
+  mutable Eigen::VectorXd r_, z_, p_, Kp_;  // conjugate-gradient scratch
 };
 
 }  // namespace meshmark
