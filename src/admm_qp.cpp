@@ -7,26 +7,31 @@
 
 namespace meshmark {
 
-void AdmmQpSolver::set_hessian(const Eigen::SparseMatrix<double>& H, const AdmmSettings& settings, bool refactor) {
+void AdmmQpSolver::set_hessian(const Eigen::SparseMatrix<double>& H, const AdmmSettings& settings,
+                               bool refactor) {
   settings_ = settings;
   H_ = H;
   if (!factored_ || refactor) {
     const Eigen::VectorXd d = 2 * H.diagonal();
-    rho_ = settings.rho > 0 ? settings.rho : std::sqrt(std::max(d.minCoeff(), 1e-12) * std::max(d.maxCoeff(), 1e-12));
+    rho_ = settings.rho > 0
+               ? settings.rho
+               : std::sqrt(std::max(d.minCoeff(), 1e-12) * std::max(d.maxCoeff(), 1e-12));
   }
   K_ = 2 * H;
   K_.diagonal().array() += rho_;
   K_.makeCompressed();
   if (!factored_ || refactor) {
     ichol_.compute(K_);
-    if (ichol_.info() != Eigen::Success) throw Error("ADMM: incomplete Cholesky failed (is the Hessian positive semidefinite?)");
+    if (ichol_.info() != Eigen::Success)
+      throw Error("ADMM: incomplete Cholesky failed (is the Hessian positive semidefinite?)");
     factored_ = true;
   }
 }
 
 // Preconditioned conjugate gradients on K x = rhs from guess, to a relative residual of
 // cg_tolerance. Works in the solver's scratch vectors: no allocation per iteration.
-Eigen::VectorXd AdmmQpSolver::solve_x(const Eigen::VectorXd& rhs, const Eigen::VectorXd& guess) const {
+Eigen::VectorXd AdmmQpSolver::solve_x(const Eigen::VectorXd& rhs,
+                                      const Eigen::VectorXd& guess) const {
   Eigen::VectorXd x = guess;
   r_.noalias() = rhs - K_ * x;
   const double target = settings_.cg_tolerance * std::max(rhs.norm(), 1e-300);

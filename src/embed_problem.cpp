@@ -59,6 +59,38 @@ Eigen::SparseMatrix<double> laplacian_hessian(const EmbedContext& ctx, const Eig
   return H;
 }
 
+// A bin whose vertices' directions cannot move its mean to the target (directions nearly
+// tangent to the spheres, as normals on flat CAD panels) is given radial directions, as a
+// single vertex is in case C1 of Algorithm 1. Counted in radial_fallbacks.
+void fall_back_where_bins_cannot_reach(const EmbedContext& ctx, const Eigen::MatrixX3d& V,
+                                       const Histogram& h, const CenterJacobians& cj,
+                                       const std::vector<int>& counts, RoundProblem& round) {
+  SeparableQp& qp = round.qp;
+  const EmbedOptions& o = *ctx.options;
+  const Eigen::Index m = qp.b.size();
+  Eigen::VectorXd reach = Eigen::VectorXd::Zero(m);
+  for (Eigen::Index g = 0; g < qp.lo.size(); ++g)
+    if (qp.row[g] >= 0) reach(qp.row[g]) += qp.a(g) * (qp.a(g) > 0 ? qp.hi(g) : qp.lo(g));
+  for (int g = 0; g < static_cast<int>(qp.lo.size()); ++g) {
+    const int j = qp.row[g];
+    if (j < 0 || reach(j) >= qp.b(j) || qp.lo(g) == qp.hi(g)) continue;
+    const int first = ctx.groups.members[ctx.groups.offsets[g]];
+    const Eigen::Vector3d rhohat = (V.row(first).transpose() - cj.center.point) / h.rho(first);
+    const Eigen::Vector3d u = round.U.row(g).transpose();
+    if (u == rhohat) continue;
+    const double w = ctx.groups.offsets[g + 1] - ctx.groups.offsets[g];
+    qp.a(g) = (ctx.payload->bits[j] ? 1.0 : -1.0) * w / counts[j];  // cos(psi) = 1
+    qp.lo(g) = o.bin_offset - h.t(first);
+    qp.hi(g) = 1 - o.bin_offset - h.t(first);
+    round.U.row(g) = rhohat.transpose();
+    Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+    for (int k = ctx.groups.offsets[g]; k < ctx.groups.offsets[g + 1]; ++k)
+      J += cj.J[ctx.groups.members[k]];
+    qp.e.col(g) = J * rhohat;
+    ++round.radial_fallbacks;
+  }
+}
+
 }  // namespace
 
 bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProblem& round,
@@ -146,6 +178,7 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
     }
     qp.h(g) = w;
   }
+  fall_back_where_bins_cannot_reach(ctx, V, h, cj, counts, round);
   if (o.variant.cost == CostKind::Quadric) {
     // q_i = sum over the faces around i of (u . n_f)^2: the quadric error of moving along u.
     const Eigen::MatrixX3d FN = face_normals(V, F);

@@ -14,16 +14,22 @@ struct Data {
   const SparseQp* qp;
 };
 
+Eigen::VectorXd quadratic_part(const SparseQp& qp, const Number* x) {
+  const Eigen::Map<const Eigen::VectorXd> xv(x, qp.c.size());
+  return qp.Q.nonZeros() ? Eigen::VectorXd(qp.Q * xv) : Eigen::VectorXd::Zero(qp.c.size());
+}
 Bool eval_f(Index n, Number* x, Bool, Number* f, UserDataPtr user) {
   const auto& qp = *static_cast<Data*>(user)->qp;
+  const Eigen::VectorXd Qx = quadratic_part(qp, x);
   double s = 0;
-  for (Index i = 0; i < n; ++i) s += qp.c(i) * x[i] * x[i];
+  for (Index i = 0; i < n; ++i) s += qp.c(i) * x[i] * x[i] + x[i] * Qx(i);
   *f = s;
   return 1;
 }
 Bool eval_grad_f(Index n, Number* x, Bool, Number* g, UserDataPtr user) {
   const auto& qp = *static_cast<Data*>(user)->qp;
-  for (Index i = 0; i < n; ++i) g[i] = 2 * qp.c(i) * x[i];
+  const Eigen::VectorXd Qx = quadratic_part(qp, x);
+  for (Index i = 0; i < n; ++i) g[i] = 2 * qp.c(i) * x[i] + 2 * Qx(i);
   return 1;
 }
 Bool eval_g(Index, Number* x, Bool, Index m, Number* g, UserDataPtr user) {
@@ -45,17 +51,33 @@ Bool eval_jac_g(Index, Number*, Bool, Index, Index, Index* rows, Index* cols, Nu
   }
   return 1;
 }
+// The Hessian's lower triangle: the diagonal 2 c_i, then 2 Q_ij for i > j (Q's diagonal is
+// added to the first entries).
+std::vector<std::pair<Index, Index>> hessian_pattern(const SparseQp& qp) {
+  std::vector<std::pair<Index, Index>> pattern;
+  const auto n = static_cast<Index>(qp.c.size());
+  for (Index i = 0; i < n; ++i) pattern.emplace_back(i, i);
+  for (int k = 0; k < qp.Q.outerSize(); ++k)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(qp.Q, k); it; ++it)
+      if (it.row() > it.col())
+        pattern.emplace_back(static_cast<Index>(it.row()), static_cast<Index>(it.col()));
+  return pattern;
+}
 Bool eval_h(Index n, Number*, Bool, Number obj_factor, Index, Number*, Bool, Index, Index* rows,
             Index* cols, Number* values, UserDataPtr user) {
   const auto& qp = *static_cast<Data*>(user)->qp;
-  for (Index i = 0; i < n; ++i) {
-    if (values) {
-      values[i] = 2 * obj_factor * qp.c(i);
-    } else {
-      rows[i] = i;
-      cols[i] = i;
-    }
+  if (!values) {
+    const auto pattern = hessian_pattern(qp);
+    for (std::size_t k = 0; k < pattern.size(); ++k)
+      rows[k] = pattern[k].first, cols[k] = pattern[k].second;
+    return 1;
   }
+  for (Index i = 0; i < n; ++i)
+    values[i] = 2 * obj_factor * (qp.c(i) + (qp.Q.nonZeros() ? qp.Q.coeff(i, i) : 0.0));
+  Index k = n;
+  for (int col = 0; col < qp.Q.outerSize(); ++col)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(qp.Q, col); it; ++it)
+      if (it.row() > it.col()) values[k++] = 2 * obj_factor * it.value();
   return 1;
 }
 
@@ -66,8 +88,9 @@ ReferenceSolution solve_with_ipopt(const SparseQp& qp) {
   const auto m = static_cast<Index>(qp.row_lo.size());
   Eigen::VectorXd xl = qp.x_lo, xu = qp.x_hi, gl = qp.row_lo, gu = qp.row_hi;
   IpoptProblem problem = CreateIpoptProblem(n, xl.data(), xu.data(), m, gl.data(), gu.data(),
-                                            static_cast<Index>(qp.A.size()), n, 0, eval_f, eval_g,
-                                            eval_grad_f, eval_jac_g, eval_h);
+                                            static_cast<Index>(qp.A.size()),
+                                            static_cast<Index>(hessian_pattern(qp).size()), 0,
+                                            eval_f, eval_g, eval_grad_f, eval_jac_g, eval_h);
   AddIpoptIntOption(problem, const_cast<char*>("print_level"), 0);
   AddIpoptNumOption(problem, const_cast<char*>("tol"), 1e-13);
   AddIpoptNumOption(problem, const_cast<char*>("bound_relax_factor"), 0.0);

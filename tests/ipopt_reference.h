@@ -9,9 +9,10 @@
 
 namespace meshmark::test {
 
-/// minimize sum_i c_i x_i^2  subject to  row_lo <= A x <= row_hi,  x_lo <= x <= x_hi.
+/// minimize sum_i c_i x_i^2 + x^T Q x  subject to  row_lo <= A x <= row_hi,  x_lo <= x <= x_hi.
 struct SparseQp {
   Eigen::VectorXd c, x_lo, x_hi;
+  Eigen::SparseMatrix<double> Q;  ///< symmetric, both triangles stored; empty for none
   std::vector<Eigen::Triplet<double>> A;
   Eigen::VectorXd row_lo, row_hi;
 };

@@ -22,8 +22,8 @@ namespace meshmark {
 
 /// Settings of the ADMM solver.
 struct AdmmSettings {
-  double rho = 0;            ///< penalty; 0 picks sqrt(smallest * largest diagonal of 2H)
-  double relaxation = 1.6;   ///< over-relaxation alpha in (0, 2)
+  double rho = 0;           ///< penalty; 0 picks sqrt(smallest * largest diagonal of 2H)
+  double relaxation = 1.6;  ///< over-relaxation alpha in (0, 2)
   double tolerance = 1e-9;  ///< on |x - z|_inf and rho |z - z_prev|_inf
   int max_iterations = 5000;
   double cg_tolerance = 1e-8;  ///< relative residual of each x-step (ADMM tolerates inexact steps)
@@ -35,7 +35,8 @@ class AdmmQpSolver {
   /// Takes a new Hessian H (n x n, symmetric positive semidefinite, both triangles stored).
   /// The first call (or refactor = true) computes the incomplete Cholesky preconditioner of
   /// 2 H + rho I; later calls keep it.
-  void set_hessian(const Eigen::SparseMatrix<double>& H, const AdmmSettings& settings = {}, bool refactor = false);
+  void set_hessian(const Eigen::SparseMatrix<double>& H, const AdmmSettings& settings = {},
+                   bool refactor = false);
   /// Solves over the constraints of qp (qp.h is ignored). warm_z and warm_u (size n) start the
   /// iteration where a previous solve ended. QpResult::x is z; primal_residual is |x - z|_inf;
   /// complementarity holds the dual residual rho |z - z_prev|_inf; iterations counts ADMM steps.
