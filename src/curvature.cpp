@@ -64,30 +64,33 @@ EdgeTable dihedral_edges(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
   return table;
 }
 
-// Length of the part of segment [a, b] inside the ball (c, r).
-double length_inside(const Eigen::RowVector3d& a, const Eigen::RowVector3d& b,
-                     const Eigen::RowVector3d& c, double r) {
-  const Eigen::RowVector3d d = b - a, f = a - c;
-  const double A = d.squaredNorm();
-  if (A == 0) return 0;
-  const double B = 2 * f.dot(d), Cc = f.squaredNorm() - r * r;
-  const double disc = B * B - 4 * A * Cc;
-  if (disc <= 0) return 0;
-  const double sq = std::sqrt(disc);
-  const double t0 = std::max(0.0, (-B - sq) / (2 * A)), t1 = std::min(1.0, (-B + sq) / (2 * A));
-  return t1 > t0 ? (t1 - t0) * std::sqrt(A) : 0;
-}
-
 }  // namespace
+
+Neighborhoods ball_neighborhoods(const Eigen::MatrixX3d& V, const Adjacency& adj, double radius) {
+  Neighborhoods near;
+  std::vector<int> stamp(static_cast<std::size_t>(V.rows()), -1), queue;
+  for (Eigen::Index i = 0; i < V.rows(); ++i) {
+    if (adj.degree(static_cast<int>(i)) > 0)
+      for_each_vertex_in_ball(V, adj, static_cast<int>(i), V.row(i), radius, stamp, queue,
+                              static_cast<int>(i), [&](int v) { near.indices.push_back(v); });
+    near.offsets.push_back(static_cast<std::int64_t>(near.indices.size()));
+  }
+  return near;
+}
 
 CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                                       double radius) {
+  return normal_cycle_curvature(V, F, radius,
+                                ball_neighborhoods(V, vertex_adjacency(F, V.rows()), radius));
+}
+
+CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                                      double radius, const Neighborhoods& near) {
   const Eigen::Index nv = V.rows();
   CurvatureField field;
   field.kmin = Eigen::VectorXd::Zero(nv);
   field.kmax = Eigen::VectorXd::Zero(nv);
   const EdgeTable edges = dihedral_edges(V, F);
-  const Adjacency adj = vertex_adjacency(F, nv);
   // A third of the incident triangle areas per vertex: the ball's surface area is the sum over
   // the vertices inside it.
   Eigen::VectorXd vertex_area = Eigen::VectorXd::Zero(nv);
@@ -97,27 +100,34 @@ CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::Ma
     for (int c = 0; c < 3; ++c) vertex_area(F(t, c)) += a;
   }
   std::vector<int> stamp(static_cast<std::size_t>(nv), -1), edge_stamp(edges.ends.size(), -1),
-      queue;
+      members;
+  const double r2 = radius * radius;
   for (Eigen::Index i = 0; i < nv; ++i) {
-    if (adj.degree(static_cast<int>(i)) == 0) continue;
-    const Eigen::RowVector3d c = V.row(i);
-    Eigen::Matrix3d T = Eigen::Matrix3d::Zero();
+    members.clear();
     double area = 0;
-    for_each_vertex_in_ball(
-        V, adj, static_cast<int>(i), c, radius, stamp, queue, static_cast<int>(i), [&](int v) {
-          area += vertex_area(v);
-          for (int k = edges.incident.offsets[v]; k < edges.incident.offsets[v + 1]; ++k) {
-            const int e = edges.incident.indices[k];
-            if (edge_stamp[e] == i || edges.beta[e] == 0) continue;
-            edge_stamp[e] = static_cast<int>(i);
-            const Eigen::RowVector3d a = V.row(edges.ends[e][0]), b = V.row(edges.ends[e][1]);
-            const double inside = length_inside(a, b, c, radius);
-            if (inside == 0) continue;
-            const Eigen::Vector3d dir = (b - a).normalized().transpose();
-            T.noalias() += (edges.beta[e] * inside) * dir * dir.transpose();
-          }
-        });
+    for (auto k = near.offsets[i]; k < near.offsets[i + 1]; ++k) {
+      const int v = near.indices[k];
+      if ((V.row(v) - V.row(i)).squaredNorm() > r2) continue;
+      stamp[v] = static_cast<int>(i);
+      members.push_back(v);
+      area += vertex_area(v);
+    }
     if (area <= 0) continue;
+    // Edges count the way the area does, by vertices: half an edge per endpoint inside the
+    // ball, so that their ratio carries no bias.
+    Eigen::Matrix3d T = Eigen::Matrix3d::Zero();
+    for (int v : members)
+      for (int k = edges.incident.offsets[v]; k < edges.incident.offsets[v + 1]; ++k) {
+        const int e = edges.incident.indices[k];
+        if (edge_stamp[e] == i || edges.beta[e] == 0) continue;
+        edge_stamp[e] = static_cast<int>(i);
+        const int a = edges.ends[e][0], b = edges.ends[e][1];
+        const double inside = 0.5 * ((stamp[a] == i) + (stamp[b] == i));
+        const Eigen::Vector3d d = (V.row(b) - V.row(a)).transpose();
+        const double length = d.norm();
+        if (length == 0) continue;
+        T.noalias() += (edges.beta[e] * inside / length) * d * d.transpose();
+      }
     T /= area;
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(T, Eigen::EigenvaluesOnly);
     Eigen::Vector3d ev = eig.eigenvalues();

@@ -22,24 +22,26 @@ Eigen::VectorXd vertex_areas(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& 
   return area;
 }
 
-// Gaussian-weighted, area-weighted average of `values` (#V x k) over balls of 2 sigma.
-Eigen::MatrixXd gaussian_average(const Eigen::MatrixX3d& V, const Adjacency& adj,
+// Gaussian-weighted, area-weighted average of `values` (#V x k) over the neighborhood members
+// within 2 sigma (of positions P).
+Eigen::MatrixXd gaussian_average(const Eigen::MatrixX3d& P, const Neighborhoods& near,
                                  const Eigen::VectorXd& area, const Eigen::MatrixXd& values,
                                  double sigma) {
   Eigen::MatrixXd out = values;
-  std::vector<int> stamp(static_cast<std::size_t>(V.rows()), -1), queue;
-  const double inv = 1.0 / (2 * sigma * sigma);
-  for (Eigen::Index i = 0; i < V.rows(); ++i) {
-    if (adj.degree(static_cast<int>(i)) == 0) continue;
-    const Eigen::RowVector3d c = V.row(i);
-    Eigen::RowVectorXd sum = Eigen::RowVectorXd::Zero(values.cols());
+  const double inv = 1.0 / (2 * sigma * sigma), r2 = 4 * sigma * sigma;
+  Eigen::RowVectorXd sum(values.cols());
+  for (Eigen::Index i = 0; i < P.rows(); ++i) {
+    if (near.offsets[i] == near.offsets[i + 1]) continue;
+    sum.setZero();
     double weight = 0;
-    for_each_vertex_in_ball(
-        V, adj, static_cast<int>(i), c, 2 * sigma, stamp, queue, static_cast<int>(i), [&](int v) {
-          const double w = area(v) * std::exp(-(V.row(v) - c).squaredNorm() * inv);
-          sum += w * values.row(v);
-          weight += w;
-        });
+    for (auto k = near.offsets[i]; k < near.offsets[i + 1]; ++k) {
+      const int v = near.indices[k];
+      const double d2 = (P.row(v) - P.row(i)).squaredNorm();
+      if (d2 > r2) continue;
+      const double w = area(v) * std::exp(-d2 * inv);
+      sum += w * values.row(v);
+      weight += w;
+    }
     if (weight > 0) out.row(i) = sum / weight;
   }
   return out;
@@ -51,15 +53,18 @@ RoughnessField roughness_field(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i
                                const RoughnessOptions& o) {
   const auto used = referenced_vertices(F, V.rows());
   const double D = bounding_box_diagonal(V, used);
-  const Adjacency adj = vertex_adjacency(F, V.rows());
+  // One set of neighborhoods, at the largest radius, serves every ball of the construction.
+  const double reach =
+      D * std::max({o.curvature_radius, 2 * o.smoothing_sigma, 2 * o.window_sigma});
+  const Neighborhoods near = ball_neighborhoods(V, vertex_adjacency(F, V.rows()), reach);
   const Eigen::VectorXd area = vertex_areas(V, F);
-  const Eigen::VectorXd c = normal_cycle_curvature(V, F, o.curvature_radius * D).magnitude();
-  const Eigen::MatrixX3d smoothed = gaussian_average(V, adj, area, V, o.smoothing_sigma * D);
+  const Eigen::VectorXd c = normal_cycle_curvature(V, F, o.curvature_radius * D, near).magnitude();
+  const Eigen::MatrixX3d smoothed = gaussian_average(V, near, area, V, o.smoothing_sigma * D);
   const Eigen::VectorXd cs =
-      normal_cycle_curvature(smoothed, F, o.curvature_radius * D).magnitude();
+      normal_cycle_curvature(smoothed, F, o.curvature_radius * D, near).magnitude();
   RoughnessField field;
   field.roughness =
-      D * gaussian_average(V, adj, area, (c - cs).cwiseAbs(), o.window_sigma * D).col(0);
+      D * gaussian_average(V, near, area, (c - cs).cwiseAbs(), o.window_sigma * D).col(0);
   std::vector<double> sorted;
   for (Eigen::Index i = 0; i < V.rows(); ++i)
     if (used[i]) sorted.push_back(field.roughness(i));

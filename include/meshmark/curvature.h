@@ -7,6 +7,8 @@
 /// principal curvatures.
 
 #include <Eigen/Core>
+#include <cstdint>
+#include <vector>
 
 #include "meshmark/mesh.h"
 
@@ -25,6 +27,22 @@ struct CurvatureField {
 /// V: #V x 3, F: #F x 3 (consistently oriented for meaningful signs).
 CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                                       double radius);
+
+/// For every vertex, the vertices reached from it through edges without leaving the ball of
+/// `radius` around it (itself first), in compressed rows. Computed once, it serves every
+/// computation over balls of that radius or less.
+struct Neighborhoods {
+  std::vector<std::int64_t> offsets{0};
+  std::vector<int> indices;
+};
+
+/// Builds the neighborhoods of radius `radius` (model units).
+Neighborhoods ball_neighborhoods(const Eigen::MatrixX3d& V, const Adjacency& adj, double radius);
+
+/// The same curvature, over the members of precomputed neighborhoods (of a radius at least
+/// `radius`) that lie within `radius` of the vertex.
+CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                                      double radius, const Neighborhoods& near);
 
 /// Visits the vertices reachable from `seed` through edges of the adjacency while staying
 /// within `radius` of `center`, calling visit(vertex). `stamp` (size #V, initially all -1) and

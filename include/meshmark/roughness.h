@@ -7,10 +7,10 @@
 /// through the mesh, so the field does not depend on the resolution or the connectivity.
 ///
 /// Construction (constants in RoughnessOptions):
-///  1. c(v) = |kmin| + |kmax|, normal-cycle curvature over balls of radius 0.005 D.
-///  2. A smoothed copy: every vertex moved to the Gaussian-weighted (sigma 0.005 D, window
+///  1. c(v) = |kmin| + |kmax|, normal-cycle curvature over balls of radius 0.01 D.
+///  2. A smoothed copy: every vertex moved to the Gaussian-weighted (sigma 0.01 D, window
 ///     2 sigma), area-weighted mean of the positions around it; its curvature c_s(v).
-///  3. Roughness r(v): the Gaussian-weighted (sigma 0.005 D, window 2 sigma) area-weighted mean
+///  3. Roughness r(v): the Gaussian-weighted (sigma 0.01 D, window 2 sigma) area-weighted mean
 ///     of |c - c_s| around v, times D (dimensionless).
 ///  4. Outliers discarded and rescaled: smoothness(v) = 1 - min(r, r95) / r95, r95 the 95th
 ///     percentile of r; 1 = smooth, 0 = rough.
@@ -21,10 +21,10 @@ namespace meshmark {
 
 /// Constants of the construction, as fractions of the bounding-box diagonal.
 struct RoughnessOptions {
-  double curvature_radius = 0.005;  ///< ball radius of the normal-cycle curvature
-  double smoothing_sigma = 0.005;   ///< Gaussian of the smoothed copy (window 2 sigma)
-  double window_sigma = 0.005;      ///< Gaussian of the averaging window (window 2 sigma)
-  double outlier_quantile = 0.95;   ///< roughness above this quantile counts as fully rough
+  double curvature_radius = 0.01;  ///< ball radius of the normal-cycle curvature
+  double smoothing_sigma = 0.01;   ///< Gaussian of the smoothed copy (window 2 sigma)
+  double window_sigma = 0.01;      ///< Gaussian of the averaging window (window 2 sigma)
+  double outlier_quantile = 0.95;  ///< roughness above this quantile counts as fully rough
 };
 
 /// Roughness and its rescaled smoothness per vertex (unreferenced vertices: roughness 0,
