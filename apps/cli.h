@@ -51,5 +51,6 @@ void write_output(const std::string& path, const std::string& input_path, const 
 void register_embed(CLI::App& app, int& exit_code);
 void register_extract(CLI::App& app, int& exit_code);
 void register_attack(CLI::App& app, int& exit_code);
+void register_roughness(CLI::App& app, int& exit_code);
 
 }  // namespace meshmark::cli

@@ -10,6 +10,7 @@
 #include "meshmark/decode.h"
 #include "meshmark/embed.h"
 #include "meshmark/io.h"
+#include "meshmark/roughness.h"
 
 using namespace meshmark;
 
@@ -30,16 +31,28 @@ std::string shared(const char* name) {
   return std::string(MESHMARK_SHARED_DIR) + "/meshes/" + name;
 }
 
-void embed_drs(benchmark::State& state, const std::string& path) {
+void embed_variant(benchmark::State& state, const std::string& path, const char* variant) {
   const Mesh* m = load(path);
   if (!m) return state.SkipWithError(("missing " + path).c_str());
   const Payload p = random_payload(64, 1);
+  EmbedOptions o;
+  o.variant = parse_variant(variant);
   for (auto _ : state) {
-    EmbedResult r = embed(m->V, m->F, p);
+    EmbedResult r = embed(m->V, m->F, p, o);
     if (r.status != EmbedStatus::Embedded) state.SkipWithError(r.message.c_str());
     benchmark::DoNotOptimize(r.V.data());
   }
   state.counters["vertices"] = static_cast<double>(m->V.rows());
+  state.SetItemsProcessed(state.iterations() * m->V.rows());
+}
+
+void roughness(benchmark::State& state, const std::string& path) {
+  const Mesh* m = load(path);
+  if (!m) return state.SkipWithError(("missing " + path).c_str());
+  for (auto _ : state) {
+    RoughnessField f = roughness_field(m->V, m->F);
+    benchmark::DoNotOptimize(f.smoothness.data());
+  }
   state.SetItemsProcessed(state.iterations() * m->V.rows());
 }
 
@@ -55,10 +68,18 @@ void extract_drs(benchmark::State& state, const std::string& path) {
 
 }  // namespace
 
-BENCHMARK_CAPTURE(embed_drs, stanford_bunny_35k, shared("stanford-bunny.obj"))
-    ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(embed_drs, horse_48k, shared("horse.ply"))->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(embed_drs, igea_134k, shared("igea.ply"))->Unit(benchmark::kMillisecond);
+#define EMBED(variant, name, file) \
+  BENCHMARK_CAPTURE(embed_variant, variant##_##name, shared(file), #variant)->Unit(benchmark::kMillisecond)
+EMBED(DRS, stanford_bunny_35k, "stanford-bunny.obj");
+EMBED(DRS, horse_48k, "horse.ply");
+EMBED(DRS, igea_134k, "igea.ply");
+EMBED(VRS, stanford_bunny_35k, "stanford-bunny.obj");
+EMBED(VRS, horse_48k, "horse.ply");
+EMBED(VRQ, horse_48k, "horse.ply");
+EMBED(VRL, horse_48k, "horse.ply");
+EMBED(VNS, horse_48k, "horse.ply");
+EMBED(VSS, horse_48k, "horse.ply");
+BENCHMARK_CAPTURE(roughness, horse_48k, shared("horse.ply"))->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(extract_drs, stanford_bunny_35k, shared("stanford-bunny.obj"))
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(extract_drs, igea_134k, shared("igea.ply"))->Unit(benchmark::kMillisecond);

@@ -140,7 +140,9 @@ std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format, const Write
                                                                : Encoding::BinaryLittleEndian);
   if (format == FileFormat::Stl && encoding == Encoding::BinaryBigEndian)
     throw InvalidArgumentError("STL has no big-endian encoding");
-  if (options.keep_source && !options.single_precision &&
+  if (options.vertex_colors && options.vertex_colors->rows() != mesh.V.rows())
+    throw InvalidArgumentError(fmt::format("{} vertex colors for {} vertices", options.vertex_colors->rows(), mesh.V.rows()));
+  if (options.keep_source && !options.single_precision && !options.vertex_colors &&
       detail::image_applies(mesh, format, encoding))
     return detail::patch_image(*mesh.image, mesh.V);
   switch (format) {
@@ -149,7 +151,7 @@ std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format, const Write
     case FileFormat::Obj:
       return detail::write_obj(mesh);
     case FileFormat::Ply:
-      return detail::write_ply(mesh, encoding, options.single_precision);
+      return detail::write_ply(mesh, encoding, options.single_precision, options.vertex_colors);
     case FileFormat::Stl:
       return detail::write_stl(mesh, encoding);
   }

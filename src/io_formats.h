@@ -17,7 +17,8 @@ Mesh read_stl(std::string bytes, const std::string& name, const ReadOptions& opt
 /// Writers from scratch (no file image): positions and polygons only.
 std::string write_off(const Mesh& mesh);
 std::string write_obj(const Mesh& mesh);
-std::string write_ply(const Mesh& mesh, Encoding encoding, bool single_precision);
+std::string write_ply(const Mesh& mesh, Encoding encoding, bool single_precision,
+                      const Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3>* colors = nullptr);
 std::string write_stl(const Mesh& mesh, Encoding encoding);
 
 /// Appends "x y z" of vertex i (shortest round-trip text, single spaces, no newline).

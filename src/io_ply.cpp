@@ -344,13 +344,15 @@ Mesh read_ply(std::string bytes, const std::string& name, const ReadOptions& opt
                   options);
 }
 
-std::string write_ply(const Mesh& mesh, Encoding encoding, bool single_precision) {
+std::string write_ply(const Mesh& mesh, Encoding encoding, bool single_precision,
+                      const Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3>* colors) {
   const char* scalar = single_precision ? "float" : "double";
   std::string out = fmt::format(
       "ply\nformat {} 1.0\ncomment written by meshmark\nelement vertex {}\nproperty {} x\n"
-      "property {} y\nproperty {} z\nelement face {}\nproperty list uchar int vertex_indices\n"
+      "property {} y\nproperty {} z\n{}element face {}\nproperty list uchar int vertex_indices\n"
       "end_header\n",
-      encoding_name(encoding), mesh.V.rows(), scalar, scalar, scalar, mesh.faces.size());
+      encoding_name(encoding), mesh.V.rows(), scalar, scalar, scalar,
+      colors ? "property uchar red\nproperty uchar green\nproperty uchar blue\n" : "", mesh.faces.size());
   if (encoding == Encoding::Ascii) {
     for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
       if (single_precision) {
@@ -359,6 +361,7 @@ std::string write_ply(const Mesh& mesh, Encoding encoding, bool single_precision
       } else {
         append_position(out, mesh.V, i);
       }
+      if (colors) out += fmt::format(" {} {} {}", int{(*colors)(i, 0)}, int{(*colors)(i, 1)}, int{(*colors)(i, 2)});
       out += '\n';
     }
     for (std::size_t k = 0; k < mesh.faces.size(); ++k) {
@@ -373,10 +376,12 @@ std::string write_ply(const Mesh& mesh, Encoding encoding, bool single_precision
   const SlotType type = single_precision ? SlotType::Float32 : SlotType::Float64;
   const int size = slot_type_size(type);
   std::size_t pos = out.size();
-  out.resize(pos + static_cast<std::size_t>(mesh.V.rows()) * 3 * size);
-  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
-    for (int a = 0; a < 3; ++a, pos += size)
-      write_scalar(out.data() + pos, type, big, mesh.V(i, a));
+  const std::size_t color_bytes = colors ? 3 : 0;
+  out.resize(pos + static_cast<std::size_t>(mesh.V.rows()) * (3 * size + color_bytes));
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
+    for (int a = 0; a < 3; ++a, pos += size) write_scalar(out.data() + pos, type, big, mesh.V(i, a));
+    for (std::size_t a = 0; a < color_bytes; ++a) out[pos++] = static_cast<char>((*colors)(i, a));
+  }
   for (std::size_t k = 0; k < mesh.faces.size(); ++k) {
     const auto n = mesh.faces.offsets[k + 1] - mesh.faces.offsets[k];
     if (n > 255)

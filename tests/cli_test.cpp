@@ -79,3 +79,18 @@ TEST(Cli, RefusesToOverwriteTheInputAndReportsInfeasibleBits) {
   EXPECT_EQ(run("embed " + in + " " + dir + "/o.obj --payload zz").code, 1);
   EXPECT_EQ(run("frobnicate").code, 1);
 }
+
+TEST(Cli, RoughnessWritesAColoredPly) {
+  const std::string in = test::cgal_mesh("fandisk.off");
+  MESHMARK_REQUIRE(in, "libcgal-demo fandisk.off");
+  const std::string dir = test::scratch_dir();
+  const CliRun r = run("roughness " + in + " " + dir + "/rough.ply");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string bytes = read_file(dir + "/rough.ply");
+  EXPECT_NE(bytes.find("property uchar red\nproperty uchar green\nproperty uchar blue\n"), std::string::npos);
+  const Mesh back = read_mesh(dir + "/rough.ply");
+  const Mesh original = read_mesh(in);
+  EXPECT_EQ(back.V, original.V);
+  EXPECT_EQ(back.faces, original.faces);
+  EXPECT_EQ(run("roughness " + in + " " + dir + "/rough.obj").code, 1) << "colors need PLY";
+}

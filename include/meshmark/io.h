@@ -48,6 +48,9 @@ struct WriteOptions {
   bool single_precision = false;
   /// Use the file image when it applies (same format, encoding, vertex count and faces).
   bool keep_source = true;
+  /// PLY only: per-vertex colors (#V x 3, 0-255) written as red, green, blue uchar properties
+  /// (the mesh is then written from scratch). Not owned; null for none.
+  const Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3>* vertex_colors = nullptr;
 };
 
 /// Writes a mesh atomically: to a temporary file in the destination's folder, then renamed
