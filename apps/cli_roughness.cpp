@@ -23,12 +23,14 @@ struct RoughnessArgs {
 
 int run(const RoughnessArgs& a) {
   if (format_from_path(a.output) != FileFormat::Ply)
-    throw InvalidArgumentError(fmt::format("{}: the colored field is written as PLY (.ply)", a.output));
+    throw InvalidArgumentError(
+        fmt::format("{}: the colored field is written as PLY (.ply)", a.output));
   Mesh mesh = read_input(a.input, a.in);
   const RoughnessField f = roughness_field(mesh.V, mesh.F, a.field);
   // Red where rough, blue where smooth.
   Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3> colors(mesh.V.rows(), 3);
-  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) colors.row(i) = heat_color(1 - f.smoothness(i)).cast<std::uint8_t>().transpose();
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    colors.row(i) = heat_color(1 - f.smoothness(i)).cast<std::uint8_t>().transpose();
   WriteOptions wo;
   wo.vertex_colors = &colors;
   wo.encoding = Encoding::BinaryLittleEndian;
@@ -38,14 +40,18 @@ int run(const RoughnessArgs& a) {
   write_mesh(a.output, mesh, wo);
   const double smooth = (f.smoothness.array() > f.smooth_threshold).cast<double>().mean();
   if (a.json) {
-    nlohmann::json j = {{"input", a.input}, {"output", a.output}, {"smooth_threshold", f.smooth_threshold},
-                        {"smooth_fraction", smooth}, {"mean_smoothness", f.smoothness.mean()},
+    nlohmann::json j = {{"input", a.input},
+                        {"output", a.output},
+                        {"smooth_threshold", f.smooth_threshold},
+                        {"smooth_fraction", smooth},
+                        {"mean_smoothness", f.smoothness.mean()},
                         {"max_roughness", f.roughness.maxCoeff()}};
     fmt::print("{}\n", j.dump(2));
   } else {
     fmt::print("roughness field of {} written to {} (red rough, blue smooth)\n", a.input, a.output);
-    fmt::print("  smooth vertices  {:.1f} % (smoothness above {:.3f}, the S direction's threshold)\n", 100 * smooth,
-               f.smooth_threshold);
+    fmt::print(
+        "  smooth vertices  {:.1f} % (smoothness above {:.3f}, the S direction's threshold)\n",
+        100 * smooth, f.smooth_threshold);
     fmt::print("  mean smoothness  {:.3f}\n", f.smoothness.mean());
   }
   return kOk;
@@ -55,12 +61,16 @@ int run(const RoughnessArgs& a) {
 
 void register_roughness(CLI::App& app, int& exit_code) {
   auto args = std::make_shared<RoughnessArgs>();
-  CLI::App* sub = app.add_subcommand("roughness", "Write the local roughness field (direction S) as vertex colors");
+  CLI::App* sub = app.add_subcommand(
+      "roughness", "Write the local roughness field (direction S) as vertex colors");
   sub->add_option("IN", args->input, "input mesh")->required();
   sub->add_option("OUT", args->output, "output PLY with red/green/blue vertex colors")->required();
-  sub->add_option("--curvature-radius", args->field.curvature_radius, "curvature ball radius, fraction of the diagonal");
-  sub->add_option("--smoothing-sigma", args->field.smoothing_sigma, "smoothed copy's Gaussian, fraction of the diagonal");
-  sub->add_option("--window-sigma", args->field.window_sigma, "averaging window's Gaussian, fraction of the diagonal");
+  sub->add_option("--curvature-radius", args->field.curvature_radius,
+                  "curvature ball radius, fraction of the diagonal");
+  sub->add_option("--smoothing-sigma", args->field.smoothing_sigma,
+                  "smoothed copy's Gaussian, fraction of the diagonal");
+  sub->add_option("--window-sigma", args->field.window_sigma,
+                  "averaging window's Gaussian, fraction of the diagonal");
   sub->add_flag("--json", args->json, "print a JSON report");
   add_input_options(*sub, args->in);
   sub->callback([args, &exit_code] { exit_code = run(*args); });

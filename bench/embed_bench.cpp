@@ -68,8 +68,9 @@ void extract_drs(benchmark::State& state, const std::string& path) {
 
 }  // namespace
 
-#define EMBED(variant, name, file) \
-  BENCHMARK_CAPTURE(embed_variant, variant##_##name, shared(file), #variant)->Unit(benchmark::kMillisecond)
+#define EMBED(variant, name, file)                                           \
+  BENCHMARK_CAPTURE(embed_variant, variant##_##name, shared(file), #variant) \
+      ->Unit(benchmark::kMillisecond)
 EMBED(DRS, stanford_bunny_35k, "stanford-bunny.obj");
 EMBED(DRS, horse_48k, "horse.ply");
 EMBED(DRS, igea_134k, "igea.ply");

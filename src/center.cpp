@@ -23,6 +23,14 @@ Eigen::Vector3d discrete_center(const Eigen::MatrixX3d& V,
   return count > 0 ? Eigen::Vector3d(sum / count) : sum;
 }
 
+// The positions as contiguous points: the face loops below gather three vertices per face, and
+// a column-major #V x 3 matrix spreads each vertex over three cache lines.
+std::vector<Eigen::Vector3d> to_points(const Eigen::MatrixX3d& V) {
+  std::vector<Eigen::Vector3d> P(static_cast<std::size_t>(V.rows()));
+  for (Eigen::Index i = 0; i < V.rows(); ++i) P[i] = V.row(i).transpose();
+  return P;
+}
+
 // One face's weight (area or signed volume) and its center.
 struct FaceTerm {
   double w;
@@ -51,8 +59,9 @@ Center center_of_mass(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
   }
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   double weight = 0, magnitude = 0;
+  const std::vector<Eigen::Vector3d> P = to_points(V);
   for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    const FaceTerm t = face_term(V.row(F(f, 0)), V.row(F(f, 1)), V.row(F(f, 2)), d, kind);
+    const FaceTerm t = face_term(P[F(f, 0)], P[F(f, 1)], P[F(f, 2)], d, kind);
     sum += t.w * t.c;
     weight += t.w;
     magnitude += std::abs(t.w);
@@ -68,6 +77,46 @@ Center center_of_mass(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
   return c;
 }
 
+namespace {
+
+// Visits every face's contribution to the Jacobians of the S or V center: visit(f, k, a, g,
+// share) for corner k of face f means J_{F(f,k)} += a g^T + share I (before division by W).
+// Returns W and accumulates dC/dO (V only; times W).
+template <class Visit>
+double visit_jacobian_terms(const std::vector<Eigen::Vector3d>& P, const Eigen::MatrixX3i& F,
+                            const Eigen::Vector3d& O, const Eigen::Vector3d& C, CenterKind kind,
+                            Eigen::Matrix3d& dC_dO, Visit&& visit) {
+  double W = 0;
+  dC_dO.setZero();
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d& p0 = P[F(f, 0)];
+    const Eigen::Vector3d& p1 = P[F(f, 1)];
+    const Eigen::Vector3d& p2 = P[F(f, 2)];
+    const Eigen::Vector3d* p[3] = {&p0, &p1, &p2};
+    const FaceTerm t = face_term(p0, p1, p2, O, kind);
+    W += t.w;
+    Eigen::Vector3d grad[3];
+    if (kind == CenterKind::Surface) {
+      const Eigen::Vector3d N = (p1 - p0).cross(p2 - p0);
+      const double len = N.norm();
+      const Eigen::Vector3d nf = len > 0 ? Eigen::Vector3d(N / len) : Eigen::Vector3d::Zero();
+      for (int k = 0; k < 3; ++k) grad[k] = 0.5 * nf.cross(*p[(k + 2) % 3] - *p[(k + 1) % 3]);
+    } else {
+      for (int k = 0; k < 3; ++k) grad[k] = (*p[(k + 1) % 3] - O).cross(*p[(k + 2) % 3] - O) / 6.0;
+    }
+    const double share = kind == CenterKind::Surface ? t.w / 3.0 : t.w / 4.0;
+    const Eigen::Vector3d a = t.c - C;
+    for (int k = 0; k < 3; ++k) visit(f, k, a, grad[k], share);
+    if (kind == CenterKind::Volume) {
+      dC_dO -= a * (grad[0] + grad[1] + grad[2]).transpose();
+      dC_dO.diagonal().array() += share;
+    }
+  }
+  return W;
+}
+
+}  // namespace
+
 CenterJacobians center_jacobians(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                                  const std::vector<std::uint8_t>& referenced, CenterKind kind) {
   CenterJacobians out;
@@ -80,38 +129,50 @@ CenterJacobians center_jacobians(const Eigen::MatrixX3d& V, const Eigen::MatrixX
       if (referenced[i]) out.J[i] = Eigen::Matrix3d::Identity() / n;
     return out;
   }
-  const Eigen::Vector3d& C = out.center.point;
-  double W = 0;
-  Eigen::Matrix3d dC_dO = Eigen::Matrix3d::Zero();  // V only: through the reference point
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    const Eigen::Vector3d p[3] = {V.row(F(f, 0)), V.row(F(f, 1)), V.row(F(f, 2))};
-    const FaceTerm t = face_term(p[0], p[1], p[2], O, kind);
-    W += t.w;
-    Eigen::Vector3d grad[3];
-    if (kind == CenterKind::Surface) {
-      const Eigen::Vector3d N = (p[1] - p[0]).cross(p[2] - p[0]);
-      const double len = N.norm();
-      const Eigen::Vector3d nf = len > 0 ? Eigen::Vector3d(N / len) : Eigen::Vector3d::Zero();
-      for (int k = 0; k < 3; ++k) grad[k] = 0.5 * nf.cross(p[(k + 2) % 3] - p[(k + 1) % 3]);
-    } else {
-      for (int k = 0; k < 3; ++k) grad[k] = (p[(k + 1) % 3] - O).cross(p[(k + 2) % 3] - O) / 6.0;
-    }
-    const double share = kind == CenterKind::Surface ? t.w / 3.0 : t.w / 4.0;
-    for (int k = 0; k < 3; ++k) {
-      out.J[F(f, k)] += (t.c - C) * grad[k].transpose();
-      out.J[F(f, k)].diagonal().array() += share;
-    }
-    if (kind == CenterKind::Volume) {
-      dC_dO -= (t.c - C) * (grad[0] + grad[1] + grad[2]).transpose();
-      dC_dO.diagonal().array() += share;
-    }
-  }
+  Eigen::Matrix3d dC_dO;
+  const double W = visit_jacobian_terms(
+      to_points(V), F, O, out.center.point, kind, dC_dO,
+      [&](Eigen::Index f, int k, const Eigen::Vector3d& a, const Eigen::Vector3d& g, double share) {
+        Eigen::Matrix3d& J = out.J[F(f, k)];
+        J.noalias() += a * g.transpose();
+        J.diagonal().array() += share;
+      });
   if (W == 0) return out;
   for (Eigen::Index i = 0; i < V.rows(); ++i) {
     out.J[i] /= W;
     if (kind == CenterKind::Volume && referenced[i]) out.J[i] += dC_dO / (W * n);
   }
   return out;
+}
+
+Eigen::MatrixX3d center_jacobian_products(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                                          const std::vector<std::uint8_t>& referenced,
+                                          CenterKind kind, const Eigen::Vector3d& center,
+                                          const Eigen::MatrixX3d& U) {
+  Eigen::MatrixX3d E = Eigen::MatrixX3d::Zero(V.rows(), 3);
+  double n = 0;
+  const Eigen::Vector3d O = discrete_center(V, referenced, n);
+  if (kind == CenterKind::Discrete) {
+    for (Eigen::Index i = 0; i < V.rows(); ++i)
+      if (referenced[i]) E.row(i) = U.row(i) / n;
+    return E;
+  }
+  Eigen::Matrix3d dC_dO;
+  const std::vector<Eigen::Vector3d> Uv = to_points(U);
+  std::vector<Eigen::Vector3d> acc(Uv.size(), Eigen::Vector3d::Zero());
+  const double W = visit_jacobian_terms(
+      to_points(V), F, O, center, kind, dC_dO,
+      [&](Eigen::Index f, int k, const Eigen::Vector3d& a, const Eigen::Vector3d& g, double share) {
+        const Eigen::Index i = F(f, k);
+        acc[i] += a * g.dot(Uv[i]) + share * Uv[i];
+      });
+  for (Eigen::Index i = 0; i < V.rows(); ++i) E.row(i) = acc[i].transpose();
+  if (W == 0) return E;
+  E /= W;
+  if (kind == CenterKind::Volume)
+    for (Eigen::Index i = 0; i < V.rows(); ++i)
+      if (referenced[i]) E.row(i) += (dC_dO * U.row(i).transpose()).transpose() / (W * n);
+  return E;
 }
 
 CenterKind center_from_letter(char letter) {

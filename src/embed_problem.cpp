@@ -63,8 +63,8 @@ Eigen::SparseMatrix<double> laplacian_hessian(const EmbedContext& ctx, const Eig
 // tangent to the spheres, as normals on flat CAD panels) is given radial directions, as a
 // single vertex is in case C1 of Algorithm 1. Counted in radial_fallbacks.
 void fall_back_where_bins_cannot_reach(const EmbedContext& ctx, const Eigen::MatrixX3d& V,
-                                       const Histogram& h, const CenterJacobians& cj,
-                                       const std::vector<int>& counts, RoundProblem& round) {
+                                       const Histogram& h, const std::vector<int>& counts,
+                                       RoundProblem& round) {
   SeparableQp& qp = round.qp;
   const EmbedOptions& o = *ctx.options;
   const Eigen::Index m = qp.b.size();
@@ -75,7 +75,7 @@ void fall_back_where_bins_cannot_reach(const EmbedContext& ctx, const Eigen::Mat
     const int j = qp.row[g];
     if (j < 0 || reach(j) >= qp.b(j) || qp.lo(g) == qp.hi(g)) continue;
     const int first = ctx.groups.members[ctx.groups.offsets[g]];
-    const Eigen::Vector3d rhohat = (V.row(first).transpose() - cj.center.point) / h.rho(first);
+    const Eigen::Vector3d rhohat = (V.row(first).transpose() - h.center) / h.rho(first);
     const Eigen::Vector3d u = round.U.row(g).transpose();
     if (u == rhohat) continue;
     const double w = ctx.groups.offsets[g + 1] - ctx.groups.offsets[g];
@@ -83,10 +83,6 @@ void fall_back_where_bins_cannot_reach(const EmbedContext& ctx, const Eigen::Mat
     qp.lo(g) = o.bin_offset - h.t(first);
     qp.hi(g) = 1 - o.bin_offset - h.t(first);
     round.U.row(g) = rhohat.transpose();
-    Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
-    for (int k = ctx.groups.offsets[g]; k < ctx.groups.offsets[g + 1]; ++k)
-      J += cj.J[ctx.groups.members[k]];
-    qp.e.col(g) = J * rhohat;
     ++round.radial_fallbacks;
   }
 }
@@ -99,17 +95,17 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
   const Payload& payload = *ctx.payload;
   const Eigen::MatrixX3i& F = *ctx.F;
   const int nb = payload.size(), ng = ctx.groups.count();
-  const CenterJacobians cj = center_jacobians(V, F, ctx.referenced, o.variant.center);
-  round.center = cj.center;
-  if (!cj.center.well_defined) {
+  round.center = center_of_mass(V, F, ctx.referenced, o.variant.center);
+  const Center& center = round.center;
+  if (!center.well_defined) {
     message = fmt::format(
         "the {} center is ill-defined for this mesh (|sum of signed volumes| / sum of volumes = "
         "{:.2g}): "
         "open or inconsistently oriented",
-        center_letter(o.variant.center), cj.center.quality);
+        center_letter(o.variant.center), center.quality);
     return false;
   }
-  round.hist = build_histogram(V, ctx.referenced, cj.center.point, nb);
+  round.hist = build_histogram(V, ctx.referenced, center.point, nb);
   const Histogram& h = round.hist;
   if (!h.valid()) {
     message =
@@ -136,7 +132,7 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
     const double m = payload.bits[j] ? 1.0 : -1.0;
     qp.b(j) = counts[j] > 0 ? o.strength - m * (means[j] - 0.5) : o.strength;
   }
-  qp.c = (ctx.original_center - cj.center.point) / s;  // bring the center back where it was
+  qp.c = (ctx.original_center - center.point) / s;  // bring the center back where it was
   round.U.resize(ng, 3);
   round.radial_fallbacks = 0;
   for (int g = 0; g < ng; ++g) {
@@ -144,7 +140,7 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
     const double w = ctx.groups.offsets[g + 1] - ctx.groups.offsets[g];
     const double rho = h.rho(first), t = h.t(first);
     const int bin = h.bin[first];
-    const Eigen::Vector3d rhohat = (V.row(first).transpose() - cj.center.point) / rho;
+    const Eigen::Vector3d rhohat = (V.row(first).transpose() - center.point) / rho;
     Eigen::Vector3d u = group_direction(ctx, N, g, first, rhohat);
     const bool extreme = rho == h.rho_min || rho == h.rho_max;
     if (extreme) {
@@ -168,17 +164,24 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
       }
     }
     round.U.row(g) = u.transpose();
-    Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
-    for (int k = ctx.groups.offsets[g]; k < ctx.groups.offsets[g + 1]; ++k)
-      J += cj.J[ctx.groups.members[k]];
-    qp.e.col(g) = J * u;
     if (bin >= 1 && bin <= nb) {
       qp.row[g] = bin - 1;
       qp.a(g) = (payload.bits[bin - 1] ? 1.0 : -1.0) * w * rhohat.dot(u) / counts[bin - 1];
     }
     qp.h(g) = w;
   }
-  fall_back_where_bins_cannot_reach(ctx, V, h, cj, counts, round);
+  fall_back_where_bins_cannot_reach(ctx, V, h, counts, round);
+  // The center rows: e_g = sum over the group's vertices of J_i u_g.
+  Eigen::MatrixX3d Uv = Eigen::MatrixX3d::Zero(V.rows(), 3);
+  for (int g = 0; g < ng; ++g)
+    for (int k = ctx.groups.offsets[g]; k < ctx.groups.offsets[g + 1]; ++k)
+      Uv.row(ctx.groups.members[k]) = round.U.row(g);
+  const Eigen::MatrixX3d E =
+      center_jacobian_products(V, F, ctx.referenced, o.variant.center, center.point, Uv);
+  qp.e.setZero();
+  for (int g = 0; g < ng; ++g)
+    for (int k = ctx.groups.offsets[g]; k < ctx.groups.offsets[g + 1]; ++k)
+      qp.e.col(g) += E.row(ctx.groups.members[k]).transpose();
   if (o.variant.cost == CostKind::Quadric) {
     // q_i = sum over the faces around i of (u . n_f)^2: the quadric error of moving along u.
     const Eigen::MatrixX3d FN = face_normals(V, F);

@@ -141,7 +141,8 @@ std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format, const Write
   if (format == FileFormat::Stl && encoding == Encoding::BinaryBigEndian)
     throw InvalidArgumentError("STL has no big-endian encoding");
   if (options.vertex_colors && options.vertex_colors->rows() != mesh.V.rows())
-    throw InvalidArgumentError(fmt::format("{} vertex colors for {} vertices", options.vertex_colors->rows(), mesh.V.rows()));
+    throw InvalidArgumentError(fmt::format("{} vertex colors for {} vertices",
+                                           options.vertex_colors->rows(), mesh.V.rows()));
   if (options.keep_source && !options.single_precision && !options.vertex_colors &&
       detail::image_applies(mesh, format, encoding))
     return detail::patch_image(*mesh.image, mesh.V);

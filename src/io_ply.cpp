@@ -352,7 +352,8 @@ std::string write_ply(const Mesh& mesh, Encoding encoding, bool single_precision
       "property {} y\nproperty {} z\n{}element face {}\nproperty list uchar int vertex_indices\n"
       "end_header\n",
       encoding_name(encoding), mesh.V.rows(), scalar, scalar, scalar,
-      colors ? "property uchar red\nproperty uchar green\nproperty uchar blue\n" : "", mesh.faces.size());
+      colors ? "property uchar red\nproperty uchar green\nproperty uchar blue\n" : "",
+      mesh.faces.size());
   if (encoding == Encoding::Ascii) {
     for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
       if (single_precision) {
@@ -361,7 +362,9 @@ std::string write_ply(const Mesh& mesh, Encoding encoding, bool single_precision
       } else {
         append_position(out, mesh.V, i);
       }
-      if (colors) out += fmt::format(" {} {} {}", int{(*colors)(i, 0)}, int{(*colors)(i, 1)}, int{(*colors)(i, 2)});
+      if (colors)
+        out += fmt::format(" {} {} {}", int{(*colors)(i, 0)}, int{(*colors)(i, 1)},
+                           int{(*colors)(i, 2)});
       out += '\n';
     }
     for (std::size_t k = 0; k < mesh.faces.size(); ++k) {
@@ -379,7 +382,8 @@ std::string write_ply(const Mesh& mesh, Encoding encoding, bool single_precision
   const std::size_t color_bytes = colors ? 3 : 0;
   out.resize(pos + static_cast<std::size_t>(mesh.V.rows()) * (3 * size + color_bytes));
   for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
-    for (int a = 0; a < 3; ++a, pos += size) write_scalar(out.data() + pos, type, big, mesh.V(i, a));
+    for (int a = 0; a < 3; ++a, pos += size)
+      write_scalar(out.data() + pos, type, big, mesh.V(i, a));
     for (std::size_t a = 0; a < color_bytes; ++a) out[pos++] = static_cast<char>((*colors)(i, a));
   }
   for (std::size_t k = 0; k < mesh.faces.size(); ++k) {

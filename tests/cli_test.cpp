@@ -87,7 +87,8 @@ TEST(Cli, RoughnessWritesAColoredPly) {
   const CliRun r = run("roughness " + in + " " + dir + "/rough.ply");
   ASSERT_EQ(r.code, 0) << r.out;
   const std::string bytes = read_file(dir + "/rough.ply");
-  EXPECT_NE(bytes.find("property uchar red\nproperty uchar green\nproperty uchar blue\n"), std::string::npos);
+  EXPECT_NE(bytes.find("property uchar red\nproperty uchar green\nproperty uchar blue\n"),
+            std::string::npos);
   const Mesh back = read_mesh(dir + "/rough.ply");
   const Mesh original = read_mesh(in);
   EXPECT_EQ(back.V, original.V);
