@@ -3,6 +3,7 @@
 // --benchmark_report_aggregates_only=true, and report medians.
 
 #include <benchmark/benchmark.h>
+#include <malloc.h>
 
 #include <filesystem>
 #include <map>
@@ -85,4 +86,13 @@ BENCHMARK_CAPTURE(extract_drs, stanford_bunny_35k, shared("stanford-bunny.obj"))
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(extract_drs, igea_134k, shared("igea.ply"))->Unit(benchmark::kMillisecond);
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  // As the CLI does: keep large temporaries on the heap instead of mapping pages each time.
+  mallopt(M_MMAP_THRESHOLD, 1 << 30);
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -24,7 +24,7 @@ namespace meshmark {
 struct AdmmSettings {
   double rho = 0;           ///< penalty; 0 picks sqrt(smallest * largest diagonal of 2H)
   double relaxation = 1.6;  ///< over-relaxation alpha in (0, 2)
-  double tolerance = 1e-9;  ///< on |x - z|_inf and rho |z - z_prev|_inf
+  double tolerance = 1e-7;  ///< on |x - z|_inf and rho |z - z_prev|_inf
   int max_iterations = 5000;
   double cg_tolerance = 1e-8;  ///< relative residual of each x-step (ADMM tolerates inexact steps)
 };
