@@ -52,5 +52,6 @@ void register_embed(CLI::App& app, int& exit_code);
 void register_extract(CLI::App& app, int& exit_code);
 void register_attack(CLI::App& app, int& exit_code);
 void register_roughness(CLI::App& app, int& exit_code);
+void register_compare(CLI::App& app, int& exit_code);
 
 }  // namespace meshmark::cli

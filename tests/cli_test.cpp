@@ -95,3 +95,16 @@ TEST(Cli, RoughnessWritesAColoredPly) {
   EXPECT_EQ(back.faces, original.faces);
   EXPECT_EQ(run("roughness " + in + " " + dir + "/rough.obj").code, 1) << "colors need PLY";
 }
+
+TEST(Cli, CompareReportsEveryMetricAndWritesAMap) {
+  const std::string in = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(in, "spot.obj");
+  const std::string dir = test::scratch_dir();
+  ASSERT_EQ(run("attack noise " + in + " " + dir + "/noisy.obj --strength 0.002 --seed 3").code, 0);
+  const CliRun r = run("compare " + in + " " + dir + "/noisy.obj --json --map " + dir + "/map.ply");
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* key :
+       {"vertex_rms_percent", "mrms_percent", "hausdorff_percent", "msdm", "msdm2"})
+    EXPECT_NE(r.out.find(std::string("\"") + key + "\""), std::string::npos) << key;
+  EXPECT_EQ(read_mesh(dir + "/map.ply").V.rows(), read_mesh(in).V.rows());
+}

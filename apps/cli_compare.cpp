@@ -1,0 +1,95 @@
+// meshmark compare A B [--json] [--map OUT.ply]: distortion between two meshes.
+
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "cli.h"
+#include "meshmark/error.h"
+#include "meshmark/metrics.h"
+#include "meshmark/roughness.h"
+
+namespace meshmark::cli {
+
+namespace {
+
+struct CompareArgs {
+  std::string a, b, map;
+  InputOptions in;
+  SurfaceDistanceOptions sampling;
+  bool json = false;
+};
+
+int run(const CompareArgs& args) {
+  const Mesh A = read_input(args.a, args.in), B = read_input(args.b, args.in);
+  const bool same_connectivity = A.V.rows() == B.V.rows() && A.F == B.F;
+  nlohmann::json j = {{"a", args.a}, {"b", args.b}, {"same_connectivity", same_connectivity}};
+  if (same_connectivity) {
+    j["vertex_rms_percent"] = vertex_rms_percent(A.V, B.V, A.F);
+    j["msdm"] = msdm(A.V, B.V, A.F).global;
+  }
+  const SurfaceDistance d = surface_distance(A.V, A.F, B.V, B.F, args.sampling);
+  j["mrms_percent"] = d.mrms_percent();
+  j["hausdorff_percent"] = d.hausdorff_percent();
+  j["rms_ab"] = d.rms_ab;
+  j["rms_ba"] = d.rms_ba;
+  j["hausdorff"] = d.hausdorff;
+  const PerceptualDistance m2 = msdm2(A.V, A.F, B.V, B.F);
+  j["msdm2"] = m2.global;
+  if (!args.map.empty()) {
+    if (format_from_path(args.map) != FileFormat::Ply)
+      throw InvalidArgumentError(
+          fmt::format("{}: the distortion map is written as PLY (.ply)", args.map));
+    std::error_code ec;
+    if (std::filesystem::equivalent(args.map, args.a, ec) ||
+        std::filesystem::equivalent(args.map, args.b, ec))
+      throw InvalidArgumentError(fmt::format("{}: refusing to overwrite an input file", args.map));
+    const double top = std::max(m2.local.maxCoeff(), 1e-12);
+    Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3> colors(A.V.rows(), 3);
+    for (Eigen::Index i = 0; i < A.V.rows(); ++i)
+      colors.row(i) = heat_color(m2.local(i) / top).cast<std::uint8_t>().transpose();
+    WriteOptions wo;
+    wo.vertex_colors = &colors;
+    wo.encoding = Encoding::BinaryLittleEndian;
+    write_mesh(args.map, A, wo);
+    j["map"] = args.map;
+  }
+  if (args.json) {
+    fmt::print("{}\n", j.dump(2));
+    return kOk;
+  }
+  fmt::print("{} vs {}\n", args.a, args.b);
+  if (same_connectivity) {
+    fmt::print("  vertex RMS   {:.6f} % of the bounding-box diagonal\n",
+               j["vertex_rms_percent"].get<double>());
+    fmt::print("  MSDM         {:.6f}\n", j["msdm"].get<double>());
+  }
+  fmt::print("  MRMS         {:.6f} % (one-sided RMS {:.3g} and {:.3g})\n", d.mrms_percent(),
+             d.rms_ab, d.rms_ba);
+  fmt::print("  Hausdorff    {:.6f} % ({:.3g})\n", d.hausdorff_percent(), d.hausdorff);
+  fmt::print("  MSDM2        {:.6f}\n", m2.global);
+  if (!args.map.empty())
+    fmt::print("  local MSDM2 map written to {} (red = most distorted)\n", args.map);
+  return kOk;
+}
+
+}  // namespace
+
+void register_compare(CLI::App& app, int& exit_code) {
+  auto args = std::make_shared<CompareArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "compare", "Distortion between two meshes: vertex RMS, MRMS, Hausdorff, MSDM, MSDM2");
+  sub->add_option("A", args->a, "reference mesh")->required();
+  sub->add_option("B", args->b, "distorted mesh")->required();
+  sub->add_option("--map", args->map, "write A with its local MSDM2 as vertex colors (PLY)");
+  sub->add_option("--samples", args->sampling.samples,
+                  "surface samples per mesh besides the vertices (0: auto)");
+  sub->add_option("--seed", args->sampling.seed, "sampling seed");
+  sub->add_flag("--json", args->json, "print a JSON report");
+  add_input_options(*sub, args->in);
+  sub->callback([args, &exit_code] { exit_code = run(*args); });
+}
+
+}  // namespace meshmark::cli

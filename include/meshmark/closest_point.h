@@ -1,0 +1,25 @@
+#pragma once
+/// \file closest_point.h
+/// Closest points on a triangle mesh for many query points, on CGAL's AABB tree: what surface
+/// distances (MRMS, Hausdorff) and MSDM2's matching of vertices to the other surface need.
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace meshmark {
+
+/// For each query: the closest point, the triangle it lies on, its barycentric coordinates in
+/// that triangle, and the distance.
+struct ClosestPoints {
+  Eigen::MatrixX3d point;        ///< #Q x 3
+  std::vector<int> face;         ///< #Q, row of F
+  Eigen::MatrixX3d barycentric;  ///< #Q x 3, weights of F(face, 0..2)
+  Eigen::VectorXd distance;      ///< #Q
+};
+
+/// Closest points on the triangles F of V (degenerate triangles skipped) to every row of Q.
+/// Builds the tree once per call. \throw InvalidArgumentError when F has no usable triangle.
+ClosestPoints closest_points(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                             const Eigen::MatrixX3d& Q);
+
+}  // namespace meshmark
