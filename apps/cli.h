@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "meshmark/embed.h"
 #include "meshmark/io.h"
 
 namespace meshmark::cli {
@@ -49,6 +50,11 @@ void write_output(const std::string& path, const std::string& input_path, const 
                   const OutputOptions& options);
 
 void register_embed(CLI::App& app, int& exit_code);
+
+/// embed --batch: runs every line of the manifest (INPUT OUTPUT PAYLOAD) on all cores, each
+/// distinct input read once; prints one line per job; kOk when every job succeeded.
+int run_batch(const std::string& manifest, int bits, const EmbedOptions& options,
+              const InputOptions& in, const OutputOptions& out);
 void register_extract(CLI::App& app, int& exit_code);
 void register_attack(CLI::App& app, int& exit_code);
 void register_roughness(CLI::App& app, int& exit_code);

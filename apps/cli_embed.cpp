@@ -14,7 +14,7 @@ namespace meshmark::cli {
 namespace {
 
 struct EmbedArgs {
-  std::string input, output, payload, variant = "DRS";
+  std::string input, output, payload, variant = "DRS", solver = "native", batch;
   int bits = 64;
   EmbedOptions embed;
   InputOptions in;
@@ -25,6 +25,15 @@ struct EmbedArgs {
 int run(const EmbedArgs& a) {
   EmbedOptions options = a.embed;
   options.variant = parse_variant(a.variant);
+  options.backend = a.solver == "ipopt" ? SolverBackend::Ipopt : SolverBackend::Native;
+  if (!a.batch.empty()) {
+    if (!a.input.empty() || !a.payload.empty())
+      throw InvalidArgumentError(
+          "--batch takes its inputs, outputs and payloads from the manifest");
+    return run_batch(a.batch, a.bits, options, a.in, a.out);
+  }
+  if (a.input.empty() || a.output.empty() || a.payload.empty())
+    throw InvalidArgumentError("embed needs IN, OUT and --payload (or --batch MANIFEST)");
   const Payload payload = payload_from_hex(a.payload, a.bits);
   Mesh mesh = read_input(a.input, a.in);
   const EmbedResult r = embed(mesh.V, mesh.F, payload, options);
@@ -39,6 +48,7 @@ int run(const EmbedArgs& a) {
                         {"input", a.input},
                         {"output", ok ? a.output : ""},
                         {"variant", a.variant},
+                        {"solver", a.solver},
                         {"payload", payload_to_hex(payload)},
                         {"bits", a.bits},
                         {"strength", options.strength},
@@ -82,10 +92,11 @@ void register_embed(CLI::App& app, int& exit_code) {
   auto args = std::make_shared<EmbedArgs>();
   CLI::App* sub =
       app.add_subcommand("embed", "Embed a payload into a mesh and write the watermarked mesh");
-  sub->add_option("IN", args->input, "input mesh (.off .obj .ply .stl)")->required();
-  sub->add_option("OUT", args->output, "output mesh; format from its extension")->required();
-  sub->add_option("--payload", args->payload, "payload in hexadecimal (bin 1's bit first)")
-      ->required();
+  sub->add_option("IN", args->input, "input mesh (.off .obj .ply .stl)");
+  sub->add_option("OUT", args->output, "output mesh; format from its extension");
+  sub->add_option("--batch", args->batch,
+                  "manifest: one 'INPUT OUTPUT PAYLOAD' per line, run on all cores");
+  sub->add_option("--payload", args->payload, "payload in hexadecimal (bin 1's bit first)");
   sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, 1 << 20));
   sub->add_option("--variant", args->variant,
                   "center (D S V), direction (R N S), cost (S Q L); default DRS");
@@ -97,6 +108,9 @@ void register_embed(CLI::App& app, int& exit_code) {
                   "G in [0, 1/2): vertices stay in [G, 1-G] of their bin");
   sub->add_option("--max-rounds", args->embed.max_rounds, "linearize-and-solve rounds at most")
       ->check(CLI::PositiveNumber);
+  sub->add_option("--solver", args->solver,
+                  "native (structured, exact) or ipopt (general-purpose, for comparison)")
+      ->check(CLI::IsMember({"native", "ipopt"}));
   sub->add_flag("--json", args->json, "print a JSON report");
   add_input_options(*sub, args->in);
   add_output_options(*sub, args->out);

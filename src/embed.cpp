@@ -123,7 +123,11 @@ EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Pa
     const double s = round.hist.step;
     if (k == 0) res.bin_width = s;
     QpResult sol;
-    if (options.variant.cost == CostKind::Laplacian) {
+    if (options.backend == SolverBackend::Ipopt) {
+      sol = solve_round_with_ipopt(round.qp,
+                                   options.variant.cost == CostKind::Laplacian ? &round.H : nullptr,
+                                   options.ipopt);
+    } else if (options.variant.cost == CostKind::Laplacian) {
       admm.set_hessian(round.H, options.admm);
       sol = admm.solve(round.qp);
     } else {

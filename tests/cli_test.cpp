@@ -108,3 +108,32 @@ TEST(Cli, CompareReportsEveryMetricAndWritesAMap) {
     EXPECT_NE(r.out.find(std::string("\"") + key + "\""), std::string::npos) << key;
   EXPECT_EQ(read_mesh(dir + "/map.ply").V.rows(), read_mesh(in).V.rows());
 }
+
+TEST(Cli, BatchEmbedsOneCopyPerLineAndReportsFailuresPerLine) {
+  const std::string spot = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir();
+  const std::string tiny = dir + "/tiny.obj";
+  write_mesh(tiny, test::bumpy_sphere(4, 5, 1));  // too small for 64 bits: that line fails
+  const char* payloads[] = {"0123456789abcdef", "fedcba9876543210", "00000000ffffffff"};
+  {
+    std::ofstream manifest(dir + "/manifest.txt");
+    manifest << "# buyer copies\n";
+    for (int k = 0; k < 3; ++k)
+      manifest << spot << " " << dir << "/copy" << k << ".obj " << payloads[k] << "\n";
+    manifest << tiny << " " << dir << "/tiny_out.obj 0123456789abcdef\n";
+  }
+  const CliRun r = run("embed --batch " + dir + "/manifest.txt");
+  EXPECT_EQ(r.code, 4) << r.out;
+  EXPECT_NE(r.out.find("3 of 4 copies"), std::string::npos) << r.out;
+  for (int k = 0; k < 3; ++k) {
+    const CliRun x =
+        run("extract " + dir + "/copy" + std::to_string(k) + ".obj --expect " + payloads[k]);
+    EXPECT_EQ(x.code, 0) << x.out;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir + "/tiny_out.obj"));
+  std::ofstream(dir + "/bad.txt") << spot << " only-two-fields\n";
+  const CliRun bad = run("embed --batch " + dir + "/bad.txt");
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.out.find("bad.txt:1:"), std::string::npos) << bad.out;
+}

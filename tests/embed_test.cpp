@@ -92,9 +92,9 @@ TEST(EmbedDrs, OptimumMatchesIpoptOnSmallMeshes) {
     std::vector<int> referenced;
     Eigen::MatrixX3d dirs;
     const std::vector<int> bits(p.bits.begin(), p.bits.end());
-    const SparseQp qp =
+    const GeneralQp qp =
         drs_reference_problem(s.mesh.V, s.mesh.F, bits, 0.05, 0.05, referenced, dirs);
-    const ReferenceSolution ref = solve_with_ipopt(qp);
+    const GeneralQpSolution ref = solve_general_qp_with_ipopt(qp);
     ASSERT_TRUE(ref.ok) << "Ipopt status " << ref.status;
     EXPECT_NEAR(ours.squared_displacement, ref.objective, 1e-6 * ref.objective);
     // Our displacement is feasible for the independently built problem and radial.

@@ -39,9 +39,9 @@ SeparableQp random_problem(int n, int m, std::uint64_t seed) {
   return qp;
 }
 
-test::SparseQp as_reference(const SeparableQp& qp) {
+GeneralQp as_reference(const SeparableQp& qp) {
   const Eigen::Index n = qp.h.size(), m = qp.b.size();
-  test::SparseQp r;
+  GeneralQp r;
   r.c = qp.h;
   r.x_lo = qp.lo;
   r.x_hi = qp.hi;
@@ -96,7 +96,7 @@ TEST(SeparableQp, MatchesIpoptOnRandomProblems) {
     const QpResult ours = solve_separable_qp(qp);
     ASSERT_EQ(ours.status, QpStatus::Solved);
     expect_kkt(qp, ours, 1e-10);
-    const auto ref = test::solve_with_ipopt(as_reference(qp));
+    const auto ref = solve_general_qp_with_ipopt(as_reference(qp));
     ASSERT_TRUE(ref.ok) << "Ipopt status " << ref.status;
     EXPECT_NEAR(ours.objective, ref.objective, 1e-7 * ref.objective);
     EXPECT_LE(ours.objective, ref.objective * (1 + 1e-9))

@@ -95,8 +95,8 @@ TEST(LaplacianCost, OptimumMatchesIpoptOnSmallMeshes) {
 
     std::vector<int> referenced;
     Eigen::MatrixX3d dirs;
-    SparseQp qp = drs_reference_problem(m.V, m.F, std::vector<int>(p.bits.begin(), p.bits.end()),
-                                        o.strength, o.bin_offset, referenced, dirs);
+    GeneralQp qp = drs_reference_problem(m.V, m.F, std::vector<int>(p.bits.begin(), p.bits.end()),
+                                         o.strength, o.bin_offset, referenced, dirs);
     // Cost L written out: lambda sum r_i^2 + (1 - lambda) sum_i |r_i u_i - mean_{j in N1(i)} r_j
     // u_j|^2.
     const auto n = static_cast<Eigen::Index>(referenced.size());
@@ -121,7 +121,7 @@ TEST(LaplacianCost, OptimumMatchesIpoptOnSmallMeshes) {
     B.setFromTriplets(tb.begin(), tb.end());
     qp.Q = (1 - lambda) * Eigen::SparseMatrix<double>(B.transpose() * B);
     qp.c = Eigen::VectorXd::Constant(n, lambda);
-    const ReferenceSolution ref = solve_with_ipopt(qp);
+    const GeneralQpSolution ref = solve_general_qp_with_ipopt(qp);
     ASSERT_TRUE(ref.ok) << "Ipopt status " << ref.status;
 
     Eigen::VectorXd r(n);

@@ -12,12 +12,19 @@
 
 #include "meshmark/admm_qp.h"
 #include "meshmark/histogram.h"
+#include "meshmark/ipopt_qp.h"
 #include "meshmark/payload.h"
 #include "meshmark/roughness.h"
 #include "meshmark/separable_qp.h"
 #include "meshmark/variant.h"
 
 namespace meshmark {
+
+/// Which solver answers each round's quadratic program.
+enum class SolverBackend {
+  Native,  ///< the structured solvers: exact dual Newton (costs S, Q), ADMM (cost L)
+  Ipopt,   ///< the general-purpose interior-point solver, for comparison
+};
 
 /// Options of embed. Units: strength and bin offset are fractions of a bin width.
 struct EmbedOptions {
@@ -32,9 +39,11 @@ struct EmbedOptions {
   double center_tolerance = 1e-6;
   /// Vertices at bit-identical positions (unwelded seams) move as one, so seams stay closed.
   bool keep_duplicates_together = true;
-  QpSettings solver;           ///< the exact separable solver (costs S and Q)
-  AdmmSettings admm;           ///< the sparse solver (cost L)
-  RoughnessOptions roughness;  ///< direction S: constants of the roughness field
+  QpSettings solver;                              ///< the exact separable solver (costs S and Q)
+  AdmmSettings admm;                              ///< the sparse solver (cost L)
+  RoughnessOptions roughness;                     ///< direction S: constants of the roughness field
+  SolverBackend backend = SolverBackend::Native;  ///< who solves the rounds
+  IpoptOptions ipopt;                             ///< backend Ipopt's settings
 };
 
 /// Outcome of embed.
