@@ -59,6 +59,30 @@ void roughness(benchmark::State& state, const std::string& path) {
   state.SetItemsProcessed(state.iterations() * m->V.rows());
 }
 
+// The same embedding by the structured solver and by Ipopt (one run each per iteration):
+// times, and the relative difference of the squared displacements (objectives).
+void versus_ipopt(benchmark::State& state, const std::string& path, const char* variant) {
+  const Mesh* m = load(path);
+  if (!m) return state.SkipWithError(("missing " + path).c_str());
+  const Payload p = random_payload(64, 1);
+  EmbedOptions native;
+  native.variant = parse_variant(variant);
+  EmbedOptions ipopt = native;
+  ipopt.backend = SolverBackend::Ipopt;
+  double ours = 0, theirs = 0, gap = 0;
+  for (auto _ : state) {
+    const EmbedResult a = embed(m->V, m->F, p, native), b = embed(m->V, m->F, p, ipopt);
+    if (a.status != EmbedStatus::Embedded || b.status != EmbedStatus::Embedded)
+      state.SkipWithError("not embedded");
+    ours = a.seconds, theirs = b.seconds;
+    gap = std::abs(a.squared_displacement - b.squared_displacement) / b.squared_displacement;
+  }
+  state.counters["native_ms"] = 1e3 * ours;
+  state.counters["ipopt_ms"] = 1e3 * theirs;
+  state.counters["speedup"] = theirs / ours;
+  state.counters["objective_gap"] = gap;
+}
+
 // Metrics on a 48k-vertex pair: the horse against a noisy copy (0.1 % of the diagonal).
 void metric(benchmark::State& state, const std::string& path, int which) {
   const Mesh* m = load(path);
@@ -98,6 +122,15 @@ EMBED(VRL, horse_48k, "horse.ply");
 EMBED(VNS, horse_48k, "horse.ply");
 EMBED(VSS, horse_48k, "horse.ply");
 BENCHMARK_CAPTURE(roughness, horse_48k, shared("horse.ply"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(versus_ipopt, DRS_stanford_bunny_35k, shared("stanford-bunny.obj"), "DRS")
+    ->Iterations(1)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(versus_ipopt, VRS_stanford_bunny_35k, shared("stanford-bunny.obj"), "VRS")
+    ->Iterations(1)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(versus_ipopt, VRL_spot_3k, shared("spot.obj"), "VRL")
+    ->Iterations(1)
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(metric, hausdorff_and_mrms_horse_48k, shared("horse.ply"), 0)
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(metric, msdm_horse_48k, shared("horse.ply"), 1)->Unit(benchmark::kMillisecond);

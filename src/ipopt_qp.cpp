@@ -98,6 +98,8 @@ GeneralQpSolution solve_general_qp_with_ipopt(const GeneralQp& qp, const IpoptOp
   AddIpoptStrOption(problem, const_cast<char*>("jac_c_constant"), const_cast<char*>("yes"));
   AddIpoptStrOption(problem, const_cast<char*>("jac_d_constant"), const_cast<char*>("yes"));
   AddIpoptStrOption(problem, const_cast<char*>("sb"), const_cast<char*>("yes"));
+  // QAMD ordering copes with the dense center rows (AMD asks MUMPS for gigabytes of fill).
+  AddIpoptIntOption(problem, const_cast<char*>("mumps_pivot_order"), 6);
   GeneralQpSolution sol;
   sol.x = (qp.x_lo + qp.x_hi) / 2;
   Data data{&qp};
@@ -125,9 +127,21 @@ QpResult solve_round_with_ipopt(const SeparableQp& qp, const Eigen::SparseMatrix
   g.row_hi.head(m).setConstant(1e19);
   g.row_lo.tail(3) = qp.c;
   g.row_hi.tail(3) = qp.c;
+  // Rows scaled to a largest coefficient of 1 (the center rows' are about 1 / #V): Ipopt's
+  // tolerances are absolute.
+  Eigen::VectorXd scale = Eigen::VectorXd::Zero(m + 3);
   for (Eigen::Index i = 0; i < n; ++i) {
-    if (qp.row[i] >= 0) g.A.emplace_back(qp.row[i], i, qp.a(i));
-    for (int k = 0; k < 3; ++k) g.A.emplace_back(m + k, i, qp.e(k, i));
+    if (qp.row[i] >= 0) scale(qp.row[i]) = std::max(scale(qp.row[i]), std::abs(qp.a(i)));
+    for (int k = 0; k < 3; ++k) scale(m + k) = std::max(scale(m + k), std::abs(qp.e(k, i)));
+  }
+  for (Eigen::Index j = 0; j < m + 3; ++j) {
+    scale(j) = scale(j) > 0 ? 1 / scale(j) : 1;
+    g.row_lo(j) *= scale(j);
+    if (j >= m) g.row_hi(j) *= scale(j);
+  }
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (qp.row[i] >= 0) g.A.emplace_back(qp.row[i], i, qp.a(i) * scale(qp.row[i]));
+    for (int k = 0; k < 3; ++k) g.A.emplace_back(m + k, i, qp.e(k, i) * scale(m + k));
   }
   const GeneralQpSolution s = solve_general_qp_with_ipopt(g, options);
   QpResult r;
