@@ -49,6 +49,32 @@ void embed_variant(benchmark::State& state, const std::string& path, const char*
   state.SetItemsProcessed(state.iterations() * m->V.rows());
 }
 
+// A real mesh made larger by Loop subdivision (cached), for the scaling benchmarks.
+const Mesh* subdivided(const std::string& path, int times) {
+  static std::map<std::pair<std::string, int>, Mesh> cache;
+  auto it = cache.find({path, times});
+  if (it != cache.end()) return &it->second;
+  const Mesh* m = load(path);
+  if (!m) return nullptr;
+  return &cache.emplace(std::pair{path, times}, attack_subdivide(*m, Subdivision::Loop, times))
+              .first->second;
+}
+
+void embed_scaling(benchmark::State& state, const std::string& path, const char* variant) {
+  const Mesh* m = subdivided(path, static_cast<int>(state.range(0)));
+  if (!m) return state.SkipWithError(("missing " + path).c_str());
+  EmbedOptions o;
+  o.variant = parse_variant(variant);
+  const Payload p = random_payload(64, 1);
+  for (auto _ : state) {
+    EmbedResult r = embed(m->V, m->F, p, o);
+    if (r.status != EmbedStatus::Embedded) state.SkipWithError(r.message.c_str());
+    benchmark::DoNotOptimize(r.V.data());
+  }
+  state.counters["vertices"] = static_cast<double>(m->V.rows());
+  state.SetItemsProcessed(state.iterations() * m->V.rows());
+}
+
 void roughness(benchmark::State& state, const std::string& path) {
   const Mesh* m = load(path);
   if (!m) return state.SkipWithError(("missing " + path).c_str());
@@ -122,6 +148,13 @@ EMBED(VRL, horse_48k, "horse.ply");
 EMBED(VNS, horse_48k, "horse.ply");
 EMBED(VSS, horse_48k, "horse.ply");
 BENCHMARK_CAPTURE(roughness, horse_48k, shared("horse.ply"))->Unit(benchmark::kMillisecond);
+// horse subdivided 0, 1, 2 times: 48k, 194k, 776k vertices.
+BENCHMARK_CAPTURE(embed_scaling, DRS_horse_loop, shared("horse.ply"), "DRS")
+    ->DenseRange(0, 2)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(embed_scaling, VRS_horse_loop, shared("horse.ply"), "VRS")
+    ->DenseRange(0, 2)
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(versus_ipopt, DRS_stanford_bunny_35k, shared("stanford-bunny.obj"), "DRS")
     ->Iterations(1)
     ->Unit(benchmark::kMillisecond);
