@@ -105,7 +105,10 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
         center_letter(o.variant.center), center.quality);
     return false;
   }
-  round.hist = build_histogram(V, ctx.referenced, center.point, nb);
+  // Distances are measured from the original center, where this round puts the center back:
+  // the decoder will see them so (up to the center's second-order error), and the rows need not
+  // model the shift of every distance that bringing the center back causes.
+  round.hist = build_histogram(V, ctx.referenced, ctx.original_center, nb);
   const Histogram& h = round.hist;
   if (!h.valid()) {
     message =
@@ -140,7 +143,7 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
     const double w = ctx.groups.offsets[g + 1] - ctx.groups.offsets[g];
     const double rho = h.rho(first), t = h.t(first);
     const int bin = h.bin[first];
-    const Eigen::Vector3d rhohat = (V.row(first).transpose() - center.point) / rho;
+    const Eigen::Vector3d rhohat = (V.row(first).transpose() - ctx.original_center) / rho;
     Eigen::Vector3d u = group_direction(ctx, N, g, first, rhohat);
     const bool extreme = rho == h.rho_min || rho == h.rho_max;
     if (extreme) {
