@@ -6,6 +6,8 @@
 #include <cmath>
 #include <map>
 
+#include "parallel.h"
+
 namespace meshmark {
 
 namespace {
@@ -67,13 +69,28 @@ EdgeTable dihedral_edges(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
 }  // namespace
 
 Neighborhoods ball_neighborhoods(const Eigen::MatrixX3d& V, const Adjacency& adj, double radius) {
+  // Each chunk of vertices gathers its lists on its own thread; the lists are then joined in
+  // vertex order.
+  const std::int64_t nv = V.rows();
+  const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> P =
+      V;  // one cache line per point
+  std::vector<Neighborhoods> parts(static_cast<std::size_t>(detail::chunk_count(nv)));
+  detail::parallel_chunks(nv, [&](int chunk, std::int64_t begin, std::int64_t end) {
+    Neighborhoods& part = parts[chunk];
+    std::vector<int> stamp(static_cast<std::size_t>(nv), -1), queue;
+    for (std::int64_t i = begin; i < end; ++i) {
+      if (adj.degree(static_cast<int>(i)) > 0)
+        for_each_vertex_in_ball(P, adj, static_cast<int>(i), P.row(i), radius, stamp, queue,
+                                static_cast<int>(i), [&](int v) { part.indices.push_back(v); });
+      part.offsets.push_back(static_cast<std::int64_t>(part.indices.size()));
+    }
+  });
   Neighborhoods near;
-  std::vector<int> stamp(static_cast<std::size_t>(V.rows()), -1), queue;
-  for (Eigen::Index i = 0; i < V.rows(); ++i) {
-    if (adj.degree(static_cast<int>(i)) > 0)
-      for_each_vertex_in_ball(V, adj, static_cast<int>(i), V.row(i), radius, stamp, queue,
-                              static_cast<int>(i), [&](int v) { near.indices.push_back(v); });
-    near.offsets.push_back(static_cast<std::int64_t>(near.indices.size()));
+  for (const Neighborhoods& part : parts) {
+    const std::int64_t base = static_cast<std::int64_t>(near.indices.size());
+    for (std::size_t k = 1; k < part.offsets.size(); ++k)
+      near.offsets.push_back(base + part.offsets[k]);
+    near.indices.insert(near.indices.end(), part.indices.begin(), part.indices.end());
   }
   return near;
 }
@@ -99,44 +116,49 @@ CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::Ma
     const double a = 0.5 * (p1 - p0).cross(p2 - p0).norm() / 3;
     for (int c = 0; c < 3; ++c) vertex_area(F(t, c)) += a;
   }
-  std::vector<int> stamp(static_cast<std::size_t>(nv), -1), edge_stamp(edges.ends.size(), -1),
-      members;
+  const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> P =
+      V;  // one cache line per point
   const double r2 = radius * radius;
-  for (Eigen::Index i = 0; i < nv; ++i) {
-    members.clear();
-    double area = 0;
-    for (auto k = near.offsets[i]; k < near.offsets[i + 1]; ++k) {
-      const int v = near.indices[k];
-      if ((V.row(v) - V.row(i)).squaredNorm() > r2) continue;
-      stamp[v] = static_cast<int>(i);
-      members.push_back(v);
-      area += vertex_area(v);
-    }
-    if (area <= 0) continue;
-    // Edges count the way the area does, by vertices: half an edge per endpoint inside the
-    // ball, so that their ratio carries no bias.
-    Eigen::Matrix3d T = Eigen::Matrix3d::Zero();
-    for (int v : members)
-      for (int k = edges.incident.offsets[v]; k < edges.incident.offsets[v + 1]; ++k) {
-        const int e = edges.incident.indices[k];
-        if (edge_stamp[e] == i || edges.beta[e] == 0) continue;
-        edge_stamp[e] = static_cast<int>(i);
-        const int a = edges.ends[e][0], b = edges.ends[e][1];
-        const double inside = 0.5 * ((stamp[a] == i) + (stamp[b] == i));
-        const Eigen::Vector3d d = (V.row(b) - V.row(a)).transpose();
-        const double length = d.norm();
-        if (length == 0) continue;
-        T.noalias() += (edges.beta[e] * inside / length) * d * d.transpose();
+  // Vertices are independent: chunks of them on separate threads, each with its own marks.
+  detail::parallel_chunks(nv, [&](int, std::int64_t begin, std::int64_t end) {
+    std::vector<int> stamp(static_cast<std::size_t>(nv), -1), edge_stamp(edges.ends.size(), -1),
+        members;
+    for (Eigen::Index i = begin; i < end; ++i) {
+      members.clear();
+      double area = 0;
+      for (auto k = near.offsets[i]; k < near.offsets[i + 1]; ++k) {
+        const int v = near.indices[k];
+        if ((P.row(v) - P.row(i)).squaredNorm() > r2) continue;
+        stamp[v] = static_cast<int>(i);
+        members.push_back(v);
+        area += vertex_area(v);
       }
-    T /= area;
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(T, Eigen::EigenvaluesOnly);
-    Eigen::Vector3d ev = eig.eigenvalues();
-    std::sort(ev.data(), ev.data() + 3,
-              [](double x, double y) { return std::abs(x) < std::abs(y); });
-    // The smallest magnitude belongs to the normal; the other two are the principal curvatures.
-    field.kmin(i) = ev(1);
-    field.kmax(i) = ev(2);
-  }
+      if (area <= 0) continue;
+      // Edges count the way the area does, by vertices: half an edge per endpoint inside the
+      // ball, so that their ratio carries no bias.
+      Eigen::Matrix3d T = Eigen::Matrix3d::Zero();
+      for (int v : members)
+        for (int k = edges.incident.offsets[v]; k < edges.incident.offsets[v + 1]; ++k) {
+          const int e = edges.incident.indices[k];
+          if (edge_stamp[e] == i || edges.beta[e] == 0) continue;
+          edge_stamp[e] = static_cast<int>(i);
+          const int a = edges.ends[e][0], b = edges.ends[e][1];
+          const double inside = 0.5 * ((stamp[a] == i) + (stamp[b] == i));
+          const Eigen::Vector3d d = (P.row(b) - P.row(a)).transpose();
+          const double length = d.norm();
+          if (length == 0) continue;
+          T.noalias() += (edges.beta[e] * inside / length) * d * d.transpose();
+        }
+      T /= area;
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(T, Eigen::EigenvaluesOnly);
+      Eigen::Vector3d ev = eig.eigenvalues();
+      std::sort(ev.data(), ev.data() + 3,
+                [](double x, double y) { return std::abs(x) < std::abs(y); });
+      // The smallest magnitude belongs to the normal; the other two are the principal curvatures.
+      field.kmin(i) = ev(1);
+      field.kmax(i) = ev(2);
+    }
+  });
   return field;
 }
 

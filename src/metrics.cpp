@@ -11,6 +11,7 @@
 #include "meshmark/error.h"
 #include "meshmark/mesh.h"
 #include "meshmark/random.h"
+#include "parallel.h"
 
 namespace meshmark {
 
@@ -95,32 +96,34 @@ Eigen::VectorXd window_scores(const Eigen::MatrixX3d& P, const Neighborhoods& ne
                               Combine&& combine) {
   Eigen::VectorXd local = Eigen::VectorXd::Zero(P.rows());
   const double r2 = radius * radius, inv = 1.0 / (2 * sigma * sigma);
-  for (Eigen::Index i = 0; i < P.rows(); ++i) {
-    double w = 0, mx = 0, my = 0;
-    for (auto k = near.offsets[i]; k < near.offsets[i + 1]; ++k) {
-      const int v = near.indices[k];
-      const double d2 = (P.row(v) - P.row(i)).squaredNorm();
-      if (d2 > r2) continue;
-      const double g = std::exp(-d2 * inv);
-      w += g, mx += g * x(v), my += g * y(v);
+  detail::parallel_chunks(P.rows(), [&](int, std::int64_t begin, std::int64_t end) {
+    for (Eigen::Index i = begin; i < end; ++i) {
+      double w = 0, mx = 0, my = 0;
+      for (auto k = near.offsets[i]; k < near.offsets[i + 1]; ++k) {
+        const int v = near.indices[k];
+        const double d2 = (P.row(v) - P.row(i)).squaredNorm();
+        if (d2 > r2) continue;
+        const double g = std::exp(-d2 * inv);
+        w += g, mx += g * x(v), my += g * y(v);
+      }
+      if (w <= 0) continue;
+      mx /= w, my /= w;
+      double vx = 0, vy = 0, cxy = 0;
+      for (auto k = near.offsets[i]; k < near.offsets[i + 1]; ++k) {
+        const int v = near.indices[k];
+        const double d2 = (P.row(v) - P.row(i)).squaredNorm();
+        if (d2 > r2) continue;
+        const double g = std::exp(-d2 * inv);
+        vx += g * (x(v) - mx) * (x(v) - mx), vy += g * (y(v) - my) * (y(v) - my),
+            cxy += g * (x(v) - mx) * (y(v) - my);
+      }
+      const double sx = std::sqrt(vx / w), sy = std::sqrt(vy / w), sxy = cxy / w;
+      const double L = std::abs(mx - my) / (std::max(mx, my) + 1);
+      const double C = std::abs(sx - sy) / (std::max(sx, sy) + 1);
+      const double S = std::abs(sx * sy - sxy) / (sx * sy + 1);
+      local(i) = combine(L, C, S);
     }
-    if (w <= 0) continue;
-    mx /= w, my /= w;
-    double vx = 0, vy = 0, cxy = 0;
-    for (auto k = near.offsets[i]; k < near.offsets[i + 1]; ++k) {
-      const int v = near.indices[k];
-      const double d2 = (P.row(v) - P.row(i)).squaredNorm();
-      if (d2 > r2) continue;
-      const double g = std::exp(-d2 * inv);
-      vx += g * (x(v) - mx) * (x(v) - mx), vy += g * (y(v) - my) * (y(v) - my),
-          cxy += g * (x(v) - mx) * (y(v) - my);
-    }
-    const double sx = std::sqrt(vx / w), sy = std::sqrt(vy / w), sxy = cxy / w;
-    const double L = std::abs(mx - my) / (std::max(mx, my) + 1);
-    const double C = std::abs(sx - sy) / (std::max(sx, sy) + 1);
-    const double S = std::abs(sx * sy - sxy) / (sx * sy + 1);
-    local(i) = combine(L, C, S);
-  }
+  });
   return local;
 }
 

@@ -6,6 +6,7 @@
 
 #include "meshmark/curvature.h"
 #include "meshmark/mesh.h"
+#include "parallel.h"
 
 namespace meshmark {
 
@@ -24,26 +25,30 @@ Eigen::VectorXd vertex_areas(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& 
 
 // Gaussian-weighted, area-weighted average of `values` (#V x k) over the neighborhood members
 // within 2 sigma (of positions P).
-Eigen::MatrixXd gaussian_average(const Eigen::MatrixX3d& P, const Neighborhoods& near,
+Eigen::MatrixXd gaussian_average(const Eigen::MatrixX3d& positions, const Neighborhoods& near,
                                  const Eigen::VectorXd& area, const Eigen::MatrixXd& values,
                                  double sigma) {
+  const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> P =
+      positions;  // one cache line per point
   Eigen::MatrixXd out = values;
   const double inv = 1.0 / (2 * sigma * sigma), r2 = 4 * sigma * sigma;
-  Eigen::RowVectorXd sum(values.cols());
-  for (Eigen::Index i = 0; i < P.rows(); ++i) {
-    if (near.offsets[i] == near.offsets[i + 1]) continue;
-    sum.setZero();
-    double weight = 0;
-    for (auto k = near.offsets[i]; k < near.offsets[i + 1]; ++k) {
-      const int v = near.indices[k];
-      const double d2 = (P.row(v) - P.row(i)).squaredNorm();
-      if (d2 > r2) continue;
-      const double w = area(v) * std::exp(-d2 * inv);
-      sum += w * values.row(v);
-      weight += w;
+  detail::parallel_chunks(P.rows(), [&](int, std::int64_t begin, std::int64_t end) {
+    Eigen::RowVectorXd sum(values.cols());
+    for (Eigen::Index i = begin; i < end; ++i) {
+      if (near.offsets[i] == near.offsets[i + 1]) continue;
+      sum.setZero();
+      double weight = 0;
+      for (auto k = near.offsets[i]; k < near.offsets[i + 1]; ++k) {
+        const int v = near.indices[k];
+        const double d2 = (P.row(v) - P.row(i)).squaredNorm();
+        if (d2 > r2) continue;
+        const double w = area(v) * std::exp(-d2 * inv);
+        sum += w * values.row(v);
+        weight += w;
+      }
+      if (weight > 0) out.row(i) = sum / weight;
     }
-    if (weight > 0) out.row(i) = sum / weight;
-  }
+  });
   return out;
 }
 

@@ -47,8 +47,8 @@ CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::Ma
 /// Visits the vertices reachable from `seed` through edges of the adjacency while staying
 /// within `radius` of `center`, calling visit(vertex). `stamp` (size #V, initially all -1) and
 /// `queue` are scratch space reused across calls; `mark` must differ between calls.
-template <class Visit>
-void for_each_vertex_in_ball(const Eigen::MatrixX3d& V, const Adjacency& adj, int seed,
+template <class Points, class Visit>
+void for_each_vertex_in_ball(const Points& V, const Adjacency& adj, int seed,
                              const Eigen::RowVector3d& center, double radius,
                              std::vector<int>& stamp, std::vector<int>& queue, int mark,
                              Visit&& visit) {
