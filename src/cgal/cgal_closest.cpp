@@ -7,6 +7,7 @@
 
 #include "meshmark/closest_point.h"
 #include "meshmark/error.h"
+#include "parallel.h"
 
 namespace meshmark {
 
@@ -51,18 +52,21 @@ ClosestPoints closest_points(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& 
   out.face.resize(static_cast<std::size_t>(Q.rows()));
   out.barycentric.resize(Q.rows(), 3);
   out.distance.resize(Q.rows());
-  for (Eigen::Index i = 0; i < Q.rows(); ++i) {
-    const K::Point_3 q(Q(i, 0), Q(i, 1), Q(i, 2));
-    const auto [p, it] = tree.closest_point_and_primitive(q);
-    const int f = face_of[static_cast<std::size_t>(it - triangles.cbegin())];
-    const Eigen::Vector3d pe(p.x(), p.y(), p.z());
-    out.point.row(i) = pe.transpose();
-    out.face[i] = f;
-    out.barycentric.row(i) = barycentric(pe, V.row(F(f, 0)).transpose(), V.row(F(f, 1)).transpose(),
-                                         V.row(F(f, 2)).transpose())
-                                 .transpose();
-    out.distance(i) = (pe - Q.row(i).transpose()).norm();
-  }
+  // The tree is read-only from here on: queries run on all cores, each row on its own.
+  detail::parallel_chunks(Q.rows(), [&](int, std::int64_t begin, std::int64_t end) {
+    for (Eigen::Index i = begin; i < end; ++i) {
+      const K::Point_3 q(Q(i, 0), Q(i, 1), Q(i, 2));
+      const auto [p, it] = tree.closest_point_and_primitive(q);
+      const int f = face_of[static_cast<std::size_t>(it - triangles.cbegin())];
+      const Eigen::Vector3d pe(p.x(), p.y(), p.z());
+      out.point.row(i) = pe.transpose();
+      out.face[i] = f;
+      out.barycentric.row(i) = barycentric(pe, V.row(F(f, 0)).transpose(),
+                                           V.row(F(f, 1)).transpose(), V.row(F(f, 2)).transpose())
+                                   .transpose();
+      out.distance(i) = (pe - Q.row(i).transpose()).norm();
+    }
+  });
   return out;
 }
 

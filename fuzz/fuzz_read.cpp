@@ -1,0 +1,29 @@
+// libFuzzer target for every mesh reader: the first byte picks the format, the rest is the
+// file. A reader may accept the input or throw meshmark::Error; anything else (a crash, a
+// sanitizer report, another exception, a hang) is a bug. Built and run by scripts/fuzz.sh.
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "meshmark/error.h"
+#include "meshmark/io.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  if (size < 1) return 0;
+  const meshmark::FileFormat formats[] = {meshmark::FileFormat::Off, meshmark::FileFormat::Obj,
+                                          meshmark::FileFormat::Ply, meshmark::FileFormat::Stl};
+  const meshmark::FileFormat format = formats[data[0] % 4];
+  std::string bytes(reinterpret_cast<const char*>(data) + 1, size - 1);
+  try {
+    const meshmark::Mesh mesh = meshmark::read_mesh_from_bytes(std::move(bytes), format, "fuzz");
+    // What a caller does next must hold too: triangles index existing vertices, and writing
+    // back through the file image works.
+    for (Eigen::Index t = 0; t < mesh.F.rows(); ++t)
+      for (int c = 0; c < 3; ++c)
+        if (mesh.F(t, c) < 0 || mesh.F(t, c) >= mesh.V.rows()) __builtin_trap();
+    (void)meshmark::write_mesh_to_bytes(mesh, format);
+  } catch (const meshmark::Error&) {
+  }
+  return 0;
+}

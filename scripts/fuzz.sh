@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Builds the mesh-reader fuzzer (libFuzzer with AddressSanitizer and UndefinedBehaviorSanitizer,
+# clang from Debian) and runs it for a bounded time per format, seeded with real meshes.
+# Usage: scripts/fuzz.sh [SECONDS_PER_FORMAT] (default 20). Crashes land in fuzz/crashes/;
+# keep each as a regression in fuzz/regressions/ (tests read every file there).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds="${1:-20}"
+command -v clang++ >/dev/null || { echo "fuzz: clang++ is missing (apt-get install clang libclang-rt-14-dev)" >&2; exit 1; }
+out=build-fuzz
+mkdir -p "$out" fuzz/crashes
+sources="src/error.cpp src/mesh.cpp src/text_scan.cpp src/file_image.cpp src/io.cpp src/io_off.cpp src/io_obj.cpp src/io_ply.cpp src/io_stl.cpp"
+clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
+  -Iinclude -Isrc -isystem /usr/include/eigen3 $sources fuzz/fuzz_read.cpp -lfmt -o "$out/fuzz_read"
+# Seeds: real meshes, each prefixed with the byte that selects its format.
+seeds="$out/seeds"
+rm -rf "$seeds" && mkdir -p "$seeds"
+add_seed() { # FILE FORMAT_BYTE
+  [ -f "$1" ] || return 0
+  [ "$(stat -c %s "$1")" -le 400000 ] || return 0
+  { printf "\\x$(printf %02x "$2")"; cat "$1"; } > "$seeds/$(basename "$1").$2"
+}
+for f in ../shared/meshes/spot.obj ../shared/meshes/spider.obj ../shared/meshes/teapot.obj; do add_seed "$f" 1; done
+add_seed ../shared/meshes/featuretype.STL 3
+for f in build/cgal-data/data/meshes/cube.off build/cgal-data/data/meshes/tetrahedron.off build/cgal-data/data/meshes/elephant.off; do add_seed "$f" 0; done
+for f in build/cgal-data/data/meshes/colored_tetra.ply build/cgal-data/data/meshes/sphere.ply; do add_seed "$f" 2; done
+add_seed build/cgal-data/data/meshes/sphere.stl 3
+for f in fuzz/regressions/*; do [ -f "$f" ] && cp "$f" "$seeds/"; done
+corpus="$out/corpus"
+mkdir -p "$corpus"
+"$out/fuzz_read" -max_total_time="$seconds" -max_len=400000 -timeout=10 -rss_limit_mb=4096 \
+  -artifact_prefix=fuzz/crashes/ -print_final_stats=1 "$corpus" "$seeds" 2>&1 | tail -15
+echo "fuzz: no crash in ${seconds} s"
