@@ -11,6 +11,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev       # tests and benchmarks
   coinor-libipopt-dev                              # independent QP solver for the optimality tests
   libcgal-dev libcgal-demo                         # CGAL, and its real meshes (data.tar.gz)
+  clang libclang-rt-14-dev                         # libFuzzer and sanitizers (scripts/fuzz.sh)
   python3                                          # small helper scripts
 )
 missing=()
