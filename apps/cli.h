@@ -2,6 +2,7 @@
 // The meshmark command line: shared pieces of the subcommands (thin wrappers over the library).
 
 #include <CLI/CLI.hpp>
+#include <initializer_list>
 #include <stdexcept>
 #include <string>
 
@@ -44,6 +45,9 @@ void add_output_options(CLI::App& app, OutputOptions& options);
 
 /// Reads a mesh with the options (throws the library's errors).
 Mesh read_input(const std::string& path, const InputOptions& options);
+
+/// Throws InvalidArgumentError when output names the same file as any of the inputs.
+void refuse_overwrite(const std::string& output, std::initializer_list<std::string> inputs);
 
 /// Writes a mesh; refuses to write over the input file.
 void write_output(const std::string& path, const std::string& input_path, const Mesh& mesh,

@@ -42,10 +42,7 @@ int run(const CompareArgs& args) {
     if (format_from_path(args.map) != FileFormat::Ply)
       throw InvalidArgumentError(
           fmt::format("{}: the distortion map is written as PLY (.ply)", args.map));
-    std::error_code ec;
-    if (std::filesystem::equivalent(args.map, args.a, ec) ||
-        std::filesystem::equivalent(args.map, args.b, ec))
-      throw InvalidArgumentError(fmt::format("{}: refusing to overwrite an input file", args.map));
+    refuse_overwrite(args.map, {args.a, args.b});
     const double top = std::max(m2.local.maxCoeff(), 1e-12);
     Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3> colors(A.V.rows(), 3);
     for (Eigen::Index i = 0; i < A.V.rows(); ++i)

@@ -34,9 +34,7 @@ int run(const RoughnessArgs& a) {
   WriteOptions wo;
   wo.vertex_colors = &colors;
   wo.encoding = Encoding::BinaryLittleEndian;
-  std::error_code ec;
-  if (std::filesystem::equivalent(a.output, a.input, ec))
-    throw InvalidArgumentError(fmt::format("{}: refusing to overwrite the input file", a.output));
+  refuse_overwrite(a.output, {a.input});
   write_mesh(a.output, mesh, wo);
   const double smooth = (f.smoothness.array() > f.smooth_threshold).cast<double>().mean();
   if (a.json) {

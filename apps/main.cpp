@@ -37,11 +37,17 @@ Mesh read_input(const std::string& path, const InputOptions& options) {
   }
 }
 
+void refuse_overwrite(const std::string& output, std::initializer_list<std::string> inputs) {
+  for (const std::string& input : inputs) {
+    std::error_code ec;
+    if (std::filesystem::equivalent(output, input, ec))
+      throw InvalidArgumentError(fmt::format("{}: refusing to overwrite an input file", output));
+  }
+}
+
 void write_output(const std::string& path, const std::string& input_path, const Mesh& mesh,
                   const OutputOptions& options) {
-  std::error_code ec;
-  if (std::filesystem::equivalent(path, input_path, ec))
-    throw InvalidArgumentError(fmt::format("{}: refusing to overwrite the input file", path));
+  refuse_overwrite(path, {input_path});
   WriteOptions wo;
   if (!options.format.empty()) wo.format = format_from_path("x." + options.format);
   if (options.encoding == "ascii") wo.encoding = Encoding::Ascii;

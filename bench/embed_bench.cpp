@@ -34,8 +34,9 @@ std::string shared(const char* name) {
   return std::string(MESHMARK_SHARED_DIR) + "/meshes/" + name;
 }
 
-void embed_variant(benchmark::State& state, const std::string& path, const char* variant) {
-  const Mesh* m = load(path);
+// Embeds 64 bits into m with the variant, once per iteration.
+void embed_mesh(benchmark::State& state, const Mesh* m, const std::string& path,
+                const char* variant) {
   if (!m) return state.SkipWithError(("missing " + path).c_str());
   const Payload p = random_payload(64, 1);
   EmbedOptions o;
@@ -47,6 +48,10 @@ void embed_variant(benchmark::State& state, const std::string& path, const char*
   }
   state.counters["vertices"] = static_cast<double>(m->V.rows());
   state.SetItemsProcessed(state.iterations() * m->V.rows());
+}
+
+void embed_variant(benchmark::State& state, const std::string& path, const char* variant) {
+  embed_mesh(state, load(path), path, variant);
 }
 
 // A real mesh made larger by Loop subdivision (cached), for the scaling benchmarks.
@@ -61,18 +66,7 @@ const Mesh* subdivided(const std::string& path, int times) {
 }
 
 void embed_scaling(benchmark::State& state, const std::string& path, const char* variant) {
-  const Mesh* m = subdivided(path, static_cast<int>(state.range(0)));
-  if (!m) return state.SkipWithError(("missing " + path).c_str());
-  EmbedOptions o;
-  o.variant = parse_variant(variant);
-  const Payload p = random_payload(64, 1);
-  for (auto _ : state) {
-    EmbedResult r = embed(m->V, m->F, p, o);
-    if (r.status != EmbedStatus::Embedded) state.SkipWithError(r.message.c_str());
-    benchmark::DoNotOptimize(r.V.data());
-  }
-  state.counters["vertices"] = static_cast<double>(m->V.rows());
-  state.SetItemsProcessed(state.iterations() * m->V.rows());
+  embed_mesh(state, subdivided(path, static_cast<int>(state.range(0))), path, variant);
 }
 
 void roughness(benchmark::State& state, const std::string& path) {
