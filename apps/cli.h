@@ -49,6 +49,14 @@ Mesh read_input(const std::string& path, const InputOptions& options);
 /// Throws InvalidArgumentError when output names the same file as any of the inputs.
 void refuse_overwrite(const std::string& output, std::initializer_list<std::string> inputs);
 
+/// Throws InvalidArgumentError unless path ends in .ply (colored maps are PLY).
+void require_ply(const std::string& path);
+
+/// Writes mesh to path as binary PLY with values (one per vertex, in [0, 1]) as heat colors,
+/// blue 0 to red 1; refuses a non-PLY path or one of the inputs.
+void write_heat_map(const std::string& path, std::initializer_list<std::string> inputs,
+                    const Mesh& mesh, const Eigen::VectorXd& values);
+
 /// Writes a mesh; refuses to write over the input file.
 void write_output(const std::string& path, const std::string& input_path, const Mesh& mesh,
                   const OutputOptions& options);

@@ -39,18 +39,7 @@ int run(const CompareArgs& args) {
   const PerceptualDistance m2 = msdm2(A.V, A.F, B.V, B.F);
   j["msdm2"] = m2.global;
   if (!args.map.empty()) {
-    if (format_from_path(args.map) != FileFormat::Ply)
-      throw InvalidArgumentError(
-          fmt::format("{}: the distortion map is written as PLY (.ply)", args.map));
-    refuse_overwrite(args.map, {args.a, args.b});
-    const double top = std::max(m2.local.maxCoeff(), 1e-12);
-    Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3> colors(A.V.rows(), 3);
-    for (Eigen::Index i = 0; i < A.V.rows(); ++i)
-      colors.row(i) = heat_color(m2.local(i) / top).cast<std::uint8_t>().transpose();
-    WriteOptions wo;
-    wo.vertex_colors = &colors;
-    wo.encoding = Encoding::BinaryLittleEndian;
-    write_mesh(args.map, A, wo);
+    write_heat_map(args.map, {args.a, args.b}, A, m2.local / std::max(m2.local.maxCoeff(), 1e-12));
     j["map"] = args.map;
   }
   if (args.json) {

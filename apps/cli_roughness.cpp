@@ -22,20 +22,11 @@ struct RoughnessArgs {
 };
 
 int run(const RoughnessArgs& a) {
-  if (format_from_path(a.output) != FileFormat::Ply)
-    throw InvalidArgumentError(
-        fmt::format("{}: the colored field is written as PLY (.ply)", a.output));
-  Mesh mesh = read_input(a.input, a.in);
+  require_ply(a.output);
+  const Mesh mesh = read_input(a.input, a.in);
   const RoughnessField f = roughness_field(mesh.V, mesh.F, a.field);
   // Red where rough, blue where smooth.
-  Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3> colors(mesh.V.rows(), 3);
-  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
-    colors.row(i) = heat_color(1 - f.smoothness(i)).cast<std::uint8_t>().transpose();
-  WriteOptions wo;
-  wo.vertex_colors = &colors;
-  wo.encoding = Encoding::BinaryLittleEndian;
-  refuse_overwrite(a.output, {a.input});
-  write_mesh(a.output, mesh, wo);
+  write_heat_map(a.output, {a.input}, mesh, Eigen::VectorXd(1 - f.smoothness.array()));
   const double smooth = (f.smoothness.array() > f.smooth_threshold).cast<double>().mean();
   if (a.json) {
     nlohmann::json j = {{"input", a.input},

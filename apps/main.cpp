@@ -8,6 +8,7 @@
 
 #include "cli.h"
 #include "meshmark/error.h"
+#include "meshmark/roughness.h"
 
 namespace meshmark::cli {
 
@@ -43,6 +44,24 @@ void refuse_overwrite(const std::string& output, std::initializer_list<std::stri
     if (std::filesystem::equivalent(output, input, ec))
       throw InvalidArgumentError(fmt::format("{}: refusing to overwrite an input file", output));
   }
+}
+
+void require_ply(const std::string& path) {
+  if (format_from_path(path) != FileFormat::Ply)
+    throw InvalidArgumentError(fmt::format("{}: colored maps are written as PLY (.ply)", path));
+}
+
+void write_heat_map(const std::string& path, std::initializer_list<std::string> inputs,
+                    const Mesh& mesh, const Eigen::VectorXd& values) {
+  require_ply(path);
+  refuse_overwrite(path, inputs);
+  Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3> colors(mesh.V.rows(), 3);
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    colors.row(i) = heat_color(values(i)).cast<std::uint8_t>().transpose();
+  WriteOptions wo;
+  wo.vertex_colors = &colors;
+  wo.encoding = Encoding::BinaryLittleEndian;
+  write_mesh(path, mesh, wo);
 }
 
 void write_output(const std::string& path, const std::string& input_path, const Mesh& mesh,
