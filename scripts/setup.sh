@@ -10,6 +10,7 @@ packages=(
   libeigen3-dev libfmt-dev libcli11-dev nlohmann-json3-dev   # library and CLI
   libgtest-dev libgmock-dev libbenchmark-dev       # tests and benchmarks
   coinor-libipopt-dev                              # independent QP solver for the optimality tests
+  libsodium-dev                                    # BLAKE2b and ChaCha20 for secret keys
   libcgal-dev libcgal-demo                         # CGAL, and its real meshes (data.tar.gz)
   clang libclang-rt-14-dev                         # libFuzzer and sanitizers (scripts/fuzz.sh)
   python3                                          # small helper scripts

@@ -1,0 +1,67 @@
+#pragma once
+/// \file key.h
+/// Secret keys and the keyed layout of payload bits over histogram bins.
+///
+/// A key is 32 bytes derived by BLAKE2b (libsodium's crypto_generichash) from a passphrase or
+/// from the bytes of a key file, each under its own domain string, so that a passphrase and a
+/// file with the same bytes give different keys. From a key and the payload length nb, a
+/// ChaCha20 keystream draws a permutation of the bits over the bins (bit j is carried by bin
+/// bin_of[j] + 1) and a whitening mask (bit j is written XOR whitening[j]). Without the key
+/// the bins read as a permuted, whitened word: noise. The canonical layout (identity, no
+/// whitening, ../shared/spec/WATERMARK.md section 1) stays available and is the default.
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "meshmark/payload.h"
+
+namespace meshmark {
+
+/// A 256-bit secret key.
+struct Key {
+  std::array<std::uint8_t, 32> bytes{};
+  bool operator==(const Key&) const = default;
+};
+
+/// The key of a passphrase (BLAKE2b-256 under the domain "meshmark/passphrase/v1").
+/// \throw InvalidArgumentError for an empty passphrase.
+Key key_from_passphrase(std::string_view passphrase);
+
+/// The key of a key file's bytes (BLAKE2b-256 under the domain "meshmark/key-file/v1").
+/// \throw IOError when the file cannot be read; InvalidInputError when it is empty.
+Key key_from_file(const std::string& path);
+
+/// The public key meshmark uses to whiten coded IDs when no secret key is given (so that an
+/// unmarked mesh's structured bits do not look like a codeword). Not a secret.
+const Key& public_key();
+
+/// Which bin carries which bit, and the whitening of each bit.
+struct BitLayout {
+  std::vector<int> bin_of;              ///< bit j is carried by payload bin bin_of[j] (0-based)
+  std::vector<std::uint8_t> whitening;  ///< bit j is written as bit XOR whitening[j]
+  int size() const { return static_cast<int>(bin_of.size()); }
+
+  /// The canonical unkeyed layout of nb bits: bin_of[j] = j, no whitening.
+  static BitLayout canonical(int nb);
+  /// The keyed layout of nb bits (a permutation and a mask drawn from the key's keystream;
+  /// nb is part of the stream's nonce, so each length has its own layout).
+  static BitLayout keyed(const Key& key, int nb);
+
+  /// The word to embed: bin order, whitened. payload.size() must equal size().
+  Payload to_bins(const Payload& payload) const;
+  /// Bits read in bin order (0, 1 or an erasure > 1) back in payload order, unwhitened
+  /// (erasures stay erasures).
+  std::vector<std::uint8_t> from_bins(const std::vector<std::uint8_t>& bin_bits) const;
+  /// Any per-bin values (margins, counts) in payload order.
+  std::vector<double> values_from_bins(const std::vector<double>& bin_values) const;
+};
+
+/// BLAKE2b of data keyed with key, truncated to nbits bits (MSB-first of the digest), as bits.
+/// The integrity check of coded IDs. 1 <= nbits <= 512.
+std::vector<std::uint8_t> keyed_hash_bits(const Key& key, std::string_view domain,
+                                          const std::vector<std::uint8_t>& data, int nbits);
+
+}  // namespace meshmark

@@ -1,0 +1,165 @@
+#include "meshmark/key.h"
+
+#include <fmt/format.h>
+#include <sodium.h>
+
+#include <fstream>
+#include <iterator>
+
+#include "meshmark/error.h"
+
+namespace meshmark {
+
+namespace {
+
+void ensure_sodium() {
+  static const int status = sodium_init();  // thread-safe once; 1 = already initialized
+  if (status < 0) throw Error("libsodium could not be initialized");
+}
+
+// BLAKE2b-256 of domain || 0 || data, optionally keyed.
+Key hash_under_domain(std::string_view domain, const unsigned char* data, std::size_t size) {
+  ensure_sodium();
+  crypto_generichash_state state;
+  crypto_generichash_init(&state, nullptr, 0, 32);
+  crypto_generichash_update(&state, reinterpret_cast<const unsigned char*>(domain.data()),
+                            domain.size());
+  const unsigned char zero = 0;
+  crypto_generichash_update(&state, &zero, 1);
+  crypto_generichash_update(&state, data, size);
+  Key key;
+  crypto_generichash_final(&state, key.bytes.data(), key.bytes.size());
+  return key;
+}
+
+// The ChaCha20 keystream of (key, nonce) read as 32-bit words; grows its buffer on demand
+// (the stream is deterministic, so a longer buffer extends the same sequence).
+class KeyStream {
+ public:
+  KeyStream(const Key& key, std::uint64_t nonce) : key_(key) {
+    for (int i = 0; i < 8; ++i) nonce_[i] = static_cast<unsigned char>(nonce >> (8 * i));
+  }
+  std::uint32_t next() {
+    if (pos_ + 4 > buffer_.size()) {
+      buffer_.assign(std::max<std::size_t>(256, 2 * buffer_.size()), 0);
+      crypto_stream_chacha20(buffer_.data(), buffer_.size(), nonce_, key_.bytes.data());
+    }
+    std::uint32_t w = 0;
+    for (int i = 0; i < 4; ++i) w |= std::uint32_t(buffer_[pos_ + i]) << (8 * i);
+    pos_ += 4;
+    return w;
+  }
+  // Uniform in [0, bound), by rejection.
+  std::uint32_t below(std::uint32_t bound) {
+    const std::uint64_t span = std::uint64_t(1) << 32;
+    const std::uint64_t limit = span - span % bound;
+    for (;;) {
+      const std::uint32_t w = next();
+      if (w < limit) return w % bound;
+    }
+  }
+
+ private:
+  Key key_;
+  unsigned char nonce_[8]{};
+  std::vector<unsigned char> buffer_;
+  std::size_t pos_ = 0;
+};
+
+}  // namespace
+
+Key key_from_passphrase(std::string_view passphrase) {
+  if (passphrase.empty()) throw InvalidArgumentError("the key passphrase is empty");
+  return hash_under_domain("meshmark/passphrase/v1",
+                           reinterpret_cast<const unsigned char*>(passphrase.data()),
+                           passphrase.size());
+}
+
+Key key_from_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IOError(fmt::format("{}: cannot open the key file", path));
+  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
+                                         std::istreambuf_iterator<char>());
+  if (in.bad()) throw IOError(fmt::format("{}: cannot read the key file", path));
+  if (bytes.empty()) throw InvalidInputError(path, 0, "the key file is empty");
+  return hash_under_domain("meshmark/key-file/v1", bytes.data(), bytes.size());
+}
+
+const Key& public_key() {
+  static const Key key = key_from_passphrase("meshmark public whitening key");
+  return key;
+}
+
+BitLayout BitLayout::canonical(int nb) {
+  if (nb < 1) throw InvalidArgumentError(fmt::format("a layout needs at least 1 bit, not {}", nb));
+  BitLayout layout;
+  layout.bin_of.resize(nb);
+  for (int j = 0; j < nb; ++j) layout.bin_of[j] = j;
+  layout.whitening.assign(nb, 0);
+  return layout;
+}
+
+BitLayout BitLayout::keyed(const Key& key, int nb) {
+  BitLayout layout = canonical(nb);
+  ensure_sodium();
+  KeyStream stream(key, static_cast<std::uint64_t>(nb));
+  // Fisher-Yates, uniform over the nb! permutations.
+  for (int i = nb - 1; i > 0; --i)
+    std::swap(layout.bin_of[i], layout.bin_of[stream.below(static_cast<std::uint32_t>(i) + 1)]);
+  for (int j = 0; j < nb; ++j) layout.whitening[j] = static_cast<std::uint8_t>(stream.next() >> 31);
+  return layout;
+}
+
+Payload BitLayout::to_bins(const Payload& payload) const {
+  if (payload.size() != size())
+    throw InvalidArgumentError(
+        fmt::format("payload of {} bits for a layout of {} bits", payload.size(), size()));
+  Payload out;
+  out.bits.resize(size());
+  for (int j = 0; j < size(); ++j) out.bits[bin_of[j]] = (payload.bits[j] & 1) ^ whitening[j];
+  return out;
+}
+
+std::vector<std::uint8_t> BitLayout::from_bins(const std::vector<std::uint8_t>& bin_bits) const {
+  if (static_cast<int>(bin_bits.size()) != size())
+    throw InvalidArgumentError(
+        fmt::format("{} bits read for a layout of {} bits", bin_bits.size(), size()));
+  std::vector<std::uint8_t> out(size());
+  for (int j = 0; j < size(); ++j) {
+    const std::uint8_t b = bin_bits[bin_of[j]];
+    out[j] = b > 1 ? b : static_cast<std::uint8_t>(b ^ whitening[j]);
+  }
+  return out;
+}
+
+std::vector<double> BitLayout::values_from_bins(const std::vector<double>& bin_values) const {
+  if (static_cast<int>(bin_values.size()) != size())
+    throw InvalidArgumentError(
+        fmt::format("{} values read for a layout of {} bits", bin_values.size(), size()));
+  std::vector<double> out(size());
+  for (int j = 0; j < size(); ++j) out[j] = bin_values[bin_of[j]];
+  return out;
+}
+
+std::vector<std::uint8_t> keyed_hash_bits(const Key& key, std::string_view domain,
+                                          const std::vector<std::uint8_t>& data, int nbits) {
+  if (nbits < 1 || nbits > 512)
+    throw InvalidArgumentError(fmt::format("a hash of {} bits is out of 1..512", nbits));
+  ensure_sodium();
+  const std::size_t bytes = (static_cast<std::size_t>(nbits) + 7) / 8;
+  const std::size_t out_len = std::max<std::size_t>(bytes, crypto_generichash_BYTES_MIN);
+  crypto_generichash_state state;
+  crypto_generichash_init(&state, key.bytes.data(), key.bytes.size(), out_len);
+  crypto_generichash_update(&state, reinterpret_cast<const unsigned char*>(domain.data()),
+                            domain.size());
+  const unsigned char zero = 0;
+  crypto_generichash_update(&state, &zero, 1);
+  crypto_generichash_update(&state, data.data(), data.size());
+  std::vector<unsigned char> digest(out_len);
+  crypto_generichash_final(&state, digest.data(), out_len);
+  std::vector<std::uint8_t> bits(nbits);
+  for (int i = 0; i < nbits; ++i) bits[i] = (digest[i / 8] >> (7 - i % 8)) & 1;
+  return bits;
+}
+
+}  // namespace meshmark

@@ -1,0 +1,258 @@
+// Keys, keyed layouts, the ID code and detection, checked against independent computations:
+// published BCH parameters, exhaustive error patterns, Pascal's triangle, uniform random words.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <numeric>
+#include <set>
+
+#include "meshmark/coding.h"
+#include "meshmark/detect.h"
+#include "meshmark/error.h"
+#include "meshmark/key.h"
+#include "meshmark/random.h"
+#include "test_data.h"
+
+namespace meshmark {
+namespace {
+
+std::vector<std::uint8_t> random_bits(int n, Random& rng) {
+  std::vector<std::uint8_t> bits(n);
+  for (auto& b : bits) b = rng.next() >> 63;
+  return bits;
+}
+
+TEST(Key, PassphraseAndFileKeysAreDeterministicAndDistinct) {
+  const Key a = key_from_passphrase("studio secret");
+  EXPECT_EQ(a, key_from_passphrase("studio secret"));
+  EXPECT_NE(a, key_from_passphrase("studio secreT"));
+  const std::string path = test::scratch_dir() + "/key.bin";
+  std::ofstream(path, std::ios::binary) << "studio secret";
+  // Same bytes, other domain: a key file never collides with a passphrase.
+  EXPECT_NE(a, key_from_file(path));
+  EXPECT_EQ(key_from_file(path), key_from_file(path));
+  EXPECT_THROW(key_from_passphrase(""), InvalidArgumentError);
+  EXPECT_THROW(key_from_file(path + ".missing"), IOError);
+  const std::string empty = test::scratch_dir() + "/empty.key";
+  std::ofstream(empty, std::ios::binary).flush();
+  EXPECT_THROW(key_from_file(empty), InvalidInputError);
+}
+
+TEST(Key, KeyedLayoutIsAPermutationWithBalancedWhitening) {
+  const int nb = 1024;
+  const BitLayout layout = BitLayout::keyed(key_from_passphrase("k"), nb);
+  std::vector<int> sorted = layout.bin_of;
+  std::sort(sorted.begin(), sorted.end());
+  for (int j = 0; j < nb; ++j) ASSERT_EQ(sorted[j], j);
+  // A fair mask: 1024 fair bits have a standard deviation of 16; allow 5 of them.
+  const int ones = std::accumulate(layout.whitening.begin(), layout.whitening.end(), 0);
+  EXPECT_NEAR(ones, nb / 2, 80);
+  // Fixed points of a uniform permutation: about 1 on average; far fewer than nb.
+  int fixed = 0;
+  for (int j = 0; j < nb; ++j) fixed += layout.bin_of[j] == j;
+  EXPECT_LT(fixed, 10);
+  // Another key, another layout; another length, another layout.
+  EXPECT_NE(layout.bin_of, BitLayout::keyed(key_from_passphrase("l"), nb).bin_of);
+  const BitLayout shorter = BitLayout::keyed(key_from_passphrase("k"), 64);
+  EXPECT_EQ(shorter.size(), 64);
+}
+
+TEST(Key, LayoutRoundTripsAndKeepsErasures) {
+  Random rng(5);
+  const BitLayout layout = BitLayout::keyed(key_from_passphrase("round trip"), 64);
+  Payload p{random_bits(64, rng)};
+  const Payload bins = layout.to_bins(p);
+  std::vector<std::uint8_t> back = layout.from_bins(bins.bits);
+  EXPECT_EQ(back, p.bits);
+  std::vector<std::uint8_t> with_erasure = bins.bits;
+  with_erasure[layout.bin_of[7]] = 2;
+  back = layout.from_bins(with_erasure);
+  EXPECT_EQ(back[7], 2);
+  // Bin values follow their bits.
+  std::vector<double> values(64);
+  for (int b = 0; b < 64; ++b) values[b] = b;
+  const std::vector<double> per_bit = layout.values_from_bins(values);
+  for (int j = 0; j < 64; ++j) EXPECT_EQ(per_bit[j], layout.bin_of[j]);
+  // Canonical: identity, no whitening (the spec's unkeyed layout).
+  EXPECT_EQ(BitLayout::canonical(64).to_bins(p), p);
+}
+
+TEST(Bch, ParityBitsMatchThePublishedTables) {
+  // (n, k, t) of primitive binary BCH codes (Lin & Costello, table 6.1): parity = n - k.
+  struct Row {
+    int m, t, k;
+  };
+  const Row rows[] = {{5, 1, 26},  {5, 2, 21},  {5, 3, 16},  {5, 5, 11},  {5, 7, 6},   {6, 1, 57},
+                      {6, 2, 51},  {6, 3, 45},  {6, 4, 39},  {6, 5, 36},  {6, 6, 30},  {6, 7, 24},
+                      {6, 10, 18}, {6, 11, 16}, {6, 13, 10}, {7, 1, 120}, {7, 2, 113}, {7, 4, 99},
+                      {7, 9, 71},  {7, 10, 64}, {8, 1, 247}, {8, 2, 239}, {8, 3, 231}};
+  for (const Row& r : rows)
+    EXPECT_EQ(bch_parity_bits(r.m, r.t), (1 << r.m) - 1 - r.k) << "m " << r.m << " t " << r.t;
+}
+
+TEST(IdCode, DefaultCodeMeetsItsFalseAcceptBound) {
+  const IdCode code;
+  EXPECT_EQ(code.bits(), 64);
+  EXPECT_EQ(code.field_degree(), 6);
+  // Independently: t = 3 would need 2^p * V(64, 3) * 2^-32 <= 1e-6, false even for p = 0.
+  const double v2 = 1 + 64 + 64 * 63 / 2, v3 = v2 + 64.0 * 63 * 62 / 6;
+  EXPECT_GT(v3 / std::exp2(32), 1e-6);
+  EXPECT_EQ(code.correction(), 2);
+  EXPECT_EQ(code.chase_depth(), 1);  // 2 * V(64, 2) / 2^32 = 9.7e-7; 4 * ... > 1e-6
+  EXPECT_NEAR(code.false_accept_bound(), 2 * v2 / std::exp2(32), 1e-12);
+  EXPECT_EQ(code.parity_bits(), 12);
+  EXPECT_EQ(code.check_bits(), 63 - 12 - 32);
+}
+
+TEST(IdCode, CorrectsEveryPatternOfAtMostTErrors) {
+  const IdCode code;
+  const Key key = key_from_passphrase("exhaustive");
+  for (const std::uint64_t id : {0ull, 0xFFFFFFFFull, 0x1234ABCDull}) {
+    const Payload c = code.encode(id, key);
+    ASSERT_EQ(code.decode(c.bits, {}, key).id, id);
+    int tested = 0;
+    for (int a = 0; a < 64; ++a)
+      for (int b = a; b < 64; ++b) {  // b == a: a single error
+        std::vector<std::uint8_t> word = c.bits;
+        word[a] ^= 1;
+        if (b != a) word[b] ^= 1;
+        const IdDecodeResult r = code.decode(word, {}, key);
+        ASSERT_TRUE(r.valid) << "errors at " << a << ", " << b;
+        ASSERT_EQ(r.id, id);
+        ASSERT_EQ(r.corrected, a == b ? 1 : 2);
+        ++tested;
+      }
+    EXPECT_EQ(tested, 64 + 64 * 63 / 2);
+  }
+}
+
+TEST(IdCode, ChaseCorrectsAnExtraErrorOnTheLeastReliableBit) {
+  const IdCode code;
+  const Key key = key_from_passphrase("chase");
+  Random rng(11);
+  for (int trial = 0; trial < 200; ++trial) {
+    const std::uint64_t id = rng.next() >> 32;
+    std::vector<std::uint8_t> word = code.encode(id, key).bits;
+    std::vector<double> margins(64);
+    for (auto& m : margins) m = 0.05 + 0.1 * rng.uniform();
+    std::vector<int> positions(64);
+    std::iota(positions.begin(), positions.end(), 0);
+    for (int i = 0; i < 3; ++i) std::swap(positions[i], positions[i + rng.next() % (64 - i)]);
+    for (int i = 0; i < 3; ++i) word[positions[i]] ^= 1;
+    margins[positions[0]] = 0.001;  // the weakest bit is wrong: Chase flips it back
+    const IdDecodeResult r = code.decode(word, margins, key);
+    ASSERT_TRUE(r.valid) << trial;
+    ASSERT_EQ(r.id, id);
+    EXPECT_EQ(r.corrected, 3);
+    EXPECT_FALSE(code.decode(word, {}, key).valid);  // 3 hard errors exceed t = 2
+  }
+}
+
+TEST(IdCode, DistinctCodewordsAreAtLeast2TPlus2Apart) {
+  const IdCode code;
+  const Key key = public_key();
+  Random rng(3);
+  int smallest = 64;
+  for (int i = 0; i < 3000; ++i) {
+    const std::uint64_t a = rng.next() >> 32, b = rng.next() >> 32;
+    if (a == b) continue;
+    const Payload ca = code.encode(a, key), cb = code.encode(b, key);
+    int d = 0;
+    for (int j = 0; j < 64; ++j) d += ca.bits[j] != cb.bits[j];
+    smallest = std::min(smallest, d);
+  }
+  EXPECT_GE(smallest, 2 * code.correction() + 2);
+}
+
+TEST(IdCode, UniformRandomWordsAlmostNeverDecode) {
+  // The bound says at most 9.7e-7 per word: over 300,000 words about 0.3 expected.
+  const IdCode code;
+  const Key key = key_from_passphrase("random words");
+  Random rng(17);
+  int accepted = 0;
+  const int words = 300000;
+  for (int i = 0; i < words; ++i) {
+    std::vector<std::uint8_t> w = random_bits(64, rng);
+    std::vector<double> margins(64);
+    for (auto& m : margins) m = rng.uniform() * 0.5;
+    accepted += code.decode(w, margins, key).valid;
+  }
+  EXPECT_LE(accepted, 3) << "of " << words << " uniform words";
+}
+
+TEST(IdCode, WrongKeyNeverYieldsAnId) {
+  const IdCode code;
+  const Key right = key_from_passphrase("right");
+  const Payload c = code.encode(0xC0FFEE, right);
+  for (int k = 0; k < 100; ++k) {
+    const Key wrong = key_from_passphrase("wrong " + std::to_string(k));
+    EXPECT_FALSE(code.decode(c.bits, {}, wrong).valid) << k;
+  }
+}
+
+TEST(IdCode, LongerPayloadsCorrectMore) {
+  IdCodeOptions o;
+  o.bits = 128;
+  const IdCode code(o);
+  EXPECT_GE(code.correction(), 10);
+  EXPECT_LE(code.false_accept_bound(), 1e-6);
+  const Key key = key_from_passphrase("long");
+  Random rng(23);
+  for (int trial = 0; trial < 50; ++trial) {
+    const std::uint64_t id = rng.next() >> 32;
+    std::vector<std::uint8_t> w = code.encode(id, key).bits;
+    std::set<int> flipped;
+    while (static_cast<int>(flipped.size()) < code.correction()) flipped.insert(rng.next() % 128);
+    for (int j : flipped) w[j] ^= 1;
+    const IdDecodeResult r = code.decode(w, {}, key);
+    ASSERT_TRUE(r.valid);
+    EXPECT_EQ(r.id, id);
+  }
+}
+
+TEST(IdCode, RefusesImpossibleOptions) {
+  IdCodeOptions o;
+  o.bits = 40;  // a 32-bit ID cannot reach 1e-6 with 8 redundant bits
+  EXPECT_THROW(IdCode{o}, InvalidArgumentError);
+  o = {};
+  o.id_bits = 33;
+  EXPECT_THROW(IdCode{o}, InvalidArgumentError);
+  EXPECT_THROW(IdCode().encode(1ull << 32, public_key()), InvalidArgumentError);
+  EXPECT_THROW(IdCode().decode(std::vector<std::uint8_t>(63), {}, public_key()),
+               InvalidArgumentError);
+}
+
+TEST(Detect, BinomialTailMatchesPascalsTriangle) {
+  for (const int n : {1, 10, 64, 200}) {
+    // Row n of Pascal's triangle in long double, independent of lgamma.
+    std::vector<long double> row(n + 1, 0);
+    row[0] = 1;
+    for (int i = 1; i <= n; ++i)
+      for (int k = i; k >= 1; --k) row[k] += row[k - 1];
+    for (int k = 0; k <= n + 1; ++k) {
+      long double tail = 0;
+      for (int i = std::max(k, 0); i <= n; ++i) tail += row[i];
+      tail = std::ldexp(tail, -n);
+      const double got = binomial_tail(n, k);
+      EXPECT_NEAR(got, static_cast<double>(tail), 1e-10 * static_cast<double>(tail) + 1e-300)
+          << "n " << n << " k " << k;
+    }
+  }
+}
+
+TEST(Detect, CountsMatchesAndErasures) {
+  Payload expected{{1, 0, 1, 1, 0, 0, 1, 0}};
+  const DetectResult r = detect({1, 0, 1, 2, 0, 1, 1, 0}, expected);
+  EXPECT_EQ(r.compared, 8);
+  EXPECT_EQ(r.matches, 6);
+  EXPECT_EQ(r.erasures, 1);
+  EXPECT_NEAR(r.p_value, (28 + 8 + 1) / 256.0, 1e-15);
+  EXPECT_FALSE(r.detected);
+  EXPECT_THROW(detect({1, 0}, expected), InvalidArgumentError);
+}
+
+}  // namespace
+}  // namespace meshmark
