@@ -6,8 +6,12 @@
 #include <stdexcept>
 #include <string>
 
+#include <optional>
+
+#include "meshmark/coding.h"
 #include "meshmark/embed.h"
 #include "meshmark/io.h"
+#include "meshmark/key.h"
 
 namespace meshmark::cli {
 
@@ -19,6 +23,7 @@ enum Exit : int {
   kWriteFailed = 3,  ///< the output cannot be written
   kNotEmbedded = 4,  ///< embedding infeasible, not converged, or the mesh has no histogram
   kBitErrors = 5,    ///< extract --expect found bit errors or erasures
+  kNoId = 6,         ///< extract --id-bits found no valid ID; detect did not detect
   kInternal = 70,    ///< a bug
 };
 
@@ -61,6 +66,26 @@ void write_heat_map(const std::string& path, std::initializer_list<std::string> 
 void write_output(const std::string& path, const std::string& input_path, const Mesh& mesh,
                   const OutputOptions& options);
 
+/// --key, --key-file, --id-bits.
+struct KeyArgs {
+  std::string passphrase, file;
+  int id_bits = 32;
+};
+void add_key_options(CLI::App& app, KeyArgs& args);
+
+/// The key of --key or --key-file, or none (a key file that cannot be read is bad input).
+std::optional<Key> resolve_key(const KeyArgs& args);
+
+/// Parses an ID: decimal, or hexadecimal with 0x. \throw InvalidArgumentError otherwise.
+std::uint64_t parse_id(const std::string& text);
+
+/// The layout of nb bits: keyed with the key; without one, coded IDs are whitened with the
+/// public key and raw payloads use the canonical layout.
+BitLayout layout_for(const std::optional<Key>& key, int nb, bool coded);
+
+/// The ID code for nb payload bits and --id-bits.
+IdCode id_code(const KeyArgs& args, int nb);
+
 void register_embed(CLI::App& app, int& exit_code);
 
 /// embed --batch: runs every line of the manifest (INPUT OUTPUT PAYLOAD) on all cores, each
@@ -71,5 +96,6 @@ void register_extract(CLI::App& app, int& exit_code);
 void register_attack(CLI::App& app, int& exit_code);
 void register_roughness(CLI::App& app, int& exit_code);
 void register_compare(CLI::App& app, int& exit_code);
+void register_detect(CLI::App& app, int& exit_code);
 
 }  // namespace meshmark::cli

@@ -14,7 +14,8 @@ namespace meshmark::cli {
 namespace {
 
 struct EmbedArgs {
-  std::string input, output, payload, variant = "DRS", solver = "native", batch;
+  std::string input, output, payload, id, variant = "DRS", solver = "native", batch;
+  KeyArgs keys;
   int bits = 64;
   EmbedOptions embed;
   InputOptions in;
@@ -27,16 +28,24 @@ int run(const EmbedArgs& a) {
   options.variant = parse_variant(a.variant);
   options.backend = a.solver == "ipopt" ? SolverBackend::Ipopt : SolverBackend::Native;
   if (!a.batch.empty()) {
-    if (!a.input.empty() || !a.payload.empty())
+    if (!a.input.empty() || !a.payload.empty() || !a.id.empty())
       throw InvalidArgumentError(
           "--batch takes its inputs, outputs and payloads from the manifest");
+    if (!a.keys.passphrase.empty() || !a.keys.file.empty())
+      throw InvalidArgumentError("--batch embeds raw payloads in the canonical layout: no key");
     return run_batch(a.batch, a.bits, options, a.in, a.out);
   }
-  if (a.input.empty() || a.output.empty() || a.payload.empty())
-    throw InvalidArgumentError("embed needs IN, OUT and --payload (or --batch MANIFEST)");
-  const Payload payload = payload_from_hex(a.payload, a.bits);
+  if (a.input.empty() || a.output.empty() || a.payload.empty() == a.id.empty())
+    throw InvalidArgumentError(
+        "embed needs IN, OUT and one of --payload or --id (or --batch MANIFEST)");
+  const std::optional<Key> key = resolve_key(a.keys);
+  const bool coded = !a.id.empty();
+  const Payload payload =
+      coded ? id_code(a.keys, a.bits).encode(parse_id(a.id), key ? *key : public_key())
+            : payload_from_hex(a.payload, a.bits);
+  const Payload bins = layout_for(key, a.bits, coded).to_bins(payload);
   Mesh mesh = read_input(a.input, a.in);
-  const EmbedResult r = embed(mesh.V, mesh.F, payload, options);
+  const EmbedResult r = embed(mesh.V, mesh.F, bins, options);
   const bool ok = r.status == EmbedStatus::Embedded;
   if (ok) {
     mesh.V = r.V;
@@ -50,6 +59,8 @@ int run(const EmbedArgs& a) {
                         {"variant", a.variant},
                         {"solver", a.solver},
                         {"payload", payload_to_hex(payload)},
+                        {"id", coded ? nlohmann::json(parse_id(a.id)) : nlohmann::json(nullptr)},
+                        {"keyed", key.has_value()},
                         {"bits", a.bits},
                         {"strength", options.strength},
                         {"bin_offset", options.bin_offset},
@@ -70,8 +81,12 @@ int run(const EmbedArgs& a) {
     fmt::print("{}\n", j.dump(2));
   } else {
     fmt::print("{}: {}\n", ok ? "embedded" : "NOT embedded", r.message);
-    fmt::print("  payload          {} ({} bits, variant {}, strength {}, bin offset {})\n",
-               payload_to_hex(payload), a.bits, a.variant, options.strength, options.bin_offset);
+    if (coded)
+      fmt::print("  ID               {} ({} bits, coded)\n", parse_id(a.id), a.keys.id_bits);
+    fmt::print("  payload          {} ({} bits, {}, variant {}, strength {}, bin offset {})\n",
+               payload_to_hex(payload), a.bits,
+               key ? "keyed layout" : (coded ? "public whitening" : "canonical layout"), a.variant,
+               options.strength, options.bin_offset);
     fmt::print("  rounds           {} ({} solver iterations, KKT residual {:.2e})\n", r.rounds,
                r.solver_iterations, r.kkt_residual);
     fmt::print("  smallest margin  {:.6f} (target {})\n", r.min_margin, options.strength);
@@ -97,6 +112,9 @@ void register_embed(CLI::App& app, int& exit_code) {
   sub->add_option("--batch", args->batch,
                   "manifest: one 'INPUT OUTPUT PAYLOAD' per line, run on all cores");
   sub->add_option("--payload", args->payload, "payload in hexadecimal (bin 1's bit first)");
+  sub->add_option("--id", args->id,
+                  "buyer ID to embed with error correction and an integrity check (decimal or "
+                  "0x hex; --id-bits long)");
   sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, 1 << 20));
   sub->add_option("--variant", args->variant,
                   "center (D S V), direction (R N S), cost (S Q L); default DRS");
@@ -112,6 +130,7 @@ void register_embed(CLI::App& app, int& exit_code) {
                   "native (structured, exact) or ipopt (general-purpose, for comparison)")
       ->check(CLI::IsMember({"native", "ipopt"}));
   sub->add_flag("--json", args->json, "print a JSON report");
+  add_key_options(*sub, args->keys);
   add_input_options(*sub, args->in);
   add_output_options(*sub, args->out);
   sub->callback([args, &exit_code] { exit_code = run(*args); });

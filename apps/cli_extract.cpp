@@ -1,4 +1,4 @@
-// meshmark extract IN [--expect HEX]
+// meshmark extract IN [--expect HEX] [--coded] [--key K | --key-file F]
 
 #include <fmt/format.h>
 #include <cmath>
@@ -18,7 +18,8 @@ struct ExtractArgs {
   std::string input, expect, variant = "DRS";
   int bits = 64;
   InputOptions in;
-  bool json = false;
+  KeyArgs keys;
+  bool json = false, coded = false;
 };
 
 int run(const ExtractArgs& a) {
@@ -29,41 +30,70 @@ int run(const ExtractArgs& a) {
   options.center = parse_variant(a.variant).center;
   std::optional<Payload> expected;
   if (!a.expect.empty()) expected = payload_from_hex(a.expect, a.bits);
+  const std::optional<Key> key = resolve_key(a.keys);
+  const BitLayout layout = layout_for(key, a.bits, a.coded);
+  std::optional<IdCode> code;
+  if (a.coded) code.emplace(id_code(a.keys, a.bits));
   const Mesh mesh = read_input(a.input, a.in);
   const ExtractResult r = extract(mesh.V, mesh.F, options);
-  const std::string hex = payload_to_hex(r.payload());
+  // Per bit, in payload order (the layout maps bits to bins).
+  const std::vector<std::uint8_t> bits = layout.from_bins(r.bits);
+  const std::vector<double> margins = layout.values_from_bins(r.margins);
+  const std::vector<double> means = layout.values_from_bins(r.means);
+  Payload read;
+  for (const std::uint8_t b : bits) read.bits.push_back(b == 1);
+  const std::string hex = payload_to_hex(read);
   double ber = 0;
-  if (expected) ber = bit_error_rate(r.bits, *expected);
+  if (expected) ber = bit_error_rate(bits, *expected);
+  IdDecodeResult id;
+  if (code) id = code->decode(bits, margins, key ? *key : public_key());
   if (a.json) {
-    nlohmann::json bits = nlohmann::json::array();
-    for (std::size_t j = 0; j < r.bits.size(); ++j)
-      bits.push_back({{"bit", j},
-                      {"value", r.bits[j] == kErasure ? nlohmann::json(nullptr)
-                                                      : nlohmann::json(int(r.bits[j]))},
-                      {"mean", std::isfinite(r.means[j]) ? nlohmann::json(r.means[j])
-                                                         : nlohmann::json(nullptr)},
-                      {"margin", r.margins[j]},
-                      {"vertices", r.counts[j]}});
-    nlohmann::json j = {{"input", a.input},
-                        {"payload", hex},
-                        {"bits", a.bits},
-                        {"erasures", r.erasures},
-                        {"min_margin", r.min_margin()},
-                        {"per_bit", bits}};
+    nlohmann::json per_bit = nlohmann::json::array();
+    for (std::size_t j = 0; j < bits.size(); ++j) {
+      const int bin = layout.bin_of[j];
+      per_bit.push_back(
+          {{"bit", j},
+           {"bin", bin + 1},
+           {"value", bits[j] == kErasure ? nlohmann::json(nullptr) : nlohmann::json(int(bits[j]))},
+           {"mean", std::isfinite(means[j]) ? nlohmann::json(means[j]) : nlohmann::json(nullptr)},
+           {"margin", margins[j]},
+           {"vertices", r.counts[bin]}});
+    }
+    nlohmann::json j = {{"input", a.input},       {"payload", hex},
+                        {"bits", a.bits},         {"keyed", key.has_value()},
+                        {"erasures", r.erasures}, {"min_margin", r.min_margin()},
+                        {"per_bit", per_bit}};
     if (expected) j["expected"] = payload_to_hex(*expected), j["bit_error_rate"] = ber;
+    if (code) {
+      j["id_valid"] = id.valid;
+      j["id"] = id.valid ? nlohmann::json(id.id) : nlohmann::json(nullptr);
+      j["id_message"] = id.message;
+      j["id_bits_corrected"] = id.valid ? nlohmann::json(id.corrected) : nlohmann::json(nullptr);
+      j["false_accept_bound"] = code->false_accept_bound();
+    }
     fmt::print("{}\n", j.dump(2));
   } else {
-    fmt::print("payload {}\n", hex);
+    if (code) {
+      if (id.valid)
+        fmt::print(
+            "id {} ({} of {} bits corrected; a random word decodes with probability < "
+            "{:.1e})\n",
+            id.id, id.corrected, a.bits, code->false_accept_bound());
+      else
+        fmt::print("no valid ID: {}\n", id.message);
+    }
+    fmt::print("payload {}{}\n", hex, key ? " (keyed layout)" : "");
     if (r.erasures > 0) fmt::print("erasures {} (empty bins read as 0)\n", r.erasures);
     fmt::print("smallest margin {:.6f}\n", r.min_margin());
-    fmt::print("bit  value  mean      margin    vertices\n");
-    for (std::size_t j = 0; j < r.bits.size(); ++j)
-      fmt::print("{:>3}  {:>5}  {:<8.6f}  {:<8.6f}  {}\n", j,
-                 r.bits[j] == kErasure ? "?" : std::to_string(r.bits[j]), r.means[j], r.margins[j],
-                 r.counts[j]);
+    fmt::print("bit  bin  value  mean      margin    vertices\n");
+    for (std::size_t j = 0; j < bits.size(); ++j)
+      fmt::print("{:>3}  {:>3}  {:>5}  {:<8.6f}  {:<8.6f}  {}\n", j, layout.bin_of[j] + 1,
+                 bits[j] == kErasure ? "?" : std::to_string(bits[j]), means[j], margins[j],
+                 r.counts[layout.bin_of[j]]);
     if (expected)
       fmt::print("expected {}\nbit error rate {:.6f}\n", payload_to_hex(*expected), ber);
   }
+  if (code && !id.valid) return kNoId;
   return expected && ber > 0 ? kBitErrors : kOk;
 }
 
@@ -78,6 +108,9 @@ void register_extract(CLI::App& app, int& exit_code) {
                   "the embedding's variant (its center letter matters)");
   sub->add_option("--expect", args->expect, "expected payload (hex): report the bit error rate");
   sub->add_flag("--json", args->json, "print a JSON report");
+  sub->add_flag("--coded", args->coded,
+                "the payload is a coded ID (embed --id): decode it, or report that none is valid");
+  add_key_options(*sub, args->keys);
   add_input_options(*sub, args->in);
   sub->callback([args, &exit_code] { exit_code = run(*args); });
 }

@@ -95,6 +95,7 @@ int main(int argc, char** argv) {
   cli::register_attack(app, exit_code);
   cli::register_roughness(app, exit_code);
   cli::register_compare(app, exit_code);
+  cli::register_detect(app, exit_code);
   try {
     app.parse(argc, argv);
     return exit_code;

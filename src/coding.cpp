@@ -251,11 +251,11 @@ IdDecodeResult IdCode::decode(const std::vector<std::uint8_t>& bits,
   }
   if (ambiguous) {
     IdDecodeResult none;
-    none.message = "two different IDs decode: no valid ID";
+    none.message = "two different IDs decode (ambiguous)";
     return none;
   }
   if (!best.valid) {
-    best.message = "no valid ID (too many bit errors, another key, or no watermark)";
+    best.message = "too many bit errors, another key, or no watermark";
     return best;
   }
   best.message = fmt::format("ID found, {} of {} bits corrected", best.corrected, n_);

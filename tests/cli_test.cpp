@@ -14,25 +14,10 @@
 using namespace meshmark;
 
 namespace {
-
-struct CliRun {
-  int code = -1;
-  std::string out;
-};
-
+using test::CliRun;
 CliRun run(const std::string& args) {
-  const std::string cmd = std::string(MESHMARK_CLI) + " " + args + " 2>&1";
-  CliRun r;
-  FILE* pipe = popen(cmd.c_str(), "r");
-  if (!pipe) return r;
-  std::array<char, 4096> buf;
-  std::size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), pipe)) > 0) r.out.append(buf.data(), n);
-  const int status = pclose(pipe);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
+  return test::run_cli(args);
 }
-
 }  // namespace
 
 TEST(Cli, EmbedThenExtractRoundTrips) {

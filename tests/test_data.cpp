@@ -1,6 +1,10 @@
 #include "test_data.h"
 
+#include <sys/wait.h>
+
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <random>
 #include <sstream>
@@ -84,6 +88,19 @@ std::vector<std::string> words(const std::string& line) {
   std::vector<std::string> w;
   for (std::string t; in >> t;) w.push_back(t);
   return w;
+}
+
+CliRun run_cli(const std::string& args) {
+  const std::string cmd = std::string(MESHMARK_CLI) + " " + args + " 2>&1";
+  CliRun r;
+  FILE* pipe = popen(cmd.c_str(), "r");
+  if (!pipe) return r;
+  std::array<char, 4096> buf;
+  std::size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), pipe)) > 0) r.out.append(buf.data(), n);
+  const int status = pclose(pipe);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
 }
 
 }  // namespace meshmark::test

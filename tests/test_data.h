@@ -27,6 +27,15 @@ Mesh bumpy_sphere(int n_theta, int n_phi, unsigned seed);
 /// The lines of a text (split at '\n', terminators dropped).
 std::vector<std::string> split_lines(const std::string& text);
 
+/// What a run of the meshmark command line printed (stdout and stderr) and its exit code.
+struct CliRun {
+  int code = -1;
+  std::string out;
+};
+
+/// Runs the meshmark CLI with args (a shell command line tail).
+CliRun run_cli(const std::string& args);
+
 /// The whitespace-separated words of a line.
 std::vector<std::string> words(const std::string& line);
 

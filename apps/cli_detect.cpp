@@ -1,0 +1,90 @@
+// meshmark detect IN --expect ID | --expect-payload HEX [--key K | --key-file F]
+
+#include <fmt/format.h>
+
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "cli.h"
+#include "meshmark/decode.h"
+#include "meshmark/detect.h"
+#include "meshmark/error.h"
+#include "meshmark/variant.h"
+
+namespace meshmark::cli {
+
+namespace {
+
+struct DetectArgs {
+  std::string input, expect_id, expect_payload, variant = "DRS";
+  int bits = 64;
+  double threshold = 1e-6;
+  KeyArgs keys;
+  InputOptions in;
+  bool json = false;
+};
+
+int run(const DetectArgs& a) {
+  if (a.expect_id.empty() == a.expect_payload.empty())
+    throw InvalidArgumentError("detect needs one of --expect ID or --expect-payload HEX");
+  const bool coded = !a.expect_id.empty();
+  const std::optional<Key> key = resolve_key(a.keys);
+  const Payload expected =
+      coded ? id_code(a.keys, a.bits).encode(parse_id(a.expect_id), key ? *key : public_key())
+            : payload_from_hex(a.expect_payload, a.bits);
+  const BitLayout layout = layout_for(key, a.bits, coded);
+  DetectOptions options;
+  options.threshold = a.threshold;
+  ExtractOptions eo;
+  eo.bits = a.bits;
+  eo.center = parse_variant(a.variant).center;
+  const Mesh mesh = read_input(a.input, a.in);
+  const ExtractResult r = extract(mesh.V, mesh.F, eo);
+  const DetectResult d = detect(layout.from_bins(r.bits), expected, options);
+  if (a.json) {
+    nlohmann::json j = {
+        {"input", a.input},
+        {"expected", payload_to_hex(expected)},
+        {"id", coded ? nlohmann::json(parse_id(a.expect_id)) : nlohmann::json(nullptr)},
+        {"keyed", key.has_value()},
+        {"bits", d.compared},
+        {"matches", d.matches},
+        {"erasures", d.erasures},
+        {"p_value", d.p_value},
+        {"threshold", a.threshold},
+        {"detected", d.detected}};
+    fmt::print("{}\n", j.dump(2));
+  } else {
+    fmt::print("{}: {} of {} bits match{}\n", a.input, d.matches, d.compared,
+               d.erasures ? fmt::format(" ({} unreadable)", d.erasures) : "");
+    fmt::print(
+        "probability that an unmarked mesh, or one marked under another key, matches as "
+        "well: {:.3g}\n",
+        d.p_value);
+    fmt::print("{} (threshold {:g})\n", d.detected ? "DETECTED" : "not detected", a.threshold);
+  }
+  return d.detected ? kOk : kNoId;
+}
+
+}  // namespace
+
+void register_detect(CLI::App& app, int& exit_code) {
+  auto args = std::make_shared<DetectArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "detect", "Test whether a mesh carries an expected ID, with a false-alarm probability");
+  sub->add_option("IN", args->input, "mesh to test")->required();
+  sub->add_option("--expect", args->expect_id, "expected ID (embed --id): decimal or 0x hex");
+  sub->add_option("--expect-payload", args->expect_payload,
+                  "expected raw payload (embed --payload), hexadecimal");
+  sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, 1 << 20));
+  sub->add_option("--variant", args->variant, "the embedding's variant (its center matters)");
+  sub->add_option("--threshold", args->threshold,
+                  "declare the mark present below this false-alarm probability")
+      ->check(CLI::Range(1e-300, 0.5));
+  sub->add_flag("--json", args->json, "print a JSON report");
+  add_key_options(*sub, args->keys);
+  add_input_options(*sub, args->in);
+  sub->callback([args, &exit_code] { exit_code = run(*args); });
+}
+
+}  // namespace meshmark::cli

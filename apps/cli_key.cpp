@@ -1,0 +1,61 @@
+// --key, --key-file, --id and --id-bits: how the commands turn an ID or a payload into the bits
+// written in the bins, and back.
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <cstdlib>
+
+#include "cli.h"
+#include "meshmark/error.h"
+
+namespace meshmark::cli {
+
+void add_key_options(CLI::App& app, KeyArgs& args) {
+  app.add_option("--key", args.passphrase,
+                 "secret passphrase: keyed layout of the bits (visible to other users of this "
+                 "machine in the process list; prefer --key-file)");
+  app.add_option("--key-file", args.file, "secret key file (its bytes, hashed)");
+  app.add_option("--id-bits", args.id_bits, "length of a coded ID in bits (1..32)")
+      ->check(CLI::Range(1, 32));
+}
+
+std::optional<Key> resolve_key(const KeyArgs& args) {
+  if (!args.passphrase.empty() && !args.file.empty())
+    throw InvalidArgumentError("give --key or --key-file, not both");
+  if (!args.passphrase.empty()) return key_from_passphrase(args.passphrase);
+  if (!args.file.empty()) {
+    try {
+      return key_from_file(args.file);
+    } catch (const IOError& e) {
+      throw InputFailure(e.what());
+    }
+  }
+  return std::nullopt;
+}
+
+std::uint64_t parse_id(const std::string& text) {
+  if (text.empty() || text[0] == '-' || text[0] == '+')
+    throw InvalidArgumentError(fmt::format("ID '{}' is not a non-negative integer", text));
+  errno = 0;
+  char* end = nullptr;
+  const unsigned long long value = std::strtoull(text.c_str(), &end, 0);
+  if (errno != 0 || end == text.c_str() || *end != '\0')
+    throw InvalidArgumentError(
+        fmt::format("ID '{}' is not an integer (decimal, or hexadecimal with 0x)", text));
+  return value;
+}
+
+BitLayout layout_for(const std::optional<Key>& key, int nb, bool coded) {
+  if (key) return BitLayout::keyed(*key, nb);
+  return coded ? BitLayout::keyed(public_key(), nb) : BitLayout::canonical(nb);
+}
+
+IdCode id_code(const KeyArgs& args, int nb) {
+  IdCodeOptions o;
+  o.bits = nb;
+  o.id_bits = args.id_bits;
+  return IdCode(o);
+}
+
+}  // namespace meshmark::cli
