@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Builds the mesh-reader fuzzer (libFuzzer with AddressSanitizer and UndefinedBehaviorSanitizer,
+# Builds the fuzzers (the mesh readers; hexadecimal payloads and the ID decoder) (libFuzzer with AddressSanitizer and UndefinedBehaviorSanitizer,
 # clang from Debian) and runs it for a bounded time per format, seeded with real meshes.
 # Usage: scripts/fuzz.sh [SECONDS_PER_FORMAT] (default 20). Crashes land in fuzz/crashes/;
 # keep each as a regression in fuzz/regressions/ (tests read every file there).
@@ -12,6 +12,9 @@ mkdir -p "$out" fuzz/crashes
 sources="src/error.cpp src/mesh.cpp src/text_scan.cpp src/file_image.cpp src/io.cpp src/io_off.cpp src/io_obj.cpp src/io_ply.cpp src/io_stl.cpp"
 clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
   -Iinclude -Isrc -isystem /usr/include/eigen3 $sources fuzz/fuzz_read.cpp -lfmt -o "$out/fuzz_read"
+clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
+  -Iinclude -Isrc src/error.cpp src/payload.cpp src/key.cpp src/coding.cpp fuzz/fuzz_decode.cpp \
+  -lfmt -lsodium -o "$out/fuzz_decode"
 # Seeds: real meshes, each prefixed with the byte that selects its format.
 seeds="$out/seeds"
 rm -rf "$seeds" && mkdir -p "$seeds"
@@ -30,4 +33,7 @@ corpus="$out/corpus"
 mkdir -p "$corpus"
 "$out/fuzz_read" -max_total_time="$seconds" -max_len=400000 -timeout=10 -rss_limit_mb=4096 \
   -artifact_prefix=fuzz/crashes/ -print_final_stats=1 "$corpus" "$seeds" 2>&1 | tail -15
-echo "fuzz: no crash in ${seconds} s"
+mkdir -p "$out/corpus-decode"
+"$out/fuzz_decode" -max_total_time="$seconds" -max_len=1024 -timeout=10 -rss_limit_mb=2048 \
+  -artifact_prefix=fuzz/crashes/ -print_final_stats=1 "$out/corpus-decode" 2>&1 | tail -6
+echo "fuzz: no crash in ${seconds} s per target"
