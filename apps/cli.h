@@ -97,5 +97,7 @@ void register_attack(CLI::App& app, int& exit_code);
 void register_roughness(CLI::App& app, int& exit_code);
 void register_compare(CLI::App& app, int& exit_code);
 void register_detect(CLI::App& app, int& exit_code);
+void register_calibrate(CLI::App& app, int& exit_code);
+void register_bench(CLI::App& app, int& exit_code);
 
 }  // namespace meshmark::cli

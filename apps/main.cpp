@@ -96,6 +96,8 @@ int main(int argc, char** argv) {
   cli::register_roughness(app, exit_code);
   cli::register_compare(app, exit_code);
   cli::register_detect(app, exit_code);
+  cli::register_calibrate(app, exit_code);
+  cli::register_bench(app, exit_code);
   try {
     app.parse(argc, argv);
     return exit_code;

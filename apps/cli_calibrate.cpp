@@ -1,0 +1,147 @@
+// meshmark calibrate IN --variant V [--max-rms 0.04] [--max-msdm 0.25]: the largest strength
+// within both limits, printed and kept in a cache (JSON lines) keyed by the mesh file's content
+// hash, the variant and every setting, so that asking again answers at once.
+
+#include <fmt/format.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "cli.h"
+#include "meshmark/calibrate.h"
+#include "meshmark/campaign.h"
+#include "meshmark/error.h"
+#include "meshmark/key.h"
+#include "meshmark/variant.h"
+
+namespace meshmark::cli {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct CalibrateArgs {
+  std::string input, variant = "DRS", cache;
+  int bits = 64;
+  CalibrateOptions options;
+  InputOptions in;
+  bool no_cache = false, json = false;
+};
+
+std::string default_cache() {
+  if (const char* d = std::getenv("XDG_CACHE_HOME"); d && *d)
+    return (fs::path(d) / "meshmark" / "calibration.jsonl").string();
+  if (const char* h = std::getenv("HOME"); h && *h)
+    return (fs::path(h) / ".cache" / "meshmark" / "calibration.jsonl").string();
+  return "meshmark-calibration.jsonl";
+}
+
+// Content hash of the file (BLAKE2b-128 through the public key), hex.
+std::string file_hash(const std::string& path) {
+  std::string bytes;
+  try {
+    bytes = read_file(path);
+  } catch (const IOError& e) {
+    throw InputFailure(e.what());
+  }
+  const std::vector<std::uint8_t> data(bytes.begin(), bytes.end());
+  const std::vector<std::uint8_t> bits =
+      keyed_hash_bits(public_key(), "meshmark/file/v1", data, 128);
+  std::string hex;
+  for (std::size_t i = 0; i < bits.size(); i += 4)
+    hex += "0123456789abcdef"[bits[i] << 3 | bits[i + 1] << 2 | bits[i + 2] << 1 | bits[i + 3]];
+  return hex;
+}
+
+int run(const CalibrateArgs& a) {
+  const Variant variant = parse_variant(a.variant);
+  const std::string key =
+      fmt::format("{}|{}|{}|rms {}|msdm {}|range {} {}|steps {}|v1", file_hash(a.input),
+                  variant.name(), a.bits, a.options.max_rms_percent, a.options.max_msdm,
+                  a.options.min_strength, a.options.max_strength, a.options.iterations);
+  const std::string cache = a.cache.empty() ? default_cache() : a.cache;
+  nlohmann::json found;
+  if (!a.no_cache && fs::exists(cache)) {
+    std::ifstream in(cache);
+    for (std::string line; std::getline(in, line);) {
+      try {
+        const nlohmann::json j = nlohmann::json::parse(line);
+        if (j.value("key", "") == key) found = j;  // the last entry wins
+      } catch (const nlohmann::json::exception&) {
+      }
+    }
+  }
+  const bool cached = !found.is_null();
+  if (!cached) {
+    const Mesh mesh = read_input(a.input, a.in);
+    EmbedOptions eo;
+    eo.variant = variant;
+    const CalibrateResult r =
+        calibrate_strength(mesh.V, mesh.F, calibration_payload(a.bits, 1), eo, a.options);
+    found = {{"key", key},
+             {"input", a.input},
+             {"variant", variant.name()},
+             {"bits", a.bits},
+             {"status", calibrate_status_name(r.status)},
+             {"strength", r.strength},
+             {"rms_percent", r.rms_percent},
+             {"msdm", r.msdm},
+             {"evaluations", r.evaluations},
+             {"seconds", r.seconds},
+             {"message", r.message}};
+    if (!a.no_cache) {
+      std::error_code ec;
+      fs::create_directories(
+          fs::path(cache).parent_path().empty() ? fs::path(".") : fs::path(cache).parent_path(),
+          ec);
+      std::ofstream out(cache, std::ios::app);
+      out << found.dump() << "\n";
+      if (!out) fmt::print(stderr, "meshmark: warning: {}: cannot save the calibration\n", cache);
+    }
+  }
+  const double strength = found["strength"].get<double>();
+  if (a.json) {
+    nlohmann::json j = found;
+    j["cached"] = cached;
+    j["cache"] = a.no_cache ? "" : cache;
+    fmt::print("{}\n", j.dump(2));
+  } else {
+    fmt::print(
+        "strength {:.5f}  ({}: RMS {:.5f} % of the diagonal, MSDM {:.4f}; limits {} % and "
+        "{}){}\n",
+        strength, found["status"].get<std::string>(), found["rms_percent"].get<double>(),
+        found["msdm"].get<double>(), a.options.max_rms_percent, a.options.max_msdm,
+        cached ? " [cached]" : "");
+    if (!a.no_cache) fmt::print("cache    {}\n", cache);
+  }
+  return strength > 0 ? kOk : kNotEmbedded;
+}
+
+}  // namespace
+
+void register_calibrate(CLI::App& app, int& exit_code) {
+  auto args = std::make_shared<CalibrateArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "calibrate", "The largest strength whose distortion stays within RMS and MSDM limits");
+  sub->add_option("IN", args->input, "mesh to calibrate on")->required();
+  sub->add_option("--variant", args->variant, "variant (default DRS)");
+  sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, 1 << 20));
+  sub->add_option("--max-rms", args->options.max_rms_percent,
+                  "vertex RMS limit, % of the bounding-box diagonal (default 0.04)")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--max-msdm", args->options.max_msdm, "MSDM limit (default 0.25)")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--iterations", args->options.iterations, "bisection steps (default 12)")
+      ->check(CLI::Range(1, 60));
+  sub->add_option("--cache", args->cache,
+                  "cache file (default $XDG_CACHE_HOME or ~/.cache/meshmark/calibration.jsonl)");
+  sub->add_flag("--no-cache", args->no_cache, "neither read nor write the cache");
+  sub->add_flag("--json", args->json, "print a JSON report");
+  add_input_options(*sub, args->in);
+  sub->callback([args, &exit_code] { exit_code = run(*args); });
+}
+
+}  // namespace meshmark::cli

@@ -1,0 +1,457 @@
+#include "meshmark/campaign.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <set>
+
+#include "meshmark/attack.h"
+#include "meshmark/decode.h"
+#include "meshmark/error.h"
+#include "meshmark/io.h"
+#include "meshmark/metrics.h"
+#include "meshmark/random.h"
+#include "meshmark/variant.h"
+
+#ifndef MESHMARK_DEFAULT_SHARED_DIR
+#define MESHMARK_DEFAULT_SHARED_DIR "../shared"
+#endif
+#ifndef MESHMARK_DEFAULT_CGAL_DATA
+#define MESHMARK_DEFAULT_CGAL_DATA "build/cgal-data/data/meshes"
+#endif
+
+namespace meshmark {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+// FNV-1a of a text, finished by SplitMix64: a seed per trial key.
+std::uint64_t seed_of(const std::string& text, std::uint64_t salt) {
+  std::uint64_t h = 1469598103934665603ull ^ salt;
+  for (const unsigned char c : text) h = (h ^ c) * 1099511628211ull;
+  return Random(h).next();
+}
+
+std::string expand(std::string path, const fs::path& base) {
+  auto replace = [&](const std::string& token, const char* env, const char* fallback) {
+    const char* value = std::getenv(env);
+    const std::string with = value && *value ? value : fallback;
+    for (std::size_t at; (at = path.find(token)) != std::string::npos;)
+      path.replace(at, token.size(), with);
+  };
+  replace("${shared}", "MESHMARK_SHARED_DIR", MESHMARK_DEFAULT_SHARED_DIR);
+  replace("${cgal}", "MESHMARK_CGAL_DATA", MESHMARK_DEFAULT_CGAL_DATA);
+  fs::path p(path);
+  if (p.is_relative()) p = base / p;
+  return p.lexically_normal().string();
+}
+
+[[noreturn]] void bad(const std::string& file, const std::string& what) {
+  throw InvalidInputError(file, 0, what);
+}
+
+void check_keys(const std::string& file, const json& object, const std::string& where,
+                std::initializer_list<const char*> allowed) {
+  for (auto it = object.begin(); it != object.end(); ++it)
+    if (std::none_of(allowed.begin(), allowed.end(), [&](const char* k) { return it.key() == k; }))
+      bad(file, fmt::format("{}: unknown key \"{}\"", where, it.key()));
+}
+
+std::string csv_quote(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string out = "\"";
+  for (const char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+}  // namespace
+
+bool attack_is_deterministic(const std::string& kind) {
+  static const std::set<std::string> fixed = {"none",     "quant",  "smooth",   "taubin",
+                                              "simplify", "loop",   "midpoint", "sqrt3",
+                                              "float32",  "to-obj", "to-off",   "to-stl"};
+  return fixed.count(kind) > 0;
+}
+
+CampaignConfig load_campaign(const std::string& path) {
+  const std::string text = read_file(path);
+  json j;
+  try {
+    j = json::parse(text);
+  } catch (const json::parse_error& e) {
+    bad(path, fmt::format("not valid JSON (byte {}): {}", e.byte, e.what()));
+  }
+  if (!j.is_object()) bad(path, "a campaign is a JSON object");
+  check_keys(path, j, "campaign",
+             {"name", "description", "models", "variants", "bits", "payloads", "draws", "seed",
+              "calibration", "strength", "attacks"});
+  const fs::path base = fs::absolute(path).parent_path();
+  CampaignConfig c;
+  c.source = path;
+  try {
+    c.name = j.value("name", fs::path(path).stem().string());
+    c.bits = j.value("bits", 64);
+    c.payloads = j.value("payloads", 6);
+    c.draws = j.value("draws", 10);
+    c.seed = j.value("seed", std::uint64_t{1});
+    if (c.bits < 1 || c.bits > 4096) bad(path, fmt::format("bits {} is out of 1..4096", c.bits));
+    if (c.payloads < 1) bad(path, "payloads must be at least 1");
+    if (c.draws < 1) bad(path, "draws must be at least 1");
+    if (!j.contains("models") || !j["models"].is_array() || j["models"].empty())
+      bad(path, "\"models\" must be a non-empty array");
+    std::set<std::string> names;
+    for (std::size_t i = 0; i < j["models"].size(); ++i) {
+      const json& m = j["models"][i];
+      CampaignModel model;
+      if (m.is_string()) {
+        model.path = expand(m.get<std::string>(), base);
+      } else if (m.is_object()) {
+        check_keys(path, m, fmt::format("models[{}]", i), {"name", "path"});
+        if (!m.contains("path")) bad(path, fmt::format("models[{}] has no \"path\"", i));
+        model.path = expand(m["path"].get<std::string>(), base);
+        model.name = m.value("name", "");
+      } else {
+        bad(path, fmt::format("models[{}] is neither a path nor an object", i));
+      }
+      if (model.name.empty()) model.name = fs::path(model.path).stem().string();
+      if (!fs::is_regular_file(model.path))
+        bad(path, fmt::format("models[{}]: {} does not exist", i, model.path));
+      if (!names.insert(model.name).second)
+        bad(path, fmt::format("models[{}]: the name \"{}\" is used twice", i, model.name));
+      c.models.push_back(model);
+    }
+    if (!j.contains("variants") || !j["variants"].is_array() || j["variants"].empty())
+      bad(path, "\"variants\" must be a non-empty array");
+    for (const json& v : j["variants"]) {
+      const std::string name = v.get<std::string>();
+      try {
+        c.variants.push_back(parse_variant(name).name());
+      } catch (const InvalidArgumentError& e) {
+        bad(path, fmt::format("variant \"{}\": {}", name, e.what()));
+      }
+    }
+    if (j.contains("strength") && j.contains("calibration"))
+      bad(path, "give \"strength\" or \"calibration\", not both");
+    if (j.contains("strength")) {
+      c.calibrate = false;
+      c.strength = j["strength"].get<double>();
+      if (!(c.strength > 0 && c.strength < 0.5))
+        bad(path, fmt::format("strength {} is out of (0, 1/2)", c.strength));
+    }
+    if (j.contains("calibration")) {
+      const json& k = j["calibration"];
+      check_keys(path, k, "calibration", {"max_rms", "max_msdm", "iterations", "min", "max"});
+      c.calibration.max_rms_percent = k.value("max_rms", c.calibration.max_rms_percent);
+      c.calibration.max_msdm = k.value("max_msdm", c.calibration.max_msdm);
+      c.calibration.iterations = k.value("iterations", c.calibration.iterations);
+      c.calibration.min_strength = k.value("min", c.calibration.min_strength);
+      c.calibration.max_strength = k.value("max", c.calibration.max_strength);
+    }
+    c.attacks.push_back({"none", {0.0}, 1});
+    if (j.contains("attacks")) {
+      if (!j["attacks"].is_array()) bad(path, "\"attacks\" must be an array");
+      for (std::size_t i = 0; i < j["attacks"].size(); ++i) {
+        const json& a = j["attacks"][i];
+        const std::string where = fmt::format("attacks[{}]", i);
+        if (!a.is_object()) bad(path, where + " is not an object");
+        check_keys(path, a, where, {"kind", "strengths", "draws"});
+        AttackSeries s;
+        s.kind = a.value("kind", "");
+        if (s.kind == "none") continue;  // always there
+        const auto& kinds = attack_kinds();
+        if (std::none_of(kinds.begin(), kinds.end(),
+                         [&](const auto& k) { return k.first == s.kind; }))
+          bad(path, fmt::format("{}: unknown attack kind \"{}\"", where, s.kind));
+        if (!a.contains("strengths") || !a["strengths"].is_array() || a["strengths"].empty())
+          bad(path, where + ": \"strengths\" must be a non-empty array");
+        s.strengths = a["strengths"].get<std::vector<double>>();
+        s.draws = a.value("draws", 0);
+        for (const double x : s.strengths) try {
+            (void)parse_attack_chain(fmt::format("{}:{}", s.kind, x));
+          } catch (const Error& e) {
+            bad(path, fmt::format("{}: strength {}: {}", where, x, e.what()));
+          }
+        c.attacks.push_back(s);
+      }
+    }
+  } catch (const json::exception& e) {
+    bad(path, fmt::format("a value has the wrong type: {}", e.what()));
+  }
+  return c;
+}
+
+std::vector<CampaignUnit> campaign_units(const CampaignConfig& c) {
+  std::vector<CampaignUnit> units;
+  for (int m = 0; m < static_cast<int>(c.models.size()); ++m)
+    for (int v = 0; v < static_cast<int>(c.variants.size()); ++v)
+      for (int p = 0; p < c.payloads; ++p) units.push_back({m, v, p});
+  return units;
+}
+
+namespace {
+int draws_of(const CampaignConfig& c, const AttackSeries& s) {
+  if (s.draws > 0) return s.draws;
+  return attack_is_deterministic(s.kind) ? 1 : c.draws;
+}
+}  // namespace
+
+int trials_per_unit(const CampaignConfig& c) {
+  int n = 0;
+  for (const AttackSeries& s : c.attacks)
+    n += static_cast<int>(s.strengths.size()) * draws_of(c, s);
+  return n;
+}
+
+Payload campaign_payload(const CampaignConfig& c, int p) {
+  return random_payload(c.bits, seed_of(fmt::format("payload {}", p), c.seed));
+}
+
+Payload calibration_payload(int bits, std::uint64_t seed) {
+  return random_payload(bits, seed_of("calibration", seed));
+}
+
+std::string trial_key(const std::string& model, const std::string& variant, int payload,
+                      const std::string& attack, double attack_strength, int draw) {
+  return fmt::format("{}|{}|{}|{}|{}|{}", model, variant, payload, attack, attack_strength, draw);
+}
+
+CalibrationRecord calibrate_for_campaign(const CampaignConfig& c, int model, int variant,
+                                         const Mesh& mesh) {
+  CalibrationRecord r;
+  r.model = c.models[model].name;
+  r.variant = c.variants[variant];
+  if (!c.calibrate) {
+    r.status = "fixed";
+    r.strength = c.strength;
+    return r;
+  }
+  EmbedOptions eo;
+  eo.variant = parse_variant(r.variant);
+  const CalibrateResult k =
+      calibrate_strength(mesh.V, mesh.F, calibration_payload(c.bits, c.seed), eo, c.calibration);
+  r.status = calibrate_status_name(k.status);
+  r.strength = k.strength;
+  r.rms_percent = k.rms_percent;
+  r.msdm = k.msdm;
+  r.seconds = k.seconds;
+  r.evaluations = k.evaluations;
+  return r;
+}
+
+namespace {
+struct PlannedTrial {
+  const AttackSeries* series;
+  double strength;
+  int draw;
+  std::string key;
+};
+std::vector<PlannedTrial> plan(const CampaignConfig& c, const CampaignUnit& u) {
+  std::vector<PlannedTrial> trials;
+  for (const AttackSeries& s : c.attacks)
+    for (const double x : s.strengths)
+      for (int d = 0; d < draws_of(c, s); ++d)
+        trials.push_back(
+            {&s, x, d,
+             trial_key(c.models[u.model].name, c.variants[u.variant], u.payload, s.kind, x, d)});
+  return trials;
+}
+}  // namespace
+
+std::vector<std::string> unit_trial_keys(const CampaignConfig& c, const CampaignUnit& u) {
+  std::vector<std::string> keys;
+  for (PlannedTrial& t : plan(c, u)) keys.push_back(std::move(t.key));
+  return keys;
+}
+
+void run_campaign_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& mesh,
+                       const CalibrationRecord& record,
+                       const std::function<bool(const std::string& key)>& done,
+                       const std::function<void(const TrialRow&)>& emit) {
+  const std::string& model = c.models[u.model].name;
+  const std::string& variant = c.variants[u.variant];
+  std::vector<PlannedTrial> todo;
+  for (PlannedTrial& t : plan(c, u))
+    if (!done(t.key)) todo.push_back(std::move(t));
+  if (todo.empty()) return;
+  const Payload payload = campaign_payload(c, u.payload);
+  EmbedOptions eo;
+  eo.variant = parse_variant(variant);
+  TrialRow base;
+  base.model = model;
+  base.variant = variant;
+  base.payload = u.payload;
+  base.strength = record.strength;
+  Mesh marked = mesh;
+  bool embedded = record.strength > 0;
+  if (!embedded) base.status = "no strength meets the calibration limits";
+  if (embedded) {
+    eo.strength = record.strength;
+    const auto t0 = Clock::now();
+    const EmbedResult e = embed(mesh.V, mesh.F, payload, eo);
+    base.embed_seconds = since(t0);
+    embedded = e.status == EmbedStatus::Embedded;
+    if (embedded) {
+      marked.V = e.V;
+      base.rms_percent = e.rms_percent;
+      base.msdm = msdm(mesh.V, e.V, mesh.F).global;
+      base.status = "ok";
+    } else {
+      base.status = fmt::format("embedding {}: {}", embed_status_name(e.status), e.message);
+    }
+  }
+  ExtractOptions xo;
+  xo.bits = c.bits;
+  xo.center = eo.variant.center;
+  for (const auto& [series, x, d, key] : todo) {
+    TrialRow row = base;
+    row.key = key;
+    row.attack = series->kind;
+    row.attack_strength = x;
+    row.draw = d;
+    row.ber = 0.5;
+    if (embedded) {
+      try {
+        const auto t0 = Clock::now();
+        const Mesh attacked = series->kind == "none"
+                                  ? marked
+                                  : apply_attack(marked, {series->kind, x}, seed_of(key, c.seed));
+        row.attack_seconds = since(t0);
+        const auto t1 = Clock::now();
+        const ExtractResult r = extract(attacked.V, attacked.F, xo);
+        row.extract_seconds = since(t1);
+        row.ber = bit_error_rate(r.bits, payload);
+        row.erasures = r.erasures;
+        row.vertices = static_cast<int>(attacked.V.rows());
+      } catch (const Error& e) {
+        row.status = fmt::format("attack failed: {}", e.what());
+      }
+    }
+    emit(row);
+  }
+}
+
+std::string row_to_json(const TrialRow& r) {
+  const json j = {{"key", r.key},
+                  {"model", r.model},
+                  {"variant", r.variant},
+                  {"payload", r.payload},
+                  {"strength", r.strength},
+                  {"rms_percent", r.rms_percent},
+                  {"msdm", r.msdm},
+                  {"attack", r.attack},
+                  {"attack_strength", r.attack_strength},
+                  {"draw", r.draw},
+                  {"vertices", r.vertices},
+                  {"ber", r.ber},
+                  {"erasures", r.erasures},
+                  {"status", r.status},
+                  {"embed_seconds", r.embed_seconds},
+                  {"attack_seconds", r.attack_seconds},
+                  {"extract_seconds", r.extract_seconds}};
+  return j.dump();
+}
+
+TrialRow row_from_json(const std::string& line) {
+  try {
+    const json j = json::parse(line);
+    TrialRow r;
+    r.key = j.at("key").get<std::string>();
+    r.model = j.at("model").get<std::string>();
+    r.variant = j.at("variant").get<std::string>();
+    r.payload = j.at("payload").get<int>();
+    r.strength = j.at("strength").get<double>();
+    r.rms_percent = j.at("rms_percent").get<double>();
+    r.msdm = j.at("msdm").get<double>();
+    r.attack = j.at("attack").get<std::string>();
+    r.attack_strength = j.at("attack_strength").get<double>();
+    r.draw = j.at("draw").get<int>();
+    r.vertices = j.at("vertices").get<int>();
+    r.ber = j.at("ber").get<double>();
+    r.erasures = j.at("erasures").get<int>();
+    r.status = j.at("status").get<std::string>();
+    r.embed_seconds = j.at("embed_seconds").get<double>();
+    r.attack_seconds = j.at("attack_seconds").get<double>();
+    r.extract_seconds = j.at("extract_seconds").get<double>();
+    return r;
+  } catch (const json::exception& e) {
+    throw InvalidInputError("rows", 0, fmt::format("not a campaign row: {}", e.what()));
+  }
+}
+
+std::string calibration_to_json(const CalibrationRecord& r) {
+  return json{{"model", r.model},       {"variant", r.variant},         {"status", r.status},
+              {"strength", r.strength}, {"rms_percent", r.rms_percent}, {"msdm", r.msdm},
+              {"seconds", r.seconds},   {"evaluations", r.evaluations}}
+      .dump();
+}
+
+CalibrationRecord calibration_from_json(const std::string& line) {
+  try {
+    const json j = json::parse(line);
+    CalibrationRecord r;
+    r.model = j.at("model").get<std::string>();
+    r.variant = j.at("variant").get<std::string>();
+    r.status = j.at("status").get<std::string>();
+    r.strength = j.at("strength").get<double>();
+    r.rms_percent = j.at("rms_percent").get<double>();
+    r.msdm = j.at("msdm").get<double>();
+    r.seconds = j.at("seconds").get<double>();
+    r.evaluations = j.at("evaluations").get<int>();
+    return r;
+  } catch (const json::exception& e) {
+    throw InvalidInputError("calibrations", 0, fmt::format("not a calibration: {}", e.what()));
+  }
+}
+
+std::string csv_header() {
+  return "model,variant,payload,strength,rms_percent,msdm,attack,attack_strength,draw,vertices,"
+         "ber,erasures,status,embed_seconds,attack_seconds,extract_seconds";
+}
+
+std::string row_to_csv(const TrialRow& r) {
+  return fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}", csv_quote(r.model),
+                     csv_quote(r.variant), r.payload, r.strength, r.rms_percent, r.msdm,
+                     csv_quote(r.attack), r.attack_strength, r.draw, r.vertices, r.ber, r.erasures,
+                     csv_quote(r.status), r.embed_seconds, r.attack_seconds, r.extract_seconds);
+}
+
+std::vector<SummaryRow> summarize(const CampaignConfig& c, const std::vector<TrialRow>& rows) {
+  std::map<std::string, std::vector<double>> groups;
+  for (const TrialRow& r : rows)
+    groups[fmt::format("{}|{}|{}", r.variant, r.attack, r.attack_strength)].push_back(r.ber);
+  std::vector<SummaryRow> out;
+  for (const std::string& v : c.variants)
+    for (const AttackSeries& s : c.attacks)
+      for (const double x : s.strengths) {
+        auto it = groups.find(fmt::format("{}|{}|{}", v, s.kind, x));
+        if (it == groups.end()) continue;
+        std::vector<double> b = it->second;
+        std::sort(b.begin(), b.end());
+        SummaryRow row;
+        row.variant = v;
+        row.attack = s.kind;
+        row.attack_strength = x;
+        row.trials = static_cast<int>(b.size());
+        const std::size_t n = b.size();
+        row.median_ber = n % 2 ? b[n / 2] : 0.5 * (b[n / 2 - 1] + b[n / 2]);
+        double sum = 0;
+        for (const double e : b) sum += e;
+        row.mean_ber = sum / n;
+        out.push_back(row);
+      }
+  return out;
+}
+
+}  // namespace meshmark

@@ -1,0 +1,355 @@
+// The campaign's summary, figures (SVG, and PNG through rsvg-convert when installed) and
+// Markdown report.
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <set>
+
+#include "meshmark/attack.h"
+#include "meshmark/campaign.h"
+#include "meshmark/io.h"
+
+namespace meshmark {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Curve {
+  std::string name;
+  std::vector<std::pair<double, double>> points;  // (attack strength, median BER)
+};
+
+const char* kColors[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd",
+                         "#ff7f0e", "#8c564b", "#e377c2", "#17becf"};
+const char* kDashes[] = {"", "6,3", "2,3", "8,3,2,3", "", "6,3", "2,3", "8,3,2,3"};
+
+std::string escape(const std::string& s) {
+  std::string out;
+  for (const char c : s) {
+    if (c == '<')
+      out += "&lt;";
+    else if (c == '>')
+      out += "&gt;";
+    else if (c == '&')
+      out += "&amp;";
+    else
+      out += c;
+  }
+  return out;
+}
+
+// "Nice" tick values covering [lo, hi].
+std::vector<double> ticks(double lo, double hi) {
+  if (!(hi > lo)) return {lo};
+  const double raw = (hi - lo) / 5;
+  const double mag = std::pow(10, std::floor(std::log10(raw)));
+  double step = mag;
+  for (const double f : {1.0, 2.0, 2.5, 5.0, 10.0})
+    if (f * mag >= raw) {
+      step = f * mag;
+      break;
+    }
+  std::vector<double> t;
+  for (double x = std::ceil(lo / step - 1e-9) * step; x <= hi + 1e-9 * step; x += step)
+    t.push_back(std::abs(x) < 1e-12 * step ? 0.0 : x);
+  return t;
+}
+
+// One panel: median BER in [0, 0.5] against the attack's strength, a curve per variant.
+std::string panel(double x0, double y0, double w, double h, const std::string& title,
+                  const std::string& xlabel, const std::vector<Curve>& curves) {
+  double lo = INFINITY, hi = -INFINITY;
+  for (const Curve& c : curves)
+    for (const auto& p : c.points) lo = std::min(lo, p.first), hi = std::max(hi, p.first);
+  if (!std::isfinite(lo)) lo = 0, hi = 1;
+  if (hi == lo) lo -= 0.5, hi += 0.5;
+  const double ml = 56, mr = 12, mt = 46, mb = 44;
+  const double pw = w - ml - mr, ph = h - mt - mb;
+  auto X = [&](double x) { return x0 + ml + (x - lo) / (hi - lo) * pw; };
+  double top = 0.5;  // BER axis [0, 0.5], wider if a median lies above chance
+  for (const Curve& c : curves)
+    for (const auto& p : c.points) top = std::max(top, std::ceil(p.second * 10) / 10);
+  auto Y = [&](double y) { return y0 + mt + (1 - y / top) * ph; };
+  std::string s;
+  s += fmt::format(
+      "<text x='{:.1f}' y='{:.1f}' font-size='14' text-anchor='middle' "
+      "font-weight='bold'>{}</text>\n",
+      x0 + ml + pw / 2, y0 + 18, escape(title));
+  s += fmt::format(
+      "<rect x='{:.1f}' y='{:.1f}' width='{:.1f}' height='{:.1f}' fill='none' "
+      "stroke='#444'/>\n",
+      x0 + ml, y0 + mt, pw, ph);
+  for (const double t : ticks(0, top)) {
+    s += fmt::format("<line x1='{:.1f}' y1='{:.1f}' x2='{:.1f}' y2='{:.1f}' stroke='#ddd'/>\n",
+                     x0 + ml, Y(t), x0 + ml + pw, Y(t));
+    s += fmt::format("<text x='{:.1f}' y='{:.1f}' font-size='11' text-anchor='end'>{:g}</text>\n",
+                     x0 + ml - 4, Y(t) + 4, t);
+  }
+  for (const double t : ticks(lo, hi))
+    s +=
+        fmt::format("<text x='{:.1f}' y='{:.1f}' font-size='11' text-anchor='middle'>{:g}</text>\n",
+                    X(t), y0 + mt + ph + 16, t);
+  s += fmt::format("<text x='{:.1f}' y='{:.1f}' font-size='12' text-anchor='middle'>{}</text>\n",
+                   x0 + ml + pw / 2, y0 + h - 8, escape(xlabel));
+  s += fmt::format(
+      "<text x='{:.1f}' y='{:.1f}' font-size='12' text-anchor='middle' "
+      "transform='rotate(-90 {:.1f} {:.1f})'>median BER</text>\n",
+      x0 + 14, y0 + mt + ph / 2, x0 + 14, y0 + mt + ph / 2);
+  for (std::size_t k = 0; k < curves.size(); ++k) {
+    const Curve& c = curves[k];
+    const char* color = kColors[k % 8];
+    std::string pts;
+    for (const auto& p : c.points) pts += fmt::format("{:.1f},{:.1f} ", X(p.first), Y(p.second));
+    s += fmt::format(
+        "<polyline points='{}' fill='none' stroke='{}' stroke-width='2' "
+        "stroke-dasharray='{}'/>\n",
+        pts, color, kDashes[k % 8]);
+    for (const auto& p : c.points)
+      s += fmt::format("<circle cx='{:.1f}' cy='{:.1f}' r='3' fill='{}'/>\n", X(p.first),
+                       Y(p.second), color);
+    // Legend: a row between the title and the frame.
+    const double lx = x0 + ml + 62 * static_cast<double>(k), ly = y0 + 36;
+    s += fmt::format(
+        "<line x1='{:.1f}' y1='{:.1f}' x2='{:.1f}' y2='{:.1f}' stroke='{}' "
+        "stroke-width='2' stroke-dasharray='{}'/>\n",
+        lx, ly - 4, lx + 22, ly - 4, color, kDashes[k % 8]);
+    s += fmt::format("<text x='{:.1f}' y='{:.1f}' font-size='11'>{}</text>\n", lx + 26, ly,
+                     escape(c.name));
+  }
+  return s;
+}
+
+std::string svg_document(double w, double h, const std::string& body) {
+  return fmt::format(
+      "<?xml version='1.0' encoding='UTF-8'?>\n<svg xmlns='http://www.w3.org/2000/svg' "
+      "width='{0:.0f}' height='{1:.0f}' viewBox='0 0 {0:.0f} {1:.0f}' "
+      "font-family='DejaVu Sans, Helvetica, Arial, sans-serif'>\n<rect width='100%' height='100%' "
+      "fill='white'/>\n{2}</svg>\n",
+      w, h, body);
+}
+
+// Writes name.svg, and name.png when rsvg-convert is available; returns whether PNG exists.
+bool write_figure(const fs::path& dir, const std::string& name, const std::string& svg) {
+  const fs::path svg_path = dir / (name + ".svg");
+  write_file_atomically(svg_path.string(), svg);
+  if (std::system("command -v rsvg-convert >/dev/null 2>&1") != 0) return false;
+  const fs::path png = dir / (name + ".png"), tmp = dir / (name + ".png.tmp");
+  const std::string cmd =
+      fmt::format("rsvg-convert -f png -o '{}' '{}' 2>/dev/null", tmp.string(), svg_path.string());
+  if (std::system(cmd.c_str()) != 0) return false;
+  fs::rename(tmp, png);
+  return true;
+}
+
+std::string strength_label(const std::string& kind) {
+  for (const auto& [k, meaning] : attack_kinds())
+    if (k == kind) return meaning;
+  return kind;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// Published results for Cho et al.'s method (../shared/spec/WATERMARK.md section 8).
+struct Published {
+  const char* attack;
+  double strength;
+  double ber;
+};
+const Published kCho[] = {{"noise-radius", 0.0005, 0.01},
+                          {"noise-radius", 0.001, 0.03},
+                          {"noise-radius", 0.003, 0.13},
+                          {"noise-radius", 0.005, 0.28},
+                          {"smooth", 5, 0.10},
+                          {"smooth", 10, 0.23},
+                          {"smooth", 30, 0.38},
+                          {"smooth", 50, 0.45},
+                          {"quant", 11, 0},
+                          {"quant", 10, 0.04},
+                          {"quant", 9, 0.14},
+                          {"quant", 8, 0.26},
+                          {"quant", 7, 0.46},
+                          {"midpoint", 1, 0.04},
+                          {"sqrt3", 1, 0.14},
+                          {"loop", 1, 0.16}};
+
+}  // namespace
+
+std::string write_campaign_report(const std::string& out_dir, const CampaignConfig& c,
+                                  const std::vector<CalibrationRecord>& calibrations,
+                                  const std::vector<TrialRow>& rows, double wall_seconds) {
+  const fs::path dir(out_dir);
+  const std::vector<SummaryRow> summary = summarize(c, rows);
+  std::string csv = "variant,attack,attack_strength,median_ber,mean_ber,trials\n";
+  for (const SummaryRow& s : summary)
+    csv += fmt::format("{},{},{},{},{},{}\n", s.variant, s.attack, s.attack_strength, s.median_ber,
+                       s.mean_ber, s.trials);
+  write_file_atomically((dir / "summary.csv").string(), csv);
+  auto lookup = [&](const std::string& v, const std::string& a, double x) -> const SummaryRow* {
+    for (const SummaryRow& s : summary)
+      if (s.variant == v && s.attack == a && s.attack_strength == x) return &s;
+    return nullptr;
+  };
+
+  // Figures: one per attack with more than one strength (a curve), one panel figure.
+  std::vector<const AttackSeries*> plotted;
+  for (const AttackSeries& a : c.attacks)
+    if (a.kind != "none" && a.strengths.size() > 1) plotted.push_back(&a);
+  std::string md_figures;
+  const double pw = 420, ph = 300;
+  std::string panels;
+  bool png = false;
+  for (std::size_t i = 0; i < plotted.size(); ++i) {
+    const AttackSeries& a = *plotted[i];
+    std::vector<Curve> curves;
+    for (const std::string& v : c.variants) {
+      Curve curve{v, {}};
+      std::vector<double> xs = a.strengths;
+      std::sort(xs.begin(), xs.end());
+      for (const double x : xs)
+        if (const SummaryRow* s = lookup(v, a.kind, x)) curve.points.emplace_back(x, s->median_ber);
+      curves.push_back(curve);
+    }
+    const std::string title = fmt::format("({}) {}", char('a' + i), a.kind);
+    png |= write_figure(
+        dir, "figure-" + a.kind,
+        svg_document(pw, ph, panel(0, 0, pw, ph, title, strength_label(a.kind), curves)));
+    panels += panel((i % 3) * pw, (i / 3) * ph, pw, ph, title, a.kind + " strength", curves);
+    md_figures += fmt::format("![{0}](figure-{0}.svg)\n", a.kind);
+  }
+  if (!plotted.empty()) {
+    const std::size_t cols = std::min<std::size_t>(3, plotted.size());
+    png |= write_figure(dir, "figure-all",
+                        svg_document(cols * pw, ((plotted.size() + 2) / 3) * ph, panels));
+  }
+
+  // The report.
+  std::string md = fmt::format("# Campaign `{}`\n\n", c.name);
+  md += fmt::format(
+      "Configuration `{}`: {} models, variants {}, {} bits, {} payloads, {} draws for random "
+      "attacks, seed {}. {} trials in {:.1f} s of wall time.\n\n",
+      c.source, c.models.size(), fmt::join(c.variants, ", "), c.bits, c.payloads, c.draws, c.seed,
+      rows.size(), wall_seconds);
+  md += c.calibrate
+            ? fmt::format(
+                  "Strengths calibrated per model and variant: the largest alpha with vertex "
+                  "RMS <= {} % of the diagonal and MSDM <= {} (bisection, {} steps).\n\n",
+                  c.calibration.max_rms_percent, c.calibration.max_msdm, c.calibration.iterations)
+            : fmt::format("Fixed strength alpha = {} for every model and variant.\n\n", c.strength);
+  md += "## Calibrated strengths\n\nalpha (vertex RMS % of the diagonal, MSDM)\n\n| model |";
+  for (const std::string& v : c.variants) md += " " + v + " |";
+  md += "\n| --- |";
+  for (std::size_t k = 0; k < c.variants.size(); ++k) md += " ---: |";
+  md += "\n";
+  for (const CampaignModel& m : c.models) {
+    md += "| " + m.name + " |";
+    for (const std::string& v : c.variants) {
+      auto it = std::find_if(calibrations.begin(), calibrations.end(),
+                             [&](const auto& r) { return r.model == m.name && r.variant == v; });
+      if (it == calibrations.end())
+        md += " - |";
+      else if (it->strength <= 0)
+        md += fmt::format(" none ({}) |", it->status);
+      else
+        md += fmt::format(" {:.4f} ({:.4f}, {:.3f}) |", it->strength, it->rms_percent, it->msdm);
+    }
+    md += "\n";
+  }
+
+  md +=
+      "\n## Distortion and time per variant\n\nMedians over the embeddings (one per model "
+      "and payload).\n\n| variant | alpha | RMS % | MSDM | embedding s | failed |\n"
+      "| --- | ---: | ---: | ---: | ---: | ---: |\n";
+  for (const std::string& v : c.variants) {
+    std::vector<double> a, r, m, t;
+    int failed = 0;
+    for (const TrialRow& row : rows)
+      if (row.variant == v && row.attack == "none") {
+        if (row.status != "ok") {
+          ++failed;
+          continue;
+        }
+        a.push_back(row.strength), r.push_back(row.rms_percent), m.push_back(row.msdm),
+            t.push_back(row.embed_seconds);
+      }
+    md += fmt::format("| {} | {:.4f} | {:.5f} | {:.4f} | {:.4f} | {} |\n", v, median(a), median(r),
+                      median(m), median(t), failed);
+  }
+
+  md +=
+      "\n## Median bit error rate\n\nOver models, payloads and draws; a trial whose "
+      "embedding or attack failed counts as 0.5.\n\n";
+  md += md_figures + "\n";
+  for (const AttackSeries& a : c.attacks) {
+    md += fmt::format("### {}\n\n{}\n\n| strength |", a.kind, strength_label(a.kind));
+    for (const std::string& v : c.variants) md += " " + v + " |";
+    md += "\n| ---: |";
+    for (std::size_t k = 0; k < c.variants.size(); ++k) md += " ---: |";
+    md += "\n";
+    for (const double x : a.strengths) {
+      md += fmt::format("| {:g} |", x);
+      for (const std::string& v : c.variants) {
+        const SummaryRow* s = lookup(v, a.kind, x);
+        md += s ? fmt::format(" {:.3f} |", s->median_ber) : std::string(" - |");
+      }
+      md += "\n";
+    }
+    md += "\n";
+  }
+  // Table III: Loop subdivision, one iteration.
+  if (lookup(c.variants[0], "loop", 1)) {
+    md +=
+        "## Loop subdivision, one iteration (the paper's Table III)\n\n| variant | median BER |\n"
+        "| --- | ---: |\n";
+    for (const std::string& v : c.variants)
+      if (const SummaryRow* s = lookup(v, "loop", 1))
+        md += fmt::format("| {} | {:.3f} |\n", v, s->median_ber);
+    md += "\n";
+  }
+  // Published results of Cho et al. beside DRS.
+  if (std::find(c.variants.begin(), c.variants.end(), "DRS") != c.variants.end()) {
+    std::string table;
+    for (const Published& p : kCho)
+      if (const SummaryRow* s = lookup("DRS", p.attack, p.strength))
+        table += fmt::format("| {} | {:g} | {:.2f} | {:.3f} | {:.3f} |\n", p.attack, p.strength,
+                             p.ber, s->median_ber, s->mean_ber);
+    if (!table.empty())
+      md +=
+          "## DRS beside the published results for Cho et al.\n\nThe watermarking "
+          "benchmark's results for Cho et al.'s method (Venus, 64 bits, MRMS 0.008 %, MSDM "
+          "0.19, mean BER over 5 trials; ../shared/spec/WATERMARK.md section 8) beside this "
+          "campaign's DRS (its own models and calibration).\n\n"
+          "| attack | strength | Cho et al. BER | DRS median BER | DRS mean BER |\n"
+          "| --- | ---: | ---: | ---: | ---: |\n" +
+          table + "\n";
+  }
+  md +=
+      "## Time per trial\n\nMedian seconds of the attack and of the blind extraction, per "
+      "attack.\n\n| attack | attack s | extraction s | trials |\n| --- | ---: | ---: | ---: |\n";
+  for (const AttackSeries& a : c.attacks) {
+    std::vector<double> at, xt;
+    for (const TrialRow& row : rows)
+      if (row.attack == a.kind && row.status == "ok")
+        at.push_back(row.attack_seconds), xt.push_back(row.extract_seconds);
+    md += fmt::format("| {} | {:.4f} | {:.5f} | {} |\n", a.kind, median(at), median(xt), at.size());
+  }
+  md += fmt::format(
+      "\nFiles: `rows.csv` and `rows.jsonl` (one row per trial), `summary.csv`, "
+      "`calibration.jsonl`, figures as SVG{}.\n",
+      png ? " and PNG" : " (PNG needs rsvg-convert from librsvg2-bin)");
+  const std::string path = (dir / "report.md").string();
+  write_file_atomically(path, md);
+  return path;
+}
+
+}  // namespace meshmark
