@@ -20,6 +20,8 @@
 #include <thread>
 
 #ifdef MESHMARK_HAVE_MPI
+#include <dlfcn.h>
+#define OMPI_SKIP_MPICXX 1  // the C API only
 #include <mpi.h>
 #endif
 
@@ -43,22 +45,77 @@ struct BenchArgs {
   bool fresh = false;
 };
 
+#ifdef MESHMARK_HAVE_MPI
+// OpenMPI, loaded at run time. Debian's sequential MUMPS (under Ipopt) brings libmpiseq, whose
+// stub MPI_Init would win over OpenMPI's if both were linked; so libmpi is opened with
+// RTLD_DEEPBIND (its own references bind to itself) and every entry point is looked up in it.
+class Mpi {
+ public:
+  Mpi() {
+    handle_ = dlopen("libmpi.so.40", RTLD_NOW | RTLD_GLOBAL | RTLD_DEEPBIND);
+    if (!handle_)
+      throw Error(
+          fmt::format("mpirun started meshmark, but OpenMPI cannot be loaded: {}", dlerror()));
+    init_ = sym<int (*)(int*, char***)>("MPI_Init");
+    rank_ = sym<int (*)(MPI_Comm, int*)>("MPI_Comm_rank");
+    size_ = sym<int (*)(MPI_Comm, int*)>("MPI_Comm_size");
+    barrier_ = sym<int (*)(MPI_Comm)>("MPI_Barrier");
+    allreduce_ =
+        sym<int (*)(const void*, void*, int, MPI_Datatype, MPI_Op, MPI_Comm)>("MPI_Allreduce");
+    finalize_ = sym<int (*)()>("MPI_Finalize");
+    world_ = reinterpret_cast<MPI_Comm>(sym<void*>("ompi_mpi_comm_world"));
+    int_ = reinterpret_cast<MPI_Datatype>(sym<void*>("ompi_mpi_int"));
+    min_ = reinterpret_cast<MPI_Op>(sym<void*>("ompi_mpi_op_min"));
+    if (init_(nullptr, nullptr) != 0) throw Error("MPI_Init failed");
+  }
+  ~Mpi() { finalize_(); }
+  int rank() const {
+    int r = 0;
+    rank_(world_, &r);
+    return r;
+  }
+  int size() const {
+    int n = 1;
+    size_(world_, &n);
+    return n;
+  }
+  void barrier() const { barrier_(world_); }
+  int min(int value) const {
+    int out = 0;
+    allreduce_(&value, &out, 1, int_, min_, world_);
+    return out;
+  }
+
+ private:
+  template <class T>
+  T sym(const char* name) {
+    void* p = dlsym(handle_, name);
+    if (!p) throw Error(fmt::format("OpenMPI has no symbol {}", name));
+    return reinterpret_cast<T>(p);
+  }
+  void* handle_ = nullptr;
+  int (*init_)(int*, char***) = nullptr;
+  int (*rank_)(MPI_Comm, int*) = nullptr;
+  int (*size_)(MPI_Comm, int*) = nullptr;
+  int (*barrier_)(MPI_Comm) = nullptr;
+  int (*allreduce_)(const void*, void*, int, MPI_Datatype, MPI_Op, MPI_Comm) = nullptr;
+  int (*finalize_)() = nullptr;
+  MPI_Comm world_{};
+  MPI_Datatype int_{};
+  MPI_Op min_{};
+};
+#endif
+
 // The processes of the run: one, or the ranks of an MPI job (started by mpirun).
 class World {
  public:
   World() {
 #ifdef MESHMARK_HAVE_MPI
-    if (std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE")) {
-      MPI_Init(nullptr, nullptr);
-      MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
-      MPI_Comm_size(MPI_COMM_WORLD, &size_);
-      mpi_ = true;
+    if (std::getenv("OMPI_COMM_WORLD_SIZE")) {
+      mpi_ = std::make_unique<Mpi>();
+      rank_ = mpi_->rank();
+      size_ = mpi_->size();
     }
-#endif
-  }
-  ~World() {
-#ifdef MESHMARK_HAVE_MPI
-    if (mpi_) MPI_Finalize();
 #endif
   }
   int rank() const {
@@ -69,24 +126,22 @@ class World {
   }
   void barrier() const {
 #ifdef MESHMARK_HAVE_MPI
-    if (mpi_) MPI_Barrier(MPI_COMM_WORLD);
+    if (mpi_) mpi_->barrier();
 #endif
   }
   // Whether every rank says ok (a failed rank makes all stop).
   bool all(bool ok) const {
 #ifdef MESHMARK_HAVE_MPI
-    if (mpi_) {
-      int mine = ok, every = 0;
-      MPI_Allreduce(&mine, &every, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
-      return every != 0;
-    }
+    if (mpi_) return mpi_->min(ok ? 1 : 0) != 0;
 #endif
     return ok;
   }
 
  private:
   int rank_ = 0, size_ = 1;
-  bool mpi_ = false;
+#ifdef MESHMARK_HAVE_MPI
+  std::unique_ptr<Mpi> mpi_;
+#endif
 };
 
 // An append-only file of JSON lines, written one whole line per write(2) (O_APPEND).
@@ -318,7 +373,6 @@ int run(const BenchArgs& a) {
     }
   }
   const std::vector<CampaignUnit> units = campaign_units(config);
-  const int per_unit = trials_per_unit(config);
   std::vector<int> mine;
   long todo = 0;
   for (int i = 0; i < static_cast<int>(units.size()); ++i) {

@@ -1,0 +1,266 @@
+// Calibration and benchmark campaigns: limits met and tight, rows complete and unique, medians
+// recomputed from the CSV, a killed campaign resumed without a row lost or doubled, and MPI
+// ranks giving the rows of one process.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "meshmark/calibrate.h"
+#include "meshmark/campaign.h"
+#include "meshmark/error.h"
+#include "meshmark/io.h"
+#include "meshmark/metrics.h"
+#include "test_data.h"
+
+namespace meshmark {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string write_text(const std::string& path, const std::string& text) {
+  std::ofstream(path) << text;
+  return path;
+}
+
+std::string error_of(const std::string& path) {
+  try {
+    load_campaign(path);
+  } catch (const InvalidInputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Campaign, RejectsBadFilesNamingFileAndKey) {
+  const std::string spot = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir();
+  const std::string head = "{\"models\": [\"" + spot + "\"], \"variants\": [\"DRS\"]";
+  struct Case {
+    std::string text, expect;
+  };
+  const std::vector<Case> cases = {
+      {head + ", \"draw\": 3}", "unknown key \"draw\""},
+      {head + ", \"attacks\": [{\"kind\": \"melt\", \"strengths\": [1]}]}",
+       "unknown attack kind \"melt\""},
+      {head + ", \"attacks\": [{\"kind\": \"noise\"}]}", "attacks[0]: \"strengths\""},
+      {"{\"models\": [\"" + dir + "/none.off\"], \"variants\": [\"DRS\"]}",
+       "none.off does not exist"},
+      {"{\"models\": [\"" + spot + "\"], \"variants\": [\"DXS\"]}", "variant \"DXS\""},
+      {head + ", \"strength\": 0.7}", "strength 0.7 is out of (0, 1/2)"},
+      {head + ", \"bits\": \"many\"}", "wrong type"},
+      {"{\"models\": [", "not valid JSON"}};
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    const std::string path = write_text(dir + "/c" + std::to_string(i) + ".json", cases[i].text);
+    const std::string message = error_of(path);
+    EXPECT_NE(message.find(path), std::string::npos) << message;
+    EXPECT_NE(message.find(cases[i].expect), std::string::npos) << message;
+  }
+}
+
+TEST(Calibrate, MeetsBothLimitsAndTheNextStepDoesNot) {
+  const std::string path = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(path, "spot.obj");
+  const Mesh mesh = read_mesh(path);
+  CalibrateOptions o;
+  o.iterations = 10;
+  EmbedOptions eo;
+  const Payload payload = calibration_payload(64, 1);
+  const CalibrateResult r = calibrate_strength(mesh.V, mesh.F, payload, eo, o);
+  ASSERT_EQ(r.status, CalibrateStatus::Calibrated) << r.message;
+  auto distortion = [&](double alpha) {
+    EmbedOptions e = eo;
+    e.strength = alpha;
+    const EmbedResult w = embed(mesh.V, mesh.F, payload, e);
+    EXPECT_EQ(w.status, EmbedStatus::Embedded);
+    return std::pair{vertex_rms_percent(mesh.V, w.V, mesh.F), msdm(mesh.V, w.V, mesh.F).global};
+  };
+  const auto [rms, m] = distortion(r.strength);
+  EXPECT_LE(rms, o.max_rms_percent + 1e-12);
+  EXPECT_LE(m, o.max_msdm + 1e-12);
+  EXPECT_NEAR(rms, r.rms_percent, 1e-12);
+  // One bisection step further (the final bracket's width on a log scale) breaks a limit.
+  const double step = std::pow(o.max_strength / o.min_strength, std::ldexp(1.0, -o.iterations));
+  const auto [rms2, m2] = distortion(r.strength * step * 1.0001);
+  EXPECT_TRUE(rms2 > o.max_rms_percent || m2 > o.max_msdm) << rms2 << " " << m2;
+}
+
+// Rows of a results directory by key, without the times (which differ from run to run).
+std::map<std::string, std::string> rows_without_times(const std::string& dir) {
+  std::map<std::string, std::string> rows;
+  std::ifstream in(dir + "/rows.jsonl");
+  for (std::string line; std::getline(in, line);) {
+    TrialRow r = row_from_json(line);
+    r.embed_seconds = r.attack_seconds = r.extract_seconds = 0;
+    EXPECT_TRUE(rows.emplace(r.key, row_to_json(r)).second) << "row twice: " << r.key;
+  }
+  return rows;
+}
+
+std::vector<std::string> split_csv(const std::string& line) {
+  std::vector<std::string> cells;
+  std::string cell;
+  bool quoted = false;
+  for (const char c : line) {
+    if (c == '"')
+      quoted = !quoted;
+    else if (c == ',' && !quoted)
+      cells.push_back(cell), cell.clear();
+    else
+      cell += c;
+  }
+  cells.push_back(cell);
+  return cells;
+}
+
+TEST(Campaign, QuickCampaignWritesCompleteRowsMediansFiguresAndReport) {
+  for (const char* m : {"bunny.ply", "spot.obj"}) MESHMARK_REQUIRE(test::shared_mesh(m), m);
+  MESHMARK_REQUIRE(test::cgal_mesh("fandisk.off"), "fandisk.off");
+  const std::string dir = test::scratch_dir() + "/quick";
+  const std::string config = std::string(MESHMARK_SOURCE_DIR) + "/bench/campaigns/quick.json";
+  const test::CliRun run = test::run_cli("bench " + config + " --out " + dir);
+  ASSERT_EQ(run.code, 0) << run.out;
+  // 3 models x 3 variants x 2 payloads, each with: none 1, similarity 1 x 2 draws, noise 3 x 2,
+  // quant 3, smooth 2, soup 2 x 2, simplify 2, loop 1 = 21 trials.
+  const std::map<std::string, std::string> rows = rows_without_times(dir);
+  EXPECT_EQ(rows.size(), 3u * 3 * 2 * 21);
+  // Medians recomputed from rows.csv.
+  std::ifstream csv(dir + "/rows.csv");
+  std::string line;
+  std::getline(csv, line);
+  const std::vector<std::string> header = split_csv(line);
+  auto column = [&](const char* name) {
+    return static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+  };
+  std::map<std::string, std::vector<double>> groups;
+  int csv_rows = 0;
+  while (std::getline(csv, line)) {
+    const std::vector<std::string> c = split_csv(line);
+    ASSERT_EQ(c.size(), header.size()) << line;
+    ++csv_rows;
+    const double ber = std::stod(c[column("ber")]);
+    groups[c[column("variant")] + "," + c[column("attack")] + "," +
+           std::to_string(std::stod(c[column("attack_strength")]))]
+        .push_back(ber);
+    if (c[column("attack")] == "none" && c[column("status")] == "ok")
+      EXPECT_EQ(ber, 0.0) << "an embedding that does not decode: " << line;
+  }
+  EXPECT_EQ(csv_rows, static_cast<int>(rows.size()));
+  std::ifstream summary(dir + "/summary.csv");
+  std::getline(summary, line);
+  int checked = 0;
+  while (std::getline(summary, line)) {
+    const std::vector<std::string> c = split_csv(line);
+    std::vector<double> b = groups[c[0] + "," + c[1] + "," + std::to_string(std::stod(c[2]))];
+    ASSERT_FALSE(b.empty()) << line;
+    std::sort(b.begin(), b.end());
+    const double median =
+        b.size() % 2 ? b[b.size() / 2] : 0.5 * (b[b.size() / 2 - 1] + b[b.size() / 2]);
+    EXPECT_NEAR(std::stod(c[3]), median, 1e-12) << line;
+    EXPECT_EQ(std::stoi(c[5]), static_cast<int>(b.size())) << line;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 3 * 15);  // 3 variants x 15 (attack, strength) pairs
+  for (const char* f : {"figure-noise.svg", "figure-simplify.svg", "figure-all.svg", "report.md"})
+    EXPECT_TRUE(fs::exists(dir + "/" + f)) << f;
+  const std::string report = read_file(dir + "/report.md");
+  EXPECT_NE(report.find("## Calibrated strengths"), std::string::npos);
+  EXPECT_NE(report.find("Table III"), std::string::npos);
+  // Run again: nothing to do, same rows.
+  const test::CliRun again = test::run_cli("bench " + config + " --out " + dir);
+  ASSERT_EQ(again.code, 0) << again.out;
+  EXPECT_NE(again.out.find("(0 run now"), std::string::npos) << again.out;
+  EXPECT_EQ(rows_without_times(dir), rows);
+}
+
+// A campaign on the horse, long enough to be killed in the middle.
+std::string resumable_config(const std::string& dir) {
+  const std::string horse = test::shared_mesh("horse.ply");
+  return write_text(dir + "/resume.json",
+                    "{\"name\": \"resume\", \"models\": [\"" + horse +
+                        "\"], \"variants\": [\"DRS\", \"SRS\"], \"payloads\": 3, \"draws\": 6, "
+                        "\"calibration\": {\"iterations\": 4}, \"attacks\": [{\"kind\": \"noise\", "
+                        "\"strengths\": [0.0005, 0.001]}, {\"kind\": \"quant\", \"strengths\": "
+                        "[10]}]}");
+}
+
+TEST(Campaign, KilledCampaignResumesWithoutLosingOrDoublingRows) {
+  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  const std::string dir = test::scratch_dir();
+  const std::string config = resumable_config(dir);
+  const test::CliRun whole = test::run_cli("bench " + config + " --out " + dir + "/whole");
+  ASSERT_EQ(whole.code, 0) << whole.out;
+  const std::map<std::string, std::string> reference = rows_without_times(dir + "/whole");
+  ASSERT_EQ(reference.size(), 2u * 3 * (1 + 2 * 6 + 1));
+
+  const std::string out = dir + "/killed";
+  int killed = 0;
+  for (int attempt = 0; attempt < 12; ++attempt) {
+    const test::CliRun r =
+        test::run_cli("bench " + config + " --out " + out +
+                      " --jobs 2 & pid=$!; "
+                      "sleep 0.6; kill -9 $pid 2>/dev/null && echo KILLED; wait");
+    if (r.out.find("KILLED") == std::string::npos) break;
+    ++killed;
+    // A kill can cut a line; simulate the worst case: a partial row at the end.
+    if (fs::exists(out + "/rows.jsonl"))
+      std::ofstream(out + "/rows.jsonl", std::ios::app) << "{\"key\": \"horse|DR";
+  }
+  const test::CliRun last = test::run_cli("bench " + config + " --out " + out);
+  ASSERT_EQ(last.code, 0) << last.out;
+  EXPECT_GT(killed, 0) << "the campaign finished before any kill: nothing was resumed";
+  EXPECT_EQ(rows_without_times(out), reference);
+}
+
+TEST(Campaign, MpiRanksGiveTheRowsOfOneProcess) {
+  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  if (std::system("command -v mpirun >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "skipped: mpirun is not installed (apt-get install openmpi-bin)";
+  const std::string dir = test::scratch_dir();
+  const std::string config = resumable_config(dir);
+  const test::CliRun one = test::run_cli("bench " + config + " --out " + dir + "/one");
+  ASSERT_EQ(one.code, 0) << one.out;
+  const std::string env =
+      "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 "
+      "OMPI_MCA_rmaps_base_oversubscribe=1 "
+      "ASAN_OPTIONS=detect_leaks=0 ";
+  const std::string cmd = env + "mpirun -np 2 -x ASAN_OPTIONS " + std::string(MESHMARK_CLI) +
+                          " bench " + config + " --out " + dir + "/two 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string out;
+  char buf[4096];
+  for (std::size_t n; (n = fread(buf, 1, sizeof buf, pipe)) > 0;) out.append(buf, n);
+  ASSERT_EQ(pclose(pipe), 0) << out;
+  EXPECT_NE(out.find("on 2 process(es)"), std::string::npos) << out;
+  EXPECT_EQ(rows_without_times(dir + "/two"), rows_without_times(dir + "/one"));
+}
+
+TEST(Campaign, CalibrateCommandSavesAndReusesItsResult) {
+  const std::string path = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(path, "spot.obj");
+  const std::string cache = test::scratch_dir() + "/calibration.jsonl";
+  const test::CliRun first =
+      test::run_cli("calibrate " + path + " --variant SRS --iterations 6 --cache " + cache);
+  ASSERT_EQ(first.code, 0) << first.out;
+  EXPECT_EQ(first.out.find("[cached]"), std::string::npos) << first.out;
+  const test::CliRun second =
+      test::run_cli("calibrate " + path + " --variant SRS --iterations 6 --cache " + cache);
+  ASSERT_EQ(second.code, 0) << second.out;
+  EXPECT_NE(second.out.find("[cached]"), std::string::npos) << second.out;
+  EXPECT_EQ(first.out.substr(0, first.out.find('(')), second.out.substr(0, second.out.find('(')));
+  // Another limit is another calibration.
+  const test::CliRun other = test::run_cli(
+      "calibrate " + path + " --variant SRS --iterations 6 --max-msdm 0.2 --cache " + cache);
+  ASSERT_EQ(other.code, 0) << other.out;
+  EXPECT_EQ(other.out.find("[cached]"), std::string::npos) << other.out;
+}
+
+}  // namespace
+}  // namespace meshmark
