@@ -2,6 +2,8 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <cstdint>
+#include <cstring>
 #include <numeric>
 
 namespace meshmark {
@@ -117,23 +119,36 @@ Eigen::MatrixX3d vertex_normals(const Eigen::MatrixX3d& V, const Eigen::MatrixX3
 PositionGroups group_identical_positions(const Eigen::MatrixX3d& V,
                                          const std::vector<std::uint8_t>& referenced) {
   const auto nv = static_cast<int>(V.rows());
-  std::vector<int> order;
-  order.reserve(static_cast<std::size_t>(nv));
-  for (int i = 0; i < nv; ++i)
-    if (referenced[static_cast<std::size_t>(i)]) order.push_back(i);
-  // Lexicographic sort on (x, y, z, index): equal positions become neighbours, and within a
-  // run the smallest index comes first. Comparisons treat -0.0 and +0.0 as equal.
-  auto less = [&V](int a, int b) {
-    for (int c = 0; c < 3; ++c)
-      if (V(a, c) != V(b, c)) return V(a, c) < V(b, c);
-    return a < b;
+  // Open addressing on the positions' bits (-0.0 and +0.0 hash and compare equal): the first
+  // index seen at a position, the smallest, leads its group. O(n), no sort.
+  std::size_t slots = 16;
+  while (slots < 2 * static_cast<std::size_t>(nv)) slots *= 2;
+  std::vector<int> table(slots, -1);
+  auto bits = [](double x) {
+    std::uint64_t b;
+    x += 0.0;  // -0.0 becomes +0.0
+    std::memcpy(&b, &x, sizeof b);
+    return b;
   };
-  std::sort(order.begin(), order.end(), less);
   std::vector<int> leader(static_cast<std::size_t>(nv), -1);
-  for (std::size_t k = 0; k < order.size(); ++k) {
-    const int i = order[k];
-    const bool same = k > 0 && V.row(i) == V.row(order[k - 1]);
-    leader[static_cast<std::size_t>(i)] = same ? leader[static_cast<std::size_t>(order[k - 1])] : i;
+  for (int i = 0; i < nv; ++i) {
+    if (!referenced[static_cast<std::size_t>(i)]) continue;
+    std::uint64_t h = bits(V(i, 0)) * 0x9E3779B97F4A7C15ull;
+    h = (h ^ (h >> 29) ^ bits(V(i, 1))) * 0xBF58476D1CE4E5B9ull;
+    h = (h ^ (h >> 32) ^ bits(V(i, 2))) * 0x94D049BB133111EBull;
+    h ^= h >> 31;
+    for (std::size_t k = h & (slots - 1);; k = (k + 1) & (slots - 1)) {
+      const int j = table[k];
+      if (j < 0) {
+        table[k] = i;
+        leader[static_cast<std::size_t>(i)] = i;
+        break;
+      }
+      if (V(j, 0) == V(i, 0) && V(j, 1) == V(i, 1) && V(j, 2) == V(i, 2)) {
+        leader[static_cast<std::size_t>(i)] = j;
+        break;
+      }
+    }
   }
   PositionGroups groups;
   groups.group_of.assign(static_cast<std::size_t>(nv), -1);

@@ -1,6 +1,11 @@
 #include <gtest/gtest.h>
 
+#include <array>
+#include <map>
+
+#include "meshmark/io.h"
 #include "meshmark/mesh.h"
+#include "test_data.h"
 
 using namespace meshmark;
 
@@ -40,6 +45,26 @@ TEST(Mesh, GroupsIdenticalPositionsIncludingSignedZero) {
   EXPECT_EQ(g.group_of[5], -1);
   EXPECT_EQ(g.group_of[0], 0);  // numbered by first vertex
   EXPECT_EQ(g.members.size(), 5u);
+}
+
+TEST(Mesh, GroupsOnARealMeshMatchAnOrderedMap) {
+  const std::string path = test::shared_mesh("teapot.obj");
+  MESHMARK_REQUIRE(path, "teapot.obj");
+  const Mesh mesh = read_mesh(path);
+  const std::vector<std::uint8_t> referenced = referenced_vertices(mesh.F, mesh.V.rows());
+  const PositionGroups g = group_identical_positions(mesh.V, referenced);
+  // Independently: the first index of each position in an ordered map.
+  std::map<std::array<double, 3>, int> first;
+  int groups = 0;
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
+    if (!referenced[i]) continue;
+    const std::array<double, 3> key = {mesh.V(i, 0) + 0.0, mesh.V(i, 1) + 0.0, mesh.V(i, 2) + 0.0};
+    const auto [it, inserted] = first.emplace(key, static_cast<int>(i));
+    groups += inserted;
+    ASSERT_EQ(g.group_of[i], g.group_of[it->second]) << i;
+  }
+  EXPECT_EQ(g.count(), groups);
+  EXPECT_LT(groups, mesh.V.rows());  // the teapot has unwelded seams
 }
 
 TEST(Mesh, BoundingBoxDiagonalOfMaskedVertices) {
