@@ -45,15 +45,25 @@ Eigen::MatrixX3d sample_surface(const Eigen::MatrixX3d& V, const Eigen::MatrixX3
   for (Eigen::Index i = 0; i < V.rows(); ++i)
     if (used[i]) S.row(row++) = V.row(i);
   Random rng(seed);
-  for (int k = 0; k < extra; ++k) {
+  struct Draw {
+    Eigen::Index t;
+    double r1, r2;
+  };
+  std::vector<Draw> draws(static_cast<std::size_t>(extra));
+  for (Draw& d : draws) {
     const double pick = rng.uniform() * total;
     const auto f = static_cast<Eigen::Index>(
         std::upper_bound(cumulative.begin(), cumulative.end(), pick) - cumulative.begin());
-    const Eigen::Index t = std::min(f, F.rows() - 1);
-    const double r1 = std::sqrt(rng.uniform()), r2 = rng.uniform();  // uniform in the triangle
-    S.row(row++) =
-        (1 - r1) * V.row(F(t, 0)) + r1 * (1 - r2) * V.row(F(t, 1)) + r1 * r2 * V.row(F(t, 2));
+    d.t = std::min(f, F.rows() - 1);
+    d.r1 = std::sqrt(rng.uniform()), d.r2 = rng.uniform();  // uniform in the triangle
   }
+  // In face order, so that consecutive samples lie close together (closest-point queries start
+  // from the previous answer); the set of samples is the same.
+  std::stable_sort(draws.begin(), draws.end(),
+                   [](const Draw& a, const Draw& b) { return a.t < b.t; });
+  for (const Draw& d : draws)
+    S.row(row++) = (1 - d.r1) * V.row(F(d.t, 0)) + d.r1 * (1 - d.r2) * V.row(F(d.t, 1)) +
+                   d.r1 * d.r2 * V.row(F(d.t, 2));
   return S;
 }
 
