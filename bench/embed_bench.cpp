@@ -69,6 +69,32 @@ void embed_scaling(benchmark::State& state, const std::string& path, const char*
   embed_mesh(state, subdivided(path, static_cast<int>(state.range(0))), path, variant);
 }
 
+// About a million vertices: igea (134k) after two sqrt(3) subdivisions (1.21M), cached.
+const Mesh* million() {
+  static const Mesh* m = [] {
+    const Mesh* igea = load(shared("igea.ply"));
+    return igea ? new Mesh(attack_subdivide(*igea, Subdivision::Sqrt3, 2)) : nullptr;
+  }();
+  return m;
+}
+
+void embed_million(benchmark::State& state, const char* variant) {
+  embed_mesh(state, million(), shared("igea.ply"), variant);
+}
+
+// Every attack at a representative strength on the horse (48k vertices), seeded.
+void attack(benchmark::State& state, const std::string& path, const std::string& kind,
+            double strength) {
+  const Mesh* m = load(path);
+  if (!m) return state.SkipWithError(("missing " + path).c_str());
+  std::uint64_t seed = 1;
+  for (auto _ : state) {
+    Mesh out = apply_attack(*m, {kind, strength}, seed++);
+    benchmark::DoNotOptimize(out.V.data());
+  }
+  state.SetItemsProcessed(state.iterations() * m->V.rows());
+}
+
 void roughness(benchmark::State& state, const std::string& path) {
   const Mesh* m = load(path);
   if (!m) return state.SkipWithError(("missing " + path).c_str());
@@ -137,6 +163,7 @@ EMBED(DRS, horse_48k, "horse.ply");
 EMBED(DRS, igea_134k, "igea.ply");
 EMBED(VRS, stanford_bunny_35k, "stanford-bunny.obj");
 EMBED(VRS, horse_48k, "horse.ply");
+EMBED(SRS, horse_48k, "horse.ply");
 EMBED(VRQ, horse_48k, "horse.ply");
 EMBED(VRL, horse_48k, "horse.ply");
 EMBED(VNS, horse_48k, "horse.ply");
@@ -158,6 +185,11 @@ BENCHMARK_CAPTURE(versus_ipopt, VRS_stanford_bunny_35k, shared("stanford-bunny.o
 BENCHMARK_CAPTURE(versus_ipopt, VRL_spot_3k, shared("spot.obj"), "VRL")
     ->Iterations(1)
     ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(versus_ipopt, VRL_bunny_8k, shared("bunny.ply"), "VRL")
+    ->Iterations(1)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(embed_million, DRS_igea_sqrt3x2_1210k, "DRS")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(embed_million, VRS_igea_sqrt3x2_1210k, "VRS")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(metric, hausdorff_and_mrms_horse_48k, shared("horse.ply"), 0)
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(metric, msdm_horse_48k, shared("horse.ply"), 1)->Unit(benchmark::kMillisecond);
@@ -170,6 +202,18 @@ int main(int argc, char** argv) {
   // As the CLI does: keep large temporaries on the heap instead of mapping pages each time.
   mallopt(M_MMAP_THRESHOLD, 1 << 30);
   mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  // One benchmark per attack kind, at a strength typical of the campaigns.
+  const std::map<std::string, double> strengths = {
+      {"noise", 0.001}, {"noise-radius", 0.001}, {"quant", 10},   {"smooth", 10},
+      {"taubin", 10},   {"soup", 0.95},          {"simplify", 0.5}, {"loop", 1},
+      {"midpoint", 1},  {"sqrt3", 1},            {"crop", 0.1},   {"similarity", 2}};
+  for (const auto& [kind, meaning] : attack_kinds()) {
+    const auto it = strengths.find(kind);
+    const double x = it == strengths.end() ? 0.0 : it->second;
+    benchmark::RegisterBenchmark(("attack/" + kind + "_horse_48k").c_str(), attack,
+                                 shared("horse.ply"), kind, x)
+        ->Unit(benchmark::kMillisecond);
+  }
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   benchmark::RunSpecifiedBenchmarks();
