@@ -279,7 +279,12 @@ class ModelCache {
 
 int run(const BenchArgs& a) {
   World world;
-  const CampaignConfig config = load_campaign(a.config);
+  CampaignConfig config;
+  try {
+    config = load_campaign(a.config);
+  } catch (const IOError& e) {
+    throw InputFailure(e.what());  // a missing campaign file is bad input, not a failed write
+  }
   const fs::path out = a.out.empty() ? fs::path("bench-results") / config.name : fs::path(a.out);
   const std::string rows_path = (out / "rows.jsonl").string();
   const std::string calib_path = (out / "calibration.jsonl").string();
