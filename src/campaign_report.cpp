@@ -201,37 +201,64 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
     return nullptr;
   };
 
-  // Figures: one per attack with more than one strength (a curve), one panel figure.
+  // Figures: one per attack with more than one strength (a curve per variant), a panel figure
+  // of them all, and the paper's Figs. 1 and 2 (its variants, its five attacks) when the
+  // campaign has them.
   std::vector<const AttackSeries*> plotted;
   for (const AttackSeries& a : c.attacks)
     if (a.kind != "none" && a.strengths.size() > 1) plotted.push_back(&a);
-  std::string md_figures;
-  const double pw = 420, ph = 300;
-  std::string panels;
-  bool png = false;
-  for (std::size_t i = 0; i < plotted.size(); ++i) {
-    const AttackSeries& a = *plotted[i];
+  auto curves_of = [&](const AttackSeries& a, const std::vector<std::string>& variants) {
     std::vector<Curve> curves;
-    for (const std::string& v : c.variants) {
+    std::vector<double> xs = a.strengths;
+    std::sort(xs.begin(), xs.end());
+    for (const std::string& v : variants) {
       Curve curve{v, {}};
-      std::vector<double> xs = a.strengths;
-      std::sort(xs.begin(), xs.end());
       for (const double x : xs)
         if (const SummaryRow* s = lookup(v, a.kind, x)) curve.points.emplace_back(x, s->median_ber);
       curves.push_back(curve);
     }
-    const std::string title = fmt::format("({}) {}", char('a' + i), a.kind);
+    return curves;
+  };
+  const double pw = 420, ph = 300;
+  bool png = false;
+  // A grid of panels, three per row; returns the file's name, or "" when nothing to plot.
+  auto grid = [&](const std::string& name, const std::vector<const AttackSeries*>& attacks,
+                  const std::vector<std::string>& variants) -> std::string {
+    if (attacks.empty()) return "";
+    std::string panels;
+    for (std::size_t i = 0; i < attacks.size(); ++i)
+      panels += panel((i % 3) * pw, (i / 3) * ph, pw, ph,
+                      fmt::format("({}) {}", char('a' + i), attacks[i]->kind),
+                      attacks[i]->kind + " strength", curves_of(*attacks[i], variants));
+    const std::size_t cols = std::min<std::size_t>(3, attacks.size());
+    png |=
+        write_figure(dir, name, svg_document(cols * pw, ((attacks.size() + 2) / 3) * ph, panels));
+    return name;
+  };
+  std::string md_figures;
+  for (std::size_t i = 0; i < plotted.size(); ++i) {
+    const AttackSeries& a = *plotted[i];
     png |= write_figure(
         dir, "figure-" + a.kind,
-        svg_document(pw, ph, panel(0, 0, pw, ph, title, strength_label(a.kind), curves)));
-    panels += panel((i % 3) * pw, (i / 3) * ph, pw, ph, title, a.kind + " strength", curves);
-    md_figures += fmt::format("![{0}](figure-{0}.svg)\n", a.kind);
+        svg_document(
+            pw, ph, panel(0, 0, pw, ph, a.kind, strength_label(a.kind), curves_of(a, c.variants))));
   }
-  if (!plotted.empty()) {
-    const std::size_t cols = std::min<std::size_t>(3, plotted.size());
-    png |= write_figure(dir, "figure-all",
-                        svg_document(cols * pw, ((plotted.size() + 2) / 3) * ph, panels));
-  }
+  const std::string all = grid("figure-all", plotted, c.variants);
+  if (!all.empty()) md_figures += "All attacks, every variant:\n\n![all](figure-all.svg)\n\n";
+  std::vector<const AttackSeries*> five;
+  for (const char* kind : {"noise", "quant", "smooth", "soup", "simplify"})
+    for (const AttackSeries* a : plotted)
+      if (a->kind == kind) five.push_back(a);
+  auto has = [&](std::initializer_list<const char*> vs) {
+    return std::all_of(vs.begin(), vs.end(), [&](const char* v) {
+      return std::find(c.variants.begin(), c.variants.end(), v) != c.variants.end();
+    });
+  };
+  if (has({"DRS", "SRS", "VRS"}) && !grid("fig1", five, {"DRS", "SRS", "VRS"}).empty())
+    md_figures += "The paper's Fig. 1 (DRS, SRS, VRS):\n\n![Fig. 1](fig1.svg)\n\n";
+  if (has({"VRS", "VRQ", "VRL", "VNS", "VSS"}) &&
+      !grid("fig2", five, {"VRS", "VRQ", "VRL", "VNS", "VSS"}).empty())
+    md_figures += "The paper's Fig. 2 (VRS, VRQ, VRL, VNS, VSS):\n\n![Fig. 2](fig2.svg)\n\n";
 
   // The report.
   std::string md = fmt::format("# Campaign `{}`\n\n", c.name);

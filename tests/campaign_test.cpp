@@ -167,7 +167,8 @@ TEST(Campaign, QuickCampaignWritesCompleteRowsMediansFiguresAndReport) {
     ++checked;
   }
   EXPECT_EQ(checked, 3 * 15);  // 3 variants x 15 (attack, strength) pairs
-  for (const char* f : {"figure-noise.svg", "figure-simplify.svg", "figure-all.svg", "report.md"})
+  for (const char* f :
+       {"figure-noise.svg", "figure-simplify.svg", "figure-all.svg", "fig1.svg", "report.md"})
     EXPECT_TRUE(fs::exists(dir + "/" + f)) << f;
   const std::string report = read_file(dir + "/report.md");
   EXPECT_NE(report.find("## Calibrated strengths"), std::string::npos);
