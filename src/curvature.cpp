@@ -1,5 +1,7 @@
 #include "meshmark/curvature.h"
 
+#include <array>
+
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -119,6 +121,16 @@ CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::Ma
   const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> P =
       V;  // one cache line per point
   const double r2 = radius * radius;
+  // Each edge's tensor beta / |d| d d^T (its 6 distinct entries), computed once: an edge lies
+  // in the balls of many vertices.
+  std::vector<std::array<double, 6>> tensor(edges.ends.size());
+  for (std::size_t e = 0; e < edges.ends.size(); ++e) {
+    const Eigen::Vector3d d = (P.row(edges.ends[e][1]) - P.row(edges.ends[e][0])).transpose();
+    const double length = d.norm();
+    const double w = length > 0 ? edges.beta[e] / length : 0.0;
+    tensor[e] = {w * d(0) * d(0), w * d(0) * d(1), w * d(0) * d(2),
+                 w * d(1) * d(1), w * d(1) * d(2), w * d(2) * d(2)};
+  }
   // Vertices are independent: chunks of them on separate threads, each with its own marks.
   detail::parallel_chunks(nv, [&](int, std::int64_t begin, std::int64_t end) {
     std::vector<int> stamp(static_cast<std::size_t>(nv), -1), edge_stamp(edges.ends.size(), -1),
@@ -136,19 +148,18 @@ CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::Ma
       if (area <= 0) continue;
       // Edges count the way the area does, by vertices: half an edge per endpoint inside the
       // ball, so that their ratio carries no bias.
-      Eigen::Matrix3d T = Eigen::Matrix3d::Zero();
+      double t[6] = {0, 0, 0, 0, 0, 0};
       for (int v : members)
         for (int k = edges.incident.offsets[v]; k < edges.incident.offsets[v + 1]; ++k) {
           const int e = edges.incident.indices[k];
           if (edge_stamp[e] == i || edges.beta[e] == 0) continue;
           edge_stamp[e] = static_cast<int>(i);
-          const int a = edges.ends[e][0], b = edges.ends[e][1];
-          const double inside = 0.5 * ((stamp[a] == i) + (stamp[b] == i));
-          const Eigen::Vector3d d = (P.row(b) - P.row(a)).transpose();
-          const double length = d.norm();
-          if (length == 0) continue;
-          T.noalias() += (edges.beta[e] * inside / length) * d * d.transpose();
+          const double inside =
+              0.5 * ((stamp[edges.ends[e][0]] == i) + (stamp[edges.ends[e][1]] == i));
+          for (int c = 0; c < 6; ++c) t[c] += inside * tensor[e][c];
         }
+      Eigen::Matrix3d T;
+      T << t[0], t[1], t[2], t[1], t[3], t[4], t[2], t[4], t[5];
       T /= area;
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(T, Eigen::EigenvaluesOnly);
       Eigen::Vector3d ev = eig.eigenvalues();
