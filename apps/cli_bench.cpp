@@ -439,10 +439,22 @@ int run(const BenchArgs& a) {
   write_file_atomically((out / "rows.csv").string(), csv);
   std::vector<CalibrationRecord> records;
   for (const auto& [k, r] : calibrations) records.push_back(r);
+  // Wall time of this run, and of every run of the campaign (kept beside the rows).
   const double wall = std::chrono::duration<double>(Clock::now() - wall_start).count();
-  const std::string report = write_campaign_report(out.string(), config, records, rows, wall);
-  fmt::print("campaign {}: {} trials ({} run now on {} process(es) x {} threads) in {:.1f} s\n",
-             config.name, rows.size(), todo, world.size(), jobs, wall);
+  const std::string wall_path = (out / "wall_seconds.txt").string();
+  double total_wall = wall;
+  if (fs::exists(wall_path)) {
+    try {
+      total_wall += std::stod(read_file(wall_path));
+    } catch (const std::exception&) {
+    }
+  }
+  write_file_atomically(wall_path, fmt::format("{}\n", total_wall));
+  const std::string report = write_campaign_report(out.string(), config, records, rows, total_wall);
+  fmt::print(
+      "campaign {}: {} trials ({} run now on {} process(es) x {} threads) in {:.1f} s ({:.1f} s "
+      "over all runs)\n",
+      config.name, rows.size(), todo, world.size(), jobs, wall, total_wall);
   fmt::print("rows     {}\nsummary  {}\nreport   {}\n", (out / "rows.csv").string(),
              (out / "summary.csv").string(), report);
   for (const SummaryRow& s : summarize(config, rows))

@@ -148,6 +148,7 @@ bool write_figure(const fs::path& dir, const std::string& name, const std::strin
 }
 
 std::string strength_label(const std::string& kind) {
+  if (kind == "none") return "no attack: the watermarked mesh decoded as it is";
   for (const auto& [k, meaning] : attack_kinds())
     if (k == kind) return meaning;
   return kind;
@@ -264,7 +265,7 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
   std::string md = fmt::format("# Campaign `{}`\n\n", c.name);
   md += fmt::format(
       "Configuration `{}`: {} models, variants {}, {} bits, {} payloads, {} draws for random "
-      "attacks, seed {}. {} trials in {:.1f} s of wall time.\n\n",
+      "attacks, seed {}. {} trials in {:.1f} s of wall time (all runs of the campaign).\n\n",
       c.source, c.models.size(), fmt::join(c.variants, ", "), c.bits, c.payloads, c.draws, c.seed,
       rows.size(), wall_seconds);
   md += c.calibrate
