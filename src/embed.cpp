@@ -74,7 +74,10 @@ detail::EmbedContext make_context(const Eigen::MatrixX3d& V, const Eigen::Matrix
   ctx.referenced = referenced_vertices(F, V.rows());
   ctx.groups = o.keep_duplicates_together ? group_identical_positions(V, ctx.referenced)
                                           : singleton_groups(ctx.referenced);
-  if (o.variant.cost == CostKind::Laplacian) ctx.adjacency = vertex_adjacency(F, V.rows());
+  if (o.variant.cost == CostKind::Laplacian) {
+    ctx.adjacency = vertex_adjacency(F, V.rows());
+    ctx.laplacian_topology = detail::laplacian_topology(ctx.groups, ctx.adjacency);
+  }
   if (o.variant.direction == DirectionKind::Smooth) {
     const RoughnessField field = roughness_field(V, F, o.roughness);
     ctx.smoothness = field.smoothness;

@@ -30,32 +30,51 @@ Eigen::Vector3d group_direction(const EmbedContext& ctx, const Eigen::MatrixX3d&
   return len > 1e-9 ? Eigen::Vector3d(tangent / len) : rhohat;
 }
 
-// Laplacian-cost Hessian over groups: lambda diag(w) + (1 - lambda) B^T B, where row block i
-// of B is u_g(i) e_g(i)^T - (1 / |N1(i)|) sum_j u_g(j) e_g(j)^T (WATERMARK.md section 3).
-Eigen::SparseMatrix<double> laplacian_hessian(const EmbedContext& ctx, const Eigen::MatrixX3d& U,
-                                              double lambda) {
-  const auto& groups = ctx.groups;
+}  // namespace
+
+// B's row block i is u_gi e_gi^T - (1 / |N1(i)|) sum_j u_gj e_gj^T = sum_g c_ig u_g e_g^T, so
+// (B^T B)_gh = (u_g . u_h) (C^T C)_gh with C the scalar matrix of the c_ig: topology only, built
+// once per embedding (with the diagonal stored even where it is zero).
+Eigen::SparseMatrix<double> laplacian_topology(const PositionGroups& groups,
+                                               const Adjacency& adjacency) {
   const auto ng = static_cast<Eigen::Index>(groups.count());
-  std::vector<Eigen::Triplet<double>> tb;
+  std::vector<Eigen::Triplet<double>> tc;
   Eigen::Index row = 0;
   for (std::size_t i = 0; i < groups.group_of.size(); ++i) {
     const int gi = groups.group_of[i];
-    const int deg = ctx.adjacency.degree(static_cast<int>(i));
+    const int deg = adjacency.degree(static_cast<int>(i));
     if (gi < 0 || deg == 0) continue;
-    for (int a = 0; a < 3; ++a) tb.emplace_back(row + a, gi, U(gi, a));
-    for (int k = ctx.adjacency.offsets[i]; k < ctx.adjacency.offsets[i + 1]; ++k) {
-      const int gj = groups.group_of[ctx.adjacency.indices[k]];
-      if (gj < 0) continue;
-      for (int a = 0; a < 3; ++a) tb.emplace_back(row + a, gj, -U(gj, a) / deg);
+    tc.emplace_back(row, gi, 1.0);
+    for (int k = adjacency.offsets[i]; k < adjacency.offsets[i + 1]; ++k) {
+      const int gj = groups.group_of[adjacency.indices[k]];
+      if (gj >= 0) tc.emplace_back(row, gj, -1.0 / deg);
     }
-    row += 3;
+    ++row;
   }
-  Eigen::SparseMatrix<double> B(row, ng);
-  B.setFromTriplets(tb.begin(), tb.end());
-  Eigen::SparseMatrix<double> H = (1 - lambda) * Eigen::SparseMatrix<double>(B.transpose() * B);
-  for (Eigen::Index g = 0; g < ng; ++g)
-    H.coeffRef(g, g) += lambda * (groups.offsets[g + 1] - groups.offsets[g]);
-  H.makeCompressed();
+  Eigen::SparseMatrix<double> C(row, ng);
+  C.setFromTriplets(tc.begin(), tc.end());
+  Eigen::SparseMatrix<double> zero_diagonal(ng, ng);
+  std::vector<Eigen::Triplet<double>> td;
+  for (Eigen::Index g = 0; g < ng; ++g) td.emplace_back(g, g, 0.0);
+  zero_diagonal.setFromTriplets(td.begin(), td.end());
+  Eigen::SparseMatrix<double> S = Eigen::SparseMatrix<double>(C.transpose() * C) + zero_diagonal;
+  S.makeCompressed();
+  return S;
+}
+
+namespace {
+
+// Laplacian-cost Hessian over groups: lambda diag(w) + (1 - lambda) B^T B (WATERMARK.md
+// section 3), from the topology matrix and this round's directions: O(nonzeros), no sort.
+Eigen::SparseMatrix<double> laplacian_hessian(const EmbedContext& ctx, const Eigen::MatrixX3d& U,
+                                              double lambda) {
+  Eigen::SparseMatrix<double> H = ctx.laplacian_topology;
+  for (Eigen::Index g = 0; g < H.outerSize(); ++g)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(H, g); it; ++it) {
+      it.valueRef() *= (1 - lambda) * U.row(it.row()).dot(U.row(g));
+      if (it.row() == g)
+        it.valueRef() += lambda * (ctx.groups.offsets[g + 1] - ctx.groups.offsets[g]);
+    }
   return H;
 }
 
