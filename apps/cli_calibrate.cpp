@@ -50,10 +50,7 @@ std::string file_hash(const std::string& path) {
   const std::vector<std::uint8_t> data(bytes.begin(), bytes.end());
   const std::vector<std::uint8_t> bits =
       keyed_hash_bits(public_key(), "meshmark/file/v1", data, 128);
-  std::string hex;
-  for (std::size_t i = 0; i < bits.size(); i += 4)
-    hex += "0123456789abcdef"[bits[i] << 3 | bits[i + 1] << 2 | bits[i + 2] << 1 | bits[i + 3]];
-  return hex;
+  return payload_to_hex(Payload{bits});
 }
 
 int run(const CalibrateArgs& a) {

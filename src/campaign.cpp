@@ -207,13 +207,6 @@ int draws_of(const CampaignConfig& c, const AttackSeries& s) {
 }
 }  // namespace
 
-int trials_per_unit(const CampaignConfig& c) {
-  int n = 0;
-  for (const AttackSeries& s : c.attacks)
-    n += static_cast<int>(s.strengths.size()) * draws_of(c, s);
-  return n;
-}
-
 Payload campaign_payload(const CampaignConfig& c, int p) {
   return random_payload(c.bits, seed_of(fmt::format("payload {}", p), c.seed));
 }

@@ -74,9 +74,6 @@ struct CampaignUnit {
 /// The units in a fixed order (model-major).
 std::vector<CampaignUnit> campaign_units(const CampaignConfig& config);
 
-/// Number of trials of one unit.
-int trials_per_unit(const CampaignConfig& config);
-
 /// The payload of index p (random, from the campaign's seed).
 Payload campaign_payload(const CampaignConfig& config, int p);
 
