@@ -23,156 +23,217 @@ Eigen::Vector3d discrete_center(const Eigen::MatrixX3d& V,
   return count > 0 ? Eigen::Vector3d(sum / count) : sum;
 }
 
-// The positions as contiguous points: the face loops below gather three vertices per face, and
-// a column-major #V x 3 matrix spreads each vertex over three cache lines.
-std::vector<Eigen::Vector3d> to_points(const Eigen::MatrixX3d& V) {
-  std::vector<Eigen::Vector3d> P(static_cast<std::size_t>(V.rows()));
-  for (Eigen::Index i = 0; i < V.rows(); ++i) P[i] = V.row(i).transpose();
-  return P;
+// The positions relative to O as contiguous points: the face loops below gather three vertices
+// per face, and a column-major #V x 3 matrix spreads each vertex over three cache lines.
+// Relative to O (the discrete center), sums stay exact for meshes far from the origin.
+std::vector<Eigen::Vector3d> relative_points(const Eigen::MatrixX3d& V, const Eigen::Vector3d& O) {
+  std::vector<Eigen::Vector3d> Q(static_cast<std::size_t>(V.rows()));
+  for (Eigen::Index i = 0; i < V.rows(); ++i) Q[i] = V.row(i).transpose() - O;
+  return Q;
 }
 
-// One face's weight (area or signed volume) and its center.
-struct FaceTerm {
-  double w;
-  Eigen::Vector3d c;
+// Every quantity below is written with q_k = p_k - O. For a face, with s = q0 + q1 + q2:
+//   S: weight A_f = w6 / 2 (w6 = |(q1 - q0) x (q2 - q0)|), centroid O + s / 3,
+//      gradients grad_k A_f = g_k / 2 with g_k = n x (q_{k+2} - q_{k+1});
+//   V: weight w_f = w6 / 6 (w6 = q0 . (q1 x q2)), centroid O + s / 4,
+//      gradients grad_k w_f = g_k / 6 with g_k = q_{k+1} x q_{k+2}.
+// With T = sum w6, D = C - O and d = 3 (S) or 4 (V), the center is C = O + sum w6 s / (d T)
+// and the Jacobian (section 3, item 2) J_i = (1/T) sum_{f around i} [(s / d - D) g_k^T +
+// (w6 / d) I]: one formula for both, with per-vertex sums that do not depend on C, so that
+// the center and the Jacobian products come out of a single pass over the faces.
+struct FaceGeometry {
+  double w6 = 0;
+  Eigen::Vector3d s;
+  Eigen::Vector3d g[3];
 };
 
-FaceTerm face_term(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, const Eigen::Vector3d& p2,
-                   const Eigen::Vector3d& O, CenterKind kind) {
+template <CenterKind kind>
+inline FaceGeometry face_geometry(const Eigen::Vector3d& q0, const Eigen::Vector3d& q1,
+                                  const Eigen::Vector3d& q2, bool gradients) {
+  FaceGeometry t;
+  t.s = q0 + q1 + q2;
+  if constexpr (kind == CenterKind::Surface) {
+    const Eigen::Vector3d N = (q1 - q0).cross(q2 - q0);
+    t.w6 = N.norm();
+    if (gradients) {
+      const Eigen::Vector3d n = t.w6 > 0 ? Eigen::Vector3d(N / t.w6) : Eigen::Vector3d::Zero();
+      t.g[0] = n.cross(q2 - q1);
+      t.g[1] = n.cross(q0 - q2);
+      t.g[2] = n.cross(q1 - q0);
+    }
+  } else {
+    t.g[0] = q1.cross(q2);
+    t.w6 = q0.dot(t.g[0]);
+    if (gradients) {
+      t.g[1] = q2.cross(q0);
+      t.g[2] = q0.cross(q1);
+    }
+  }
+  return t;
+}
+
+// Sums over all faces. M and G (V with gradients) give the dependence through O.
+struct FaceTotals {
+  double T = 0, magnitude = 0;                   // sum w6, sum |w6|
+  Eigen::Vector3d ws = Eigen::Vector3d::Zero();  // sum w6 s
+  Eigen::Matrix3d M = Eigen::Matrix3d::Zero();   // sum s G^T, G = g0 + g1 + g2
+  Eigen::Vector3d G = Eigen::Vector3d::Zero();   // sum G
+};
+
+// One pass over the faces; corner(i, geometry, k) for every corner k (vertex i) of every face
+// when gradients are wanted.
+template <CenterKind kind, class Corner>
+FaceTotals face_pass(const std::vector<Eigen::Vector3d>& Q, const Eigen::MatrixX3i& F,
+                     bool gradients, Corner&& corner) {
+  FaceTotals tot;
+  const int* f0 = F.col(0).data();
+  const int* f1 = F.col(1).data();
+  const int* f2 = F.col(2).data();
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const int i[3] = {f0[f], f1[f], f2[f]};
+    const FaceGeometry t = face_geometry<kind>(Q[i[0]], Q[i[1]], Q[i[2]], gradients);
+    tot.T += t.w6;
+    tot.magnitude += std::abs(t.w6);
+    tot.ws += t.w6 * t.s;
+    if (!gradients) continue;
+    for (int k = 0; k < 3; ++k) corner(i[k], t, k);
+    if constexpr (kind == CenterKind::Volume) {
+      const Eigen::Vector3d G = t.g[0] + t.g[1] + t.g[2];
+      tot.M.noalias() += t.s * G.transpose();
+      tot.G += G;
+    }
+  }
+  return tot;
+}
+
+template <class Corner>
+FaceTotals face_pass(CenterKind kind, const std::vector<Eigen::Vector3d>& Q,
+                     const Eigen::MatrixX3i& F, bool gradients, Corner&& corner) {
   if (kind == CenterKind::Surface)
-    return {0.5 * (p1 - p0).cross(p2 - p0).norm(), (p0 + p1 + p2) / 3.0};
-  return {(p0 - O).dot((p1 - O).cross(p2 - O)) / 6.0, (O + p0 + p1 + p2) / 4.0};
+    return face_pass<CenterKind::Surface>(Q, F, gradients, std::forward<Corner>(corner));
+  return face_pass<CenterKind::Volume>(Q, F, gradients, std::forward<Corner>(corner));
+}
+
+double centroid_divisor(CenterKind kind) {
+  return kind == CenterKind::Surface ? 3.0 : 4.0;
+}
+
+Center center_from_totals(CenterKind kind, const Eigen::Vector3d& O, const FaceTotals& tot) {
+  Center c;
+  if (kind == CenterKind::Surface) {
+    c.quality = tot.T / 2;
+    c.well_defined = tot.T > 0;
+  } else {
+    c.quality = tot.magnitude > 0 ? std::abs(tot.T) / tot.magnitude : 0;
+    c.well_defined = c.quality > kVolumeCenterMinQuality;
+  }
+  c.point = tot.T != 0 ? Eigen::Vector3d(O + tot.ws / (centroid_divisor(kind) * tot.T)) : O;
+  return c;
+}
+
+// V: the dependence of C on O (the discrete center) as the 3 x 3 matrix every referenced
+// vertex's Jacobian gains, dC/dO / n: with w_f written around O, moving O changes every
+// tetrahedron; on closed meshes the sum vanishes up to rounding, on open ones it does not.
+Eigen::Matrix3d reference_point_term(const FaceTotals& tot, const Eigen::Vector3d& D, double n) {
+  const double d = centroid_divisor(CenterKind::Volume);
+  Eigen::Matrix3d K = -tot.M / d + D * tot.G.transpose();
+  K.diagonal().array() += tot.T / d;
+  return K / (tot.T * n);
 }
 
 }  // namespace
 
 Center center_of_mass(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                       const std::vector<std::uint8_t>& referenced, CenterKind kind) {
-  Center c;
   double count = 0;
-  const Eigen::Vector3d d = discrete_center(V, referenced, count);
+  const Eigen::Vector3d O = discrete_center(V, referenced, count);
   if (kind == CenterKind::Discrete) {
-    c.point = d;
+    Center c;
+    c.point = O;
     c.quality = count;
     c.well_defined = count > 0;
     return c;
   }
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  double weight = 0, magnitude = 0;
-  const std::vector<Eigen::Vector3d> P = to_points(V);
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    const FaceTerm t = face_term(P[F(f, 0)], P[F(f, 1)], P[F(f, 2)], d, kind);
-    sum += t.w * t.c;
-    weight += t.w;
-    magnitude += std::abs(t.w);
-  }
-  if (kind == CenterKind::Surface) {
-    c.quality = weight;
-    c.well_defined = weight > 0;
-  } else {
-    c.quality = magnitude > 0 ? std::abs(weight) / magnitude : 0;
-    c.well_defined = c.quality > kVolumeCenterMinQuality;
-  }
-  c.point = weight != 0 ? Eigen::Vector3d(sum / weight) : d;
-  return c;
+  const FaceTotals tot =
+      face_pass(kind, relative_points(V, O), F, false, [](int, const FaceGeometry&, int) {});
+  return center_from_totals(kind, O, tot);
 }
-
-namespace {
-
-// Visits every face's contribution to the Jacobians of the S or V center: visit(f, k, a, g,
-// share) for corner k of face f means J_{F(f,k)} += a g^T + share I (before division by W).
-// Returns W and accumulates dC/dO (V only; times W).
-template <class Visit>
-double visit_jacobian_terms(const std::vector<Eigen::Vector3d>& P, const Eigen::MatrixX3i& F,
-                            const Eigen::Vector3d& O, const Eigen::Vector3d& C, CenterKind kind,
-                            Eigen::Matrix3d& dC_dO, Visit&& visit) {
-  double W = 0;
-  dC_dO.setZero();
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    const Eigen::Vector3d& p0 = P[F(f, 0)];
-    const Eigen::Vector3d& p1 = P[F(f, 1)];
-    const Eigen::Vector3d& p2 = P[F(f, 2)];
-    const Eigen::Vector3d* p[3] = {&p0, &p1, &p2};
-    const FaceTerm t = face_term(p0, p1, p2, O, kind);
-    W += t.w;
-    Eigen::Vector3d grad[3];
-    if (kind == CenterKind::Surface) {
-      const Eigen::Vector3d N = (p1 - p0).cross(p2 - p0);
-      const double len = N.norm();
-      const Eigen::Vector3d nf = len > 0 ? Eigen::Vector3d(N / len) : Eigen::Vector3d::Zero();
-      for (int k = 0; k < 3; ++k) grad[k] = 0.5 * nf.cross(*p[(k + 2) % 3] - *p[(k + 1) % 3]);
-    } else {
-      for (int k = 0; k < 3; ++k) grad[k] = (*p[(k + 1) % 3] - O).cross(*p[(k + 2) % 3] - O) / 6.0;
-    }
-    const double share = kind == CenterKind::Surface ? t.w / 3.0 : t.w / 4.0;
-    const Eigen::Vector3d a = t.c - C;
-    for (int k = 0; k < 3; ++k) visit(f, k, a, grad[k], share);
-    if (kind == CenterKind::Volume) {
-      dC_dO -= a * (grad[0] + grad[1] + grad[2]).transpose();
-      dC_dO.diagonal().array() += share;
-    }
-  }
-  return W;
-}
-
-}  // namespace
 
 CenterJacobians center_jacobians(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                                  const std::vector<std::uint8_t>& referenced, CenterKind kind) {
   CenterJacobians out;
-  out.center = center_of_mass(V, F, referenced, kind);
   out.J.assign(static_cast<std::size_t>(V.rows()), Eigen::Matrix3d::Zero());
   double n = 0;
   const Eigen::Vector3d O = discrete_center(V, referenced, n);
   if (kind == CenterKind::Discrete) {
+    out.center = center_of_mass(V, F, referenced, kind);
     for (Eigen::Index i = 0; i < V.rows(); ++i)
       if (referenced[i]) out.J[i] = Eigen::Matrix3d::Identity() / n;
     return out;
   }
-  Eigen::Matrix3d dC_dO;
-  const double W = visit_jacobian_terms(
-      to_points(V), F, O, out.center.point, kind, dC_dO,
-      [&](Eigen::Index f, int k, const Eigen::Vector3d& a, const Eigen::Vector3d& g, double share) {
-        Eigen::Matrix3d& J = out.J[F(f, k)];
-        J.noalias() += a * g.transpose();
-        J.diagonal().array() += share;
+  // J_i T = sum (s g^T + w6 I) / d - D sum g^T: the first sum in J, the second in B.
+  std::vector<Eigen::Vector3d> B(out.J.size(), Eigen::Vector3d::Zero());
+  const FaceTotals tot =
+      face_pass(kind, relative_points(V, O), F, true, [&](int i, const FaceGeometry& t, int k) {
+        out.J[i].noalias() += t.s * t.g[k].transpose();
+        out.J[i].diagonal().array() += t.w6;
+        B[i] += t.g[k];
       });
-  if (W == 0) return out;
+  out.center = center_from_totals(kind, O, tot);
+  if (tot.T == 0) {
+    for (auto& J : out.J) J.setZero();
+    return out;
+  }
+  const Eigen::Vector3d D = out.center.point - O;
+  const double d = centroid_divisor(kind);
+  const Eigen::Matrix3d K =
+      kind == CenterKind::Volume ? reference_point_term(tot, D, n) : Eigen::Matrix3d::Zero();
   for (Eigen::Index i = 0; i < V.rows(); ++i) {
-    out.J[i] /= W;
-    if (kind == CenterKind::Volume && referenced[i]) out.J[i] += dC_dO / (W * n);
+    out.J[i] = (out.J[i] / d - D * B[i].transpose()) / tot.T;
+    if (referenced[i]) out.J[i] += K;
   }
   return out;
 }
 
-Eigen::MatrixX3d center_jacobian_products(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
-                                          const std::vector<std::uint8_t>& referenced,
-                                          CenterKind kind, const Eigen::Vector3d& center,
-                                          const Eigen::MatrixX3d& U) {
-  Eigen::MatrixX3d E = Eigen::MatrixX3d::Zero(V.rows(), 3);
+CenterProducts center_jacobian_products(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                                        const std::vector<std::uint8_t>& referenced,
+                                        CenterKind kind, const Eigen::MatrixX3d& U) {
+  CenterProducts out;
+  out.E = Eigen::MatrixX3d::Zero(V.rows(), 3);
   double n = 0;
   const Eigen::Vector3d O = discrete_center(V, referenced, n);
   if (kind == CenterKind::Discrete) {
+    out.center = center_of_mass(V, F, referenced, kind);
     for (Eigen::Index i = 0; i < V.rows(); ++i)
-      if (referenced[i]) E.row(i) = U.row(i) / n;
-    return E;
+      if (referenced[i]) out.E.row(i) = U.row(i) / n;
+    return out;
   }
-  Eigen::Matrix3d dC_dO;
-  const std::vector<Eigen::Vector3d> Uv = to_points(U);
-  std::vector<Eigen::Vector3d> acc(Uv.size(), Eigen::Vector3d::Zero());
-  const double W = visit_jacobian_terms(
-      to_points(V), F, O, center, kind, dC_dO,
-      [&](Eigen::Index f, int k, const Eigen::Vector3d& a, const Eigen::Vector3d& g, double share) {
-        const Eigen::Index i = F(f, k);
-        acc[i] += a * g.dot(Uv[i]) + share * Uv[i];
+  // (J_i u_i) T = sum (s (g . u_i) + w6 u_i) / d - D sum g . u_i: a 3-vector and a scalar.
+  struct Sums {
+    Eigen::Vector3d a;
+    double b;
+  };
+  std::vector<Eigen::Vector3d> Uv(static_cast<std::size_t>(U.rows()));
+  for (Eigen::Index i = 0; i < U.rows(); ++i) Uv[i] = U.row(i).transpose();
+  std::vector<Sums> acc(Uv.size(), Sums{Eigen::Vector3d::Zero(), 0.0});
+  const FaceTotals tot =
+      face_pass(kind, relative_points(V, O), F, true, [&](int i, const FaceGeometry& t, int k) {
+        const double gu = t.g[k].dot(Uv[i]);
+        acc[i].a += gu * t.s + t.w6 * Uv[i];
+        acc[i].b += gu;
       });
-  for (Eigen::Index i = 0; i < V.rows(); ++i) E.row(i) = acc[i].transpose();
-  if (W == 0) return E;
-  E /= W;
-  if (kind == CenterKind::Volume)
-    for (Eigen::Index i = 0; i < V.rows(); ++i)
-      if (referenced[i]) E.row(i) += (dC_dO * U.row(i).transpose()).transpose() / (W * n);
-  return E;
+  out.center = center_from_totals(kind, O, tot);
+  if (tot.T == 0) return out;
+  const Eigen::Vector3d D = out.center.point - O;
+  const double d = centroid_divisor(kind);
+  const Eigen::Matrix3d K =
+      kind == CenterKind::Volume ? reference_point_term(tot, D, n) : Eigen::Matrix3d::Zero();
+  for (Eigen::Index i = 0; i < V.rows(); ++i) {
+    Eigen::Vector3d e = (acc[i].a / d - D * acc[i].b) / tot.T;
+    if (kind == CenterKind::Volume && referenced[i]) e += K * Uv[i];
+    out.E.row(i) = e.transpose();
+  }
+  return out;
 }
 
 CenterKind center_from_letter(char letter) {

@@ -114,16 +114,6 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
   const Payload& payload = *ctx.payload;
   const Eigen::MatrixX3i& F = *ctx.F;
   const int nb = payload.size(), ng = ctx.groups.count();
-  round.center = center_of_mass(V, F, ctx.referenced, o.variant.center);
-  const Center& center = round.center;
-  if (!center.well_defined) {
-    message = fmt::format(
-        "the {} center is ill-defined for this mesh (|sum of signed volumes| / sum of volumes = "
-        "{:.2g}): "
-        "open or inconsistently oriented",
-        center_letter(o.variant.center), center.quality);
-    return false;
-  }
   // Distances are measured from the original center, where this round puts the center back:
   // the decoder will see them so (up to the center's second-order error), and the rows need not
   // model the shift of every distance that bringing the center back causes.
@@ -154,7 +144,6 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
     const double m = payload.bits[j] ? 1.0 : -1.0;
     qp.b(j) = counts[j] > 0 ? o.strength - m * (means[j] - 0.5) : o.strength;
   }
-  qp.c = (ctx.original_center - center.point) / s;  // bring the center back where it was
   round.U.resize(ng, 3);
   round.radial_fallbacks = 0;
   for (int g = 0; g < ng; ++g) {
@@ -193,17 +182,27 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
     qp.h(g) = w;
   }
   fall_back_where_bins_cannot_reach(ctx, V, h, counts, round);
-  // The center rows: e_g = sum over the group's vertices of J_i u_g.
-  Eigen::MatrixX3d Uv = Eigen::MatrixX3d::Zero(V.rows(), 3);
+  // The center rows: e_g = sum over the group's vertices of J_i u_g, and the center itself.
+  Eigen::MatrixX3d Uv(V.rows(), 3);
   for (int g = 0; g < ng; ++g)
     for (int k = ctx.groups.offsets[g]; k < ctx.groups.offsets[g + 1]; ++k)
       Uv.row(ctx.groups.members[k]) = round.U.row(g);
-  const Eigen::MatrixX3d E =
-      center_jacobian_products(V, F, ctx.referenced, o.variant.center, center.point, Uv);
+  for (Eigen::Index i = 0; i < V.rows(); ++i)
+    if (ctx.groups.group_of[i] < 0) Uv.row(i).setZero();
+  const CenterProducts cp = center_jacobian_products(V, F, ctx.referenced, o.variant.center, Uv);
+  round.center = cp.center;
+  if (!round.center.well_defined) {
+    message = fmt::format(
+        "the {} center is ill-defined for this mesh (|sum of signed volumes| / sum of volumes = "
+        "{:.2g}): open or inconsistently oriented",
+        center_letter(o.variant.center), round.center.quality);
+    return false;
+  }
+  qp.c = (ctx.original_center - round.center.point) / s;  // bring the center back where it was
   qp.e.setZero();
   for (int g = 0; g < ng; ++g)
     for (int k = ctx.groups.offsets[g]; k < ctx.groups.offsets[g + 1]; ++k)
-      qp.e.col(g) += E.row(ctx.groups.members[k]).transpose();
+      qp.e.col(g) += cp.E.row(ctx.groups.members[k]).transpose();
   if (o.variant.cost == CostKind::Quadric) {
     // q_i = sum over the faces around i of (u . n_f)^2: the quadric error of moving along u.
     const Eigen::MatrixX3d FN = face_normals(V, F);

@@ -47,13 +47,18 @@ struct CenterJacobians {
 CenterJacobians center_jacobians(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                                  const std::vector<std::uint8_t>& referenced, CenterKind kind);
 
-/// The products J_i u_i for one direction per vertex (U: #V x 3), row i of the result, without
-/// forming the matrices: what the linearized center constraint needs. `center` must be
-/// center_of_mass(V, F, referenced, kind).point.
-Eigen::MatrixX3d center_jacobian_products(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
-                                          const std::vector<std::uint8_t>& referenced,
-                                          CenterKind kind, const Eigen::Vector3d& center,
-                                          const Eigen::MatrixX3d& U);
+/// The center and the products J_i u_i, row i of E.
+struct CenterProducts {
+  Center center;
+  Eigen::MatrixX3d E;  ///< #V x 3
+};
+
+/// The products J_i u_i for one direction per vertex (U: #V x 3) without forming the
+/// matrices, what the linearized center constraint needs, and the center itself, both from one
+/// pass over the faces (the sums it gathers per vertex do not depend on the center).
+CenterProducts center_jacobian_products(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                                        const std::vector<std::uint8_t>& referenced,
+                                        CenterKind kind, const Eigen::MatrixX3d& U);
 
 /// Parses "D", "S", "V" (any case). \throw InvalidArgumentError otherwise.
 CenterKind center_from_letter(char letter);
