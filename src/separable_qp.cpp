@@ -9,8 +9,48 @@ namespace meshmark {
 
 namespace {
 
-// Everything one pass over the variables gives for multipliers y: the primal minimizer, the
-// dual value and gradient, and the generalized Hessian blocks over the unclipped variables.
+// The variables regrouped by watermark row (those in no row first), in flat arrays, so that
+// a pass over them keeps each row's sums in registers and reads memory in order.
+struct PackedQp {
+  std::vector<int> index;    // original index of each packed variable
+  std::vector<int> offsets;  // segment k (0: in no row, j + 1: row j): [offsets[k], offsets[k + 1])
+  std::vector<double> a, ex, ey, ez, h, d, lo, hi;  // d = 1 / (2 h)
+};
+
+PackedQp pack(const SeparableQp& qp) {
+  const Eigen::Index n = qp.h.size(), m = qp.b.size();
+  PackedQp p;
+  p.offsets.assign(static_cast<std::size_t>(m + 2), 0);
+  for (Eigen::Index i = 0; i < n; ++i) ++p.offsets[qp.row[i] + 1];
+  int sum = 0;
+  for (auto& o : p.offsets) {
+    const int c = o;
+    o = sum;
+    sum += c;
+  }
+  p.offsets.push_back(sum);  // offsets[k] is now the start of segment k (segment 0: no row)
+  std::vector<int> next(p.offsets.begin(), p.offsets.end() - 1);
+  p.index.resize(static_cast<std::size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i) p.index[next[qp.row[i] + 1]++] = static_cast<int>(i);
+  for (auto* v : {&p.a, &p.ex, &p.ey, &p.ez, &p.h, &p.d, &p.lo, &p.hi})
+    v->resize(static_cast<std::size_t>(n));
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const int i = p.index[k];
+    p.a[k] = qp.row[i] >= 0 ? qp.a(i) : 0.0;
+    p.ex[k] = qp.e(0, i);
+    p.ey[k] = qp.e(1, i);
+    p.ez[k] = qp.e(2, i);
+    p.h[k] = qp.h(i);
+    p.d[k] = 0.5 / qp.h(i);
+    p.lo[k] = qp.lo(i);
+    p.hi[k] = qp.hi(i);
+  }
+  return p;
+}
+
+// Everything one pass over the variables gives for multipliers y: the primal minimizer (in
+// packed order), the dual value and gradient, and the generalized Hessian blocks over the
+// unclipped variables.
 struct DualPoint {
   Eigen::VectorXd y;
   Eigen::VectorXd x;
@@ -21,37 +61,43 @@ struct DualPoint {
   Eigen::Matrix3d hee;   // equality block
 };
 
-void evaluate(const SeparableQp& qp, DualPoint& p) {
+void evaluate(const SeparableQp& qp, const PackedQp& pq, DualPoint& p) {
   const Eigen::Index n = qp.h.size(), m = qp.b.size();
-  const Eigen::Vector3d ye = p.y.tail<3>();
+  const double y0 = p.y(m), y1 = p.y(m + 1), y2 = p.y(m + 2);
   p.x.resize(n);
-  p.g.setZero(m + 3);
-  p.hww.setZero(m);
-  p.hwe.setZero(3, m);
-  p.hee.setZero();
-  double value = 0;
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const int j = qp.row[i];
-    const Eigen::Vector3d ei = qp.e.col(i);
-    const double z = (j >= 0 ? qp.a(i) * p.y(j) : 0.0) + ei.dot(ye);
-    const double d = 0.5 / qp.h(i);
-    const double u = z * d;
-    const double xi = std::clamp(u, qp.lo(i), qp.hi(i));
-    p.x(i) = xi;
-    value += qp.h(i) * xi * xi - z * xi;
-    if (j >= 0) p.g(j) -= qp.a(i) * xi;
-    p.g.tail<3>() -= ei * xi;
-    if (u > qp.lo(i) && u < qp.hi(i)) {
-      if (j >= 0) {
-        p.hww(j) += qp.a(i) * qp.a(i) * d;
-        p.hwe.col(j) += (qp.a(i) * d) * ei;
-      }
-      p.hee.noalias() += d * ei * ei.transpose();
+  p.g.resize(m + 3);
+  p.hww.resize(m);
+  p.hwe.resize(3, m);
+  double value = 0, gx = 0, gy = 0, gz = 0;
+  double hxx = 0, hxy = 0, hxz = 0, hyy = 0, hyz = 0, hzz = 0;
+  for (Eigen::Index seg = 0; seg <= m; ++seg) {
+    const double yj = seg > 0 ? p.y(seg - 1) : 0.0;
+    double gj = 0, wj = 0, cx = 0, cy = 0, cz = 0;
+    for (int k = pq.offsets[seg]; k < pq.offsets[seg + 1]; ++k) {
+      const double a = pq.a[k], ex = pq.ex[k], ey = pq.ey[k], ez = pq.ez[k];
+      const double z = a * yj + ex * y0 + ey * y1 + ez * y2;
+      const double u = z * pq.d[k];
+      const double xi = std::min(std::max(u, pq.lo[k]), pq.hi[k]);
+      p.x(k) = xi;
+      value += xi * (pq.h[k] * xi - z);
+      gj += a * xi;
+      gx += ex * xi, gy += ey * xi, gz += ez * xi;
+      const double f = (u > pq.lo[k] && u < pq.hi[k]) ? pq.d[k] : 0.0;  // free: its curvature
+      const double fa = f * a, fx = f * ex, fy = f * ey;
+      wj += fa * a;
+      cx += fa * ex, cy += fa * ey, cz += fa * ez;
+      hxx += fx * ex, hxy += fx * ey, hxz += fx * ez;
+      hyy += fy * ey, hyz += fy * ez, hzz += f * ez * ez;
+    }
+    if (seg > 0) {
+      p.g(seg - 1) = qp.b(seg - 1) - gj;
+      p.hww(seg - 1) = wj;
+      p.hwe.col(seg - 1) = Eigen::Vector3d(cx, cy, cz);
     }
   }
-  p.g.head(m) += qp.b;
-  p.g.tail<3>() += qp.c;
-  p.value = value + qp.b.dot(p.y.head(m)) + qp.c.dot(ye);
+  p.g.tail<3>() = qp.c - Eigen::Vector3d(gx, gy, gz);
+  p.hee << hxx, hxy, hxz, hxy, hyy, hyz, hxz, hyz, hzz;
+  p.value = value + qp.b.dot(p.y.head(m)) + qp.c.dot(p.y.tail<3>());
 }
 
 // Residual of the KKT conditions that x(y) does not satisfy by construction.
@@ -120,15 +166,17 @@ QpResult solve_separable_qp(const SeparableQp& qp, const QpSettings& settings,
   assert(static_cast<Eigen::Index>(qp.row.size()) == n);
   QpResult result;
   result.infeasible_rows = unreachable_rows(qp, settings.tolerance);
+  const PackedQp pq = pack(qp);
   DualPoint p;
   p.y = warm_y && warm_y->size() == m + 3 ? *warm_y : Eigen::VectorXd::Zero(m + 3);
   p.y.head(m) = p.y.head(m).cwiseMax(0.0);
-  evaluate(qp, p);
+  evaluate(qp, pq, p);
   auto finish = [&](QpStatus status) {
     result.status = status;
-    result.x = p.x;
+    result.x.resize(qp.h.size());
+    for (std::size_t k = 0; k < pq.index.size(); ++k) result.x(pq.index[k]) = p.x(k);
     result.y = p.y;
-    result.objective = (qp.h.array() * p.x.array().square()).sum();
+    result.objective = (qp.h.array() * result.x.array().square()).sum();
     kkt_residual(p, m, result.primal_residual, result.complementarity);
     return result;
   };
@@ -151,7 +199,7 @@ QpResult solve_separable_qp(const SeparableQp& qp, const QpSettings& settings,
     for (int k = 0; k < 60; ++k, step *= 0.5) {
       trial.y = p.y + step * dy;
       trial.y.head(m) = trial.y.head(m).cwiseMax(0.0);
-      evaluate(qp, trial);
+      evaluate(qp, pq, trial);
       // Near the optimum the change of the dual value drowns in rounding: a full step that
       // halves the KKT residual is taken on that evidence instead.
       double tp = 0, tc = 0;
