@@ -69,25 +69,35 @@ double bounding_box_diagonal(const Eigen::MatrixX3d& V, const std::vector<std::u
 }
 
 Adjacency vertex_adjacency(const Eigen::MatrixX3i& F, Eigen::Index nv) {
-  std::vector<std::pair<int, int>> edges;
-  edges.reserve(static_cast<std::size_t>(F.rows()) * 6);
+  // Bucket the directed edges by their first vertex (two passes: count, fill), then sort and
+  // deduplicate each vertex's short list: linear in the faces, no global sort.
+  std::vector<int> start(static_cast<std::size_t>(nv) + 1, 0);
   for (Eigen::Index t = 0; t < F.rows(); ++t)
     for (int c = 0; c < 3; ++c) {
       const int a = F(t, c), b = F(t, (c + 1) % 3);
       if (a == b) continue;
-      edges.emplace_back(a, b);
-      edges.emplace_back(b, a);
+      ++start[a + 1];
+      ++start[b + 1];
     }
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  std::vector<int> slots(static_cast<std::size_t>(start[nv]));
+  std::vector<int> fill(start.begin(), start.end() - 1);
+  for (Eigen::Index t = 0; t < F.rows(); ++t)
+    for (int c = 0; c < 3; ++c) {
+      const int a = F(t, c), b = F(t, (c + 1) % 3);
+      if (a == b) continue;
+      slots[fill[a]++] = b;
+      slots[fill[b]++] = a;
+    }
   Adjacency adj;
   adj.offsets.assign(static_cast<std::size_t>(nv) + 1, 0);
-  adj.indices.reserve(edges.size());
-  for (const auto& [a, b] : edges) {
-    ++adj.offsets[a + 1];
-    adj.indices.push_back(b);
+  adj.indices.reserve(slots.size() / 2);
+  for (Eigen::Index i = 0; i < nv; ++i) {
+    const auto first = slots.begin() + start[i], last = slots.begin() + start[i + 1];
+    std::sort(first, last);
+    adj.indices.insert(adj.indices.end(), first, std::unique(first, last));
+    adj.offsets[i + 1] = static_cast<int>(adj.indices.size());
   }
-  std::partial_sum(adj.offsets.begin(), adj.offsets.end(), adj.offsets.begin());
   return adj;
 }
 

@@ -2,6 +2,7 @@
 
 #include <array>
 #include <map>
+#include <set>
 
 #include "meshmark/io.h"
 #include "meshmark/mesh.h"
@@ -72,4 +73,27 @@ TEST(Mesh, BoundingBoxDiagonalOfMaskedVertices) {
   V << 0, 0, 0, 3, 4, 0, 100, 100, 100;
   EXPECT_DOUBLE_EQ(bounding_box_diagonal(V, {1, 1, 0}), 5.0);
   EXPECT_DOUBLE_EQ(bounding_box_diagonal(V, {0, 0, 0}), 0.0);
+}
+
+TEST(Mesh, AdjacencyOnARealMeshMatchesOrderedSetsOfEdges) {
+  const std::string path = test::shared_mesh("teapot.obj");
+  MESHMARK_REQUIRE(path, "teapot.obj");
+  Mesh mesh = read_mesh(path);
+  // A degenerate face (a repeated vertex) and a duplicated face must add no loop, no repeat.
+  Eigen::MatrixX3i F(mesh.F.rows() + 2, 3);
+  F << mesh.F, Eigen::RowVector3i(0, 0, 1), mesh.F.row(0);
+  const Adjacency adj = vertex_adjacency(F, mesh.V.rows() + 1);  // one isolated vertex
+  std::vector<std::set<int>> expected(static_cast<std::size_t>(mesh.V.rows()) + 1);
+  for (Eigen::Index t = 0; t < F.rows(); ++t)
+    for (int c = 0; c < 3; ++c) {
+      const int a = F(t, c), b = F(t, (c + 1) % 3);
+      if (a != b) expected[a].insert(b), expected[b].insert(a);
+    }
+  ASSERT_EQ(adj.offsets.size(), expected.size() + 1);
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    const std::vector<int> got(adj.indices.begin() + adj.offsets[i],
+                               adj.indices.begin() + adj.offsets[i + 1]);
+    ASSERT_EQ(got, std::vector<int>(expected[i].begin(), expected[i].end())) << "vertex " << i;
+  }
+  EXPECT_EQ(adj.degree(static_cast<int>(mesh.V.rows())), 0);
 }

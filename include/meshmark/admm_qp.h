@@ -3,8 +3,8 @@
 /// A solver for the embedding problem with a sparse, non-diagonal cost (the Laplacian cost L,
 /// WATERMARK.md section 4): minimize x^T H x over the constraint set of a SeparableQp (rows,
 /// center equality, bounds). ADMM (as in OSQP) splits it into
-///   x-step: (2 H + rho I) x = rho (z - u)  -- a sparse Cholesky factorization, computed once
-///           per Hessian and reused by every iteration (and its symbolic analysis by every round);
+///   x-step: (2 H + rho I) x = rho (z - u)  -- conjugate gradients preconditioned by the
+///           diagonal, warm-started from the previous x (the matrix is well conditioned);
 ///   z-step: the Euclidean projection onto the constraint set -- the separable problem, solved
 ///           exactly by solve_separable_qp, warm-started from the previous iteration;
 ///   u-step: u += x - z,
@@ -12,7 +12,7 @@
 /// so a fixed rho converges fast. The answer z satisfies every constraint exactly; primal and
 /// dual residuals measure its optimality.
 
-#include <Eigen/IterativeLinearSolvers>
+#include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <memory>
 
@@ -33,8 +33,7 @@ struct AdmmSettings {
 class AdmmQpSolver {
  public:
   /// Takes a new Hessian H (n x n, symmetric positive semidefinite, both triangles stored).
-  /// The first call (or refactor = true) computes the incomplete Cholesky preconditioner of
-  /// 2 H + rho I; later calls keep it.
+  /// The first call (or refactor = true) chooses rho; later calls keep it.
   void set_hessian(const Eigen::SparseMatrix<double>& H, const AdmmSettings& settings = {},
                    bool refactor = false);
   /// Solves over the constraints of qp (qp.h is ignored). warm_z and warm_u (size n) start the
@@ -53,7 +52,7 @@ class AdmmQpSolver {
   Eigen::VectorXd solve_x(const Eigen::VectorXd& rhs, const Eigen::VectorXd& guess) const;
 
   Eigen::SparseMatrix<double> H_, K_;  // K = 2 H + rho I
-  Eigen::IncompleteCholesky<double> ichol_;
+  Eigen::VectorXd inv_diagonal_;       // Jacobi preconditioner: 1 / diag(K)
   bool factored_ = false;
   double rho_ = 1;
   AdmmSettings settings_;
