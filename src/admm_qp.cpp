@@ -7,23 +7,32 @@
 
 namespace meshmark {
 
-void AdmmQpSolver::set_hessian(const Eigen::SparseMatrix<double>& H, const AdmmSettings& settings,
-                               bool refactor) {
+void AdmmQpSolver::set_hessian(HessianOperator H, const AdmmSettings& settings, bool refactor) {
   settings_ = settings;
-  H_ = H;
+  H_ = std::move(H);
+  const Eigen::VectorXd d = 2 * H_.diagonal;
+  if ((d.array() < 0).any() || !d.allFinite())
+    throw Error("ADMM: the Hessian has a negative diagonal (is it positive semidefinite?)");
   if (!factored_ || refactor) {
-    const Eigen::VectorXd d = 2 * H.diagonal();
     rho_ = settings.rho > 0
                ? settings.rho
                : std::sqrt(std::max(d.minCoeff(), 1e-12) * std::max(d.maxCoeff(), 1e-12));
     factored_ = true;
   }
-  K_ = 2 * H;
-  K_.diagonal().array() += rho_;
-  K_.makeCompressed();
-  inv_diagonal_ = K_.diagonal().cwiseInverse();
-  if (!inv_diagonal_.allFinite() || (K_.diagonal().array() <= 0).any())
-    throw Error("ADMM: the Hessian has a negative diagonal (is it positive semidefinite?)");
+  inv_diagonal_ = (d.array() + rho_).inverse().matrix();
+}
+
+void AdmmQpSolver::set_hessian(const Eigen::SparseMatrix<double>& H, const AdmmSettings& settings,
+                               bool refactor) {
+  HessianOperator op;
+  op.diagonal = H.diagonal();
+  op.apply = [H](const Eigen::VectorXd& x, Eigen::VectorXd& Hx) { Hx.noalias() = H * x; };
+  set_hessian(std::move(op), settings, refactor);
+}
+
+void AdmmQpSolver::apply_k(const Eigen::VectorXd& x, Eigen::VectorXd& Kx) const {
+  H_.apply(x, Kx);
+  Kx = 2 * Kx + rho_ * x;
 }
 
 // Conjugate gradients on K x = rhs from guess, to a relative residual of cg_tolerance, with
@@ -33,7 +42,8 @@ void AdmmQpSolver::set_hessian(const Eigen::SparseMatrix<double>& H, const AdmmS
 Eigen::VectorXd AdmmQpSolver::solve_x(const Eigen::VectorXd& rhs,
                                       const Eigen::VectorXd& guess) const {
   Eigen::VectorXd x = guess;
-  r_.noalias() = rhs - K_ * x;
+  apply_k(x, Kp_);
+  r_ = rhs - Kp_;
   const double target = settings_.cg_tolerance * std::max(rhs.norm(), 1e-300);
   if (r_.norm() <= target) return x;
   z_ = r_.cwiseProduct(inv_diagonal_);
@@ -41,7 +51,7 @@ Eigen::VectorXd AdmmQpSolver::solve_x(const Eigen::VectorXd& rhs,
   double rz = r_.dot(z_);
   for (int k = 0; k < 1000; ++k) {
     ++cg_iterations_;
-    Kp_.noalias() = K_ * p_;
+    apply_k(p_, Kp_);
     const double step = rz / p_.dot(Kp_);
     x += step * p_;
     r_ -= step * Kp_;
@@ -103,7 +113,9 @@ QpResult AdmmQpSolver::solve(const SeparableQp& qp, const Eigen::VectorXd* warm_
   if (result.status != QpStatus::Solved) result.status = QpStatus::IterationLimit;
   result.x = z;
   result.y = y;
-  result.objective = z.dot(H_.selfadjointView<Eigen::Lower>() * z);
+  Eigen::VectorXd Hz;
+  H_.apply(z, Hz);
+  result.objective = z.dot(Hz);
   (void)m;
   return result;
 }

@@ -76,7 +76,9 @@ detail::EmbedContext make_context(const Eigen::MatrixX3d& V, const Eigen::Matrix
                                           : singleton_groups(ctx.referenced);
   if (o.variant.cost == CostKind::Laplacian) {
     ctx.adjacency = vertex_adjacency(F, V.rows());
-    ctx.laplacian_topology = detail::laplacian_topology(ctx.groups, ctx.adjacency);
+    ctx.laplacian = detail::laplacian_rows(ctx.groups, ctx.adjacency);
+    if (o.backend == SolverBackend::Ipopt)
+      ctx.laplacian_topology = detail::laplacian_topology(ctx.groups, ctx.adjacency);
   }
   if (o.variant.direction == DirectionKind::Smooth) {
     const RoughnessField field = roughness_field(V, F, o.roughness);
@@ -131,7 +133,10 @@ EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Pa
                                    options.variant.cost == CostKind::Laplacian ? &round.H : nullptr,
                                    options.ipopt);
     } else if (options.variant.cost == CostKind::Laplacian) {
-      admm.set_hessian(round.H, options.admm);
+      const detail::LaplacianOperator H(ctx, round.U, options.lambda);
+      admm.set_hessian(
+          {[&H](const Eigen::VectorXd& x, Eigen::VectorXd& Hx) { H.apply(x, Hx); }, H.diagonal()},
+          options.admm);
       sol = admm.solve(round.qp);
     } else {
       sol = solve_separable_qp(round.qp, options.solver, warm.size() ? &warm : nullptr);

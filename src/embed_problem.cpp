@@ -1,6 +1,7 @@
 #include "embed_problem.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -60,6 +61,84 @@ Eigen::SparseMatrix<double> laplacian_topology(const PositionGroups& groups,
   Eigen::SparseMatrix<double> S = Eigen::SparseMatrix<double>(C.transpose() * C) + zero_diagonal;
   S.makeCompressed();
   return S;
+}
+
+LaplacianRows laplacian_rows(const PositionGroups& groups, const Adjacency& adjacency) {
+  const std::size_t nv = groups.group_of.size();
+  LaplacianRows rows;
+  rows.row_group.assign(nv, -1);
+  rows.inv_degree.assign(nv, 0.0);
+  rows.ctc_diagonal = Eigen::VectorXd::Zero(groups.count());
+  std::vector<std::pair<int, double>> coefficients;  // one row's c_ig, merged per group
+  for (std::size_t i = 0; i < nv; ++i) {
+    const int gi = groups.group_of[i];
+    const int deg = adjacency.degree(static_cast<int>(i));
+    if (gi < 0 || deg == 0) continue;
+    rows.row_group[i] = gi;
+    rows.inv_degree[i] = 1.0 / deg;
+    coefficients.assign(1, {gi, 1.0});
+    for (int k = adjacency.offsets[i]; k < adjacency.offsets[i + 1]; ++k)
+      coefficients.emplace_back(groups.group_of[adjacency.indices[k]], -1.0 / deg);
+    std::sort(coefficients.begin(), coefficients.end());
+    for (std::size_t a = 0; a < coefficients.size();) {
+      double c = 0;
+      std::size_t b = a;
+      for (; b < coefficients.size() && coefficients[b].first == coefficients[a].first; ++b)
+        c += coefficients[b].second;
+      rows.ctc_diagonal(coefficients[a].first) += c * c;
+      a = b;
+    }
+  }
+  return rows;
+}
+
+LaplacianOperator::LaplacianOperator(const EmbedContext& ctx, const Eigen::MatrixX3d& U,
+                                     double lambda)
+    : ctx_(&ctx), U_(&U), lambda_(lambda) {}
+
+void LaplacianOperator::apply(const Eigen::VectorXd& x, Eigen::VectorXd& Hx) const {
+  const PositionGroups& groups = ctx_->groups;
+  const Adjacency& adj = ctx_->adjacency;
+  const LaplacianRows& rows = ctx_->laplacian;
+  const Eigen::MatrixX3d& U = *U_;
+  const int ng = groups.count();
+  const std::size_t nv = groups.group_of.size();
+  v_.resize(static_cast<std::size_t>(ng));
+  w_.resize(nv);
+  t_.resize(nv);
+  for (int g = 0; g < ng; ++g) v_[g] = x(g) * U.row(g).transpose();
+  // (B x)_i = v_gi - mean over N1(i) of v_gj, and t_i = (B x)_i / |N1(i)|.
+  for (std::size_t i = 0; i < nv; ++i) {
+    const int gi = rows.row_group[i];
+    if (gi < 0) {
+      w_[i].setZero();
+      t_[i].setZero();
+      continue;
+    }
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (int k = adj.offsets[i]; k < adj.offsets[i + 1]; ++k)
+      sum += v_[groups.group_of[adj.indices[k]]];
+    w_[i] = v_[gi] - rows.inv_degree[i] * sum;
+    t_[i] = rows.inv_degree[i] * w_[i];
+  }
+  // (B^T w)_g = u_g . sum over g's vertices j of (w_j - sum over N1(j) of t_i): column j of
+  // the neighbour terms gathered through the (symmetric) adjacency.
+  Hx.resize(ng);
+  for (int g = 0; g < ng; ++g) Hx(g) = lambda_ * (groups.offsets[g + 1] - groups.offsets[g]) * x(g);
+  for (std::size_t j = 0; j < nv; ++j) {
+    const int gj = groups.group_of[j];
+    if (gj < 0) continue;
+    Eigen::Vector3d sum = w_[j];
+    for (int k = adj.offsets[j]; k < adj.offsets[j + 1]; ++k) sum -= t_[adj.indices[k]];
+    Hx(gj) += (1 - lambda_) * U.row(gj).dot(sum);
+  }
+}
+
+Eigen::VectorXd LaplacianOperator::diagonal() const {
+  Eigen::VectorXd d = (1 - lambda_) * ctx_->laplacian.ctc_diagonal;  // u_g . u_g = 1
+  for (int g = 0; g < ctx_->groups.count(); ++g)
+    d(g) += lambda_ * (ctx_->groups.offsets[g + 1] - ctx_->groups.offsets[g]);
+  return d;
 }
 
 namespace {
@@ -216,7 +295,8 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
     qp.h = o.lambda * qp.h + (1 - o.lambda) * q;
     qp.h = qp.h.cwiseMax(1e-12 * qp.h.maxCoeff());  // keep the cost strictly convex
   }
-  if (o.variant.cost == CostKind::Laplacian) round.H = laplacian_hessian(ctx, round.U, o.lambda);
+  if (o.variant.cost == CostKind::Laplacian && o.backend == SolverBackend::Ipopt)
+    round.H = laplacian_hessian(ctx, round.U, o.lambda);
   return true;
 }
 

@@ -11,13 +11,44 @@
 
 namespace meshmark::detail {
 
+/// Cost L's one-ring structure over groups, which the rounds share: row i of B (one per
+/// referenced vertex with neighbours) is u_gi e_gi^T - (1 / |N1(i)|) sum_{j in N1(i)} u_gj e_gj^T.
+struct LaplacianRows {
+  std::vector<int> row_group;      ///< per vertex: its group when it has a row, else -1
+  std::vector<double> inv_degree;  ///< per vertex: 1 / |N1(i)| (0 without a row)
+  Eigen::VectorXd ctc_diagonal;    ///< per group: (C^T C)_gg = sum_i c_ig^2
+};
+
+/// Builds the rows' structure (topology only).
+LaplacianRows laplacian_rows(const PositionGroups& groups, const Adjacency& adjacency);
+
+struct EmbedContext;
+
+/// Cost L's Hessian H = lambda diag(w) + (1 - lambda) B^T B, applied without assembling it:
+/// B x and B^T y are one pass over the one-rings each (B^T by symmetry of the adjacency).
+class LaplacianOperator {
+ public:
+  LaplacianOperator(const EmbedContext& ctx, const Eigen::MatrixX3d& U, double lambda);
+  /// Hx = H x.
+  void apply(const Eigen::VectorXd& x, Eigen::VectorXd& Hx) const;
+  /// diag(H).
+  Eigen::VectorXd diagonal() const;
+
+ private:
+  const EmbedContext* ctx_;
+  const Eigen::MatrixX3d* U_;
+  double lambda_;
+  mutable std::vector<Eigen::Vector3d> v_, w_, t_;  // scratch: u_g x_g, B x per vertex, / degree
+};
+
 /// What stays the same over the rounds of one embedding.
 struct EmbedContext {
   const Eigen::MatrixX3i* F = nullptr;
   std::vector<std::uint8_t> referenced;
   PositionGroups groups;
   Adjacency adjacency;                             // cost L only
-  Eigen::SparseMatrix<double> laplacian_topology;  // cost L: C^T C (see laplacian_topology)
+  LaplacianRows laplacian;                         // cost L
+  Eigen::SparseMatrix<double> laplacian_topology;  // cost L, backend Ipopt: C^T C
   Eigen::VectorXd smoothness;                      // direction S only
   double smooth_threshold = 0.8;
   Eigen::Vector3d original_center = Eigen::Vector3d::Zero();
@@ -30,7 +61,7 @@ struct RoundProblem {
   Histogram hist;
   Center center;
   SeparableQp qp;                 // constraints; qp.h is the diagonal cost (S, Q)
-  Eigen::SparseMatrix<double> H;  // cost L: the full Hessian over groups
+  Eigen::SparseMatrix<double> H;  // cost L, backend Ipopt: the assembled Hessian over groups
   Eigen::MatrixX3d U;             // per group, the unit direction of displacement
   int radial_fallbacks = 0;
 };

@@ -5,10 +5,12 @@
 
 #include <set>
 
+#include "embed_problem.h"
 #include "ipopt_reference.h"
 #include "meshmark/decode.h"
 #include "meshmark/embed.h"
 #include "meshmark/io.h"
+#include "meshmark/random.h"
 #include "test_data.h"
 
 using namespace meshmark;
@@ -129,5 +131,64 @@ TEST(LaplacianCost, OptimumMatchesIpoptOnSmallMeshes) {
       r(k) = (ours.V.row(referenced[k]) - m.V.row(referenced[k])).dot(dirs.row(k));
     const double our_cost = lambda * r.squaredNorm() + (1 - lambda) * (B * r).squaredNorm();
     EXPECT_NEAR(our_cost, ref.objective, 1e-5 * ref.objective);
+  }
+}
+
+TEST(LaplacianCost, MatrixFreeHessianMatchesTheAssembledOneOverGroups) {
+  // The operator the ADMM solver applies, against lambda W + (1 - lambda) B^T B assembled here
+  // from the definition (one row of B per referenced vertex with neighbours, one column per
+  // group of identical positions), on a mesh with unwelded seams and random unit directions.
+  const std::string path = shared_mesh("teapot.obj");
+  MESHMARK_REQUIRE(path, "teapot.obj");
+  const Mesh m = read_mesh(path);
+  detail::EmbedContext ctx;
+  ctx.referenced = referenced_vertices(m.F, m.V.rows());
+  ctx.groups = group_identical_positions(m.V, ctx.referenced);
+  ctx.adjacency = vertex_adjacency(m.F, m.V.rows());
+  ctx.laplacian = detail::laplacian_rows(ctx.groups, ctx.adjacency);
+  const int ng = ctx.groups.count();
+  ASSERT_LT(ng, m.V.rows());
+  Random rng(3);
+  Eigen::MatrixX3d U(ng, 3);
+  for (int g = 0; g < ng; ++g)
+    U.row(g) = Eigen::RowVector3d(rng.normal(), rng.normal(), rng.normal()).normalized();
+  std::vector<std::set<int>> ring(m.V.rows());
+  for (Eigen::Index t = 0; t < m.F.rows(); ++t)
+    for (int c = 0; c < 3; ++c) {
+      const int a = m.F(t, c), b = m.F(t, (c + 1) % 3);
+      if (a != b) ring[a].insert(b), ring[b].insert(a);
+    }
+  std::vector<Eigen::Triplet<double>> tb;
+  for (Eigen::Index i = 0; i < m.V.rows(); ++i) {
+    const int gi = ctx.groups.group_of[i];
+    if (gi < 0 || ring[i].empty()) continue;
+    for (int a = 0; a < 3; ++a) {
+      tb.emplace_back(3 * i + a, gi, U(gi, a));
+      for (int j : ring[i]) {
+        const int gj = ctx.groups.group_of[j];
+        tb.emplace_back(3 * i + a, gj, -U(gj, a) / static_cast<double>(ring[i].size()));
+      }
+    }
+  }
+  Eigen::SparseMatrix<double> B(3 * m.V.rows(), ng);
+  B.setFromTriplets(tb.begin(), tb.end());
+  for (double lambda : {0.0, 0.5, 1.0}) {
+    SCOPED_TRACE(lambda);
+    Eigen::VectorXd w(ng);
+    for (int g = 0; g < ng; ++g) w(g) = ctx.groups.offsets[g + 1] - ctx.groups.offsets[g];
+    const Eigen::SparseMatrix<double> H =
+        Eigen::SparseMatrix<double>((1 - lambda) * Eigen::SparseMatrix<double>(B.transpose() * B)) +
+        Eigen::SparseMatrix<double>(Eigen::VectorXd(lambda * w).asDiagonal());
+    const detail::LaplacianOperator op(ctx, U, lambda);
+    const Eigen::VectorXd d = op.diagonal();
+    EXPECT_LE((d - H.diagonal()).cwiseAbs().maxCoeff(), 1e-13 * H.diagonal().cwiseAbs().maxCoeff());
+    for (int trial = 0; trial < 3; ++trial) {
+      Eigen::VectorXd x(ng);
+      for (int g = 0; g < ng; ++g) x(g) = rng.normal();
+      Eigen::VectorXd Hx;
+      op.apply(x, Hx);
+      const Eigen::VectorXd expected = H * x;
+      EXPECT_LE((Hx - expected).norm(), 1e-12 * expected.norm());
+    }
   }
 }

@@ -14,7 +14,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
-#include <memory>
+#include <functional>
 
 #include "meshmark/separable_qp.h"
 
@@ -29,11 +29,20 @@ struct AdmmSettings {
   double cg_tolerance = 1e-8;  ///< relative residual of each x-step (ADMM tolerates inexact steps)
 };
 
+/// A symmetric positive semidefinite n x n Hessian given by its action, so that structured
+/// costs need not be assembled (the Laplacian cost's B^T B is applied as two one-ring passes).
+struct HessianOperator {
+  /// Hx = H x (Hx is sized by the callee).
+  std::function<void(const Eigen::VectorXd& x, Eigen::VectorXd& Hx)> apply;
+  Eigen::VectorXd diagonal;  ///< diag(H), n, for rho and the preconditioner
+};
+
 /// Reusable solver: set_hessian once per Hessian, solve as often as needed.
 class AdmmQpSolver {
  public:
-  /// Takes a new Hessian H (n x n, symmetric positive semidefinite, both triangles stored).
-  /// The first call (or refactor = true) chooses rho; later calls keep it.
+  /// Takes a new Hessian. The first call (or refactor = true) chooses rho; later calls keep it.
+  void set_hessian(HessianOperator H, const AdmmSettings& settings = {}, bool refactor = false);
+  /// The same for an assembled matrix (n x n, symmetric, both triangles stored).
   void set_hessian(const Eigen::SparseMatrix<double>& H, const AdmmSettings& settings = {},
                    bool refactor = false);
   /// Solves over the constraints of qp (qp.h is ignored). warm_z and warm_u (size n) start the
@@ -51,8 +60,10 @@ class AdmmQpSolver {
  private:
   Eigen::VectorXd solve_x(const Eigen::VectorXd& rhs, const Eigen::VectorXd& guess) const;
 
-  Eigen::SparseMatrix<double> H_, K_;  // K = 2 H + rho I
-  Eigen::VectorXd inv_diagonal_;       // Jacobi preconditioner: 1 / diag(K)
+  void apply_k(const Eigen::VectorXd& x, Eigen::VectorXd& Kx) const;  // K = 2 H + rho I
+
+  HessianOperator H_;
+  Eigen::VectorXd inv_diagonal_;  // Jacobi preconditioner: 1 / diag(K)
   bool factored_ = false;
   double rho_ = 1;
   AdmmSettings settings_;
