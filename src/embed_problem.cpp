@@ -68,6 +68,7 @@ LaplacianRows laplacian_rows(const PositionGroups& groups, const Adjacency& adja
   LaplacianRows rows;
   rows.row_group.assign(nv, -1);
   rows.inv_degree.assign(nv, 0.0);
+  rows.neighbor_group.assign(adjacency.indices.size(), -1);
   rows.ctc_diagonal = Eigen::VectorXd::Zero(groups.count());
   std::vector<std::pair<int, double>> coefficients;  // one row's c_ig, merged per group
   for (std::size_t i = 0; i < nv; ++i) {
@@ -76,6 +77,8 @@ LaplacianRows laplacian_rows(const PositionGroups& groups, const Adjacency& adja
     if (gi < 0 || deg == 0) continue;
     rows.row_group[i] = gi;
     rows.inv_degree[i] = 1.0 / deg;
+    for (int k = adjacency.offsets[i]; k < adjacency.offsets[i + 1]; ++k)
+      rows.neighbor_group[k] = groups.group_of[adjacency.indices[k]];
     coefficients.assign(1, {gi, 1.0});
     for (int k = adjacency.offsets[i]; k < adjacency.offsets[i + 1]; ++k)
       coefficients.emplace_back(groups.group_of[adjacency.indices[k]], -1.0 / deg);
@@ -102,13 +105,14 @@ void LaplacianOperator::apply(const Eigen::VectorXd& x, Eigen::VectorXd& Hx) con
   const LaplacianRows& rows = ctx_->laplacian;
   const Eigen::MatrixX3d& U = *U_;
   const int ng = groups.count();
-  const std::size_t nv = groups.group_of.size();
+  const auto nv = static_cast<std::int64_t>(groups.group_of.size());
   v_.resize(static_cast<std::size_t>(ng));
-  w_.resize(nv);
-  t_.resize(nv);
+  w_.resize(static_cast<std::size_t>(nv));
+  t_.resize(static_cast<std::size_t>(nv));
+  s_.resize(static_cast<std::size_t>(nv));
   for (int g = 0; g < ng; ++g) v_[g] = x(g) * U.row(g).transpose();
   // (B x)_i = v_gi - mean over N1(i) of v_gj, and t_i = (B x)_i / |N1(i)|.
-  for (std::size_t i = 0; i < nv; ++i) {
+  for (std::int64_t i = 0; i < nv; ++i) {
     const int gi = rows.row_group[i];
     if (gi < 0) {
       w_[i].setZero();
@@ -116,21 +120,24 @@ void LaplacianOperator::apply(const Eigen::VectorXd& x, Eigen::VectorXd& Hx) con
       continue;
     }
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (int k = adj.offsets[i]; k < adj.offsets[i + 1]; ++k)
-      sum += v_[groups.group_of[adj.indices[k]]];
+    for (int k = adj.offsets[i]; k < adj.offsets[i + 1]; ++k) sum += v_[rows.neighbor_group[k]];
     w_[i] = v_[gi] - rows.inv_degree[i] * sum;
     t_[i] = rows.inv_degree[i] * w_[i];
   }
   // (B^T w)_g = u_g . sum over g's vertices j of (w_j - sum over N1(j) of t_i): column j of
   // the neighbour terms gathered through the (symmetric) adjacency.
-  Hx.resize(ng);
-  for (int g = 0; g < ng; ++g) Hx(g) = lambda_ * (groups.offsets[g + 1] - groups.offsets[g]) * x(g);
-  for (std::size_t j = 0; j < nv; ++j) {
+  for (std::int64_t j = 0; j < nv; ++j) {
     const int gj = groups.group_of[j];
     if (gj < 0) continue;
     Eigen::Vector3d sum = w_[j];
     for (int k = adj.offsets[j]; k < adj.offsets[j + 1]; ++k) sum -= t_[adj.indices[k]];
-    Hx(gj) += (1 - lambda_) * U.row(gj).dot(sum);
+    s_[j] = U.row(gj).dot(sum);
+  }
+  Hx.resize(ng);
+  for (int g = 0; g < ng; ++g) {
+    double sum = 0;
+    for (int k = groups.offsets[g]; k < groups.offsets[g + 1]; ++k) sum += s_[groups.members[k]];
+    Hx(g) = lambda_ * (groups.offsets[g + 1] - groups.offsets[g]) * x(g) + (1 - lambda_) * sum;
   }
 }
 

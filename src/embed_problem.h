@@ -14,9 +14,10 @@ namespace meshmark::detail {
 /// Cost L's one-ring structure over groups, which the rounds share: row i of B (one per
 /// referenced vertex with neighbours) is u_gi e_gi^T - (1 / |N1(i)|) sum_{j in N1(i)} u_gj e_gj^T.
 struct LaplacianRows {
-  std::vector<int> row_group;      ///< per vertex: its group when it has a row, else -1
-  std::vector<double> inv_degree;  ///< per vertex: 1 / |N1(i)| (0 without a row)
-  Eigen::VectorXd ctc_diagonal;    ///< per group: (C^T C)_gg = sum_i c_ig^2
+  std::vector<int> row_group;       ///< per vertex: its group when it has a row, else -1
+  std::vector<double> inv_degree;   ///< per vertex: 1 / |N1(i)| (0 without a row)
+  std::vector<int> neighbor_group;  ///< per adjacency entry: the neighbour's group
+  Eigen::VectorXd ctc_diagonal;     ///< per group: (C^T C)_gg = sum_i c_ig^2
 };
 
 /// Builds the rows' structure (topology only).
@@ -39,6 +40,7 @@ class LaplacianOperator {
   const Eigen::MatrixX3d* U_;
   double lambda_;
   mutable std::vector<Eigen::Vector3d> v_, w_, t_;  // scratch: u_g x_g, B x per vertex, / degree
+  mutable std::vector<double> s_;                   // scratch: per vertex, its share of B^T B x
 };
 
 /// What stays the same over the rounds of one embedding.
