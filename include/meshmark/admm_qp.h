@@ -23,7 +23,7 @@ namespace meshmark {
 /// Settings of the ADMM solver.
 struct AdmmSettings {
   double rho = 0;           ///< penalty; 0 picks sqrt(smallest * largest diagonal of 2H)
-  double relaxation = 1.6;  ///< over-relaxation alpha in (0, 2)
+  double relaxation = 1.8;  ///< over-relaxation alpha in (0, 2)
   double tolerance = 1e-7;  ///< on |x - z|_inf and rho |z - z_prev|_inf
   int max_iterations = 5000;
   double cg_tolerance = 1e-8;  ///< relative residual of each x-step (ADMM tolerates inexact steps)
@@ -58,7 +58,9 @@ class AdmmQpSolver {
   int cg_iterations() const { return cg_iterations_; }
 
  private:
-  Eigen::VectorXd solve_x(const Eigen::VectorXd& rhs, const Eigen::VectorXd& guess) const;
+  // CG on K x = rhs to max(cg_tolerance |rhs|, looser_target) in |residual|_2.
+  Eigen::VectorXd solve_x(const Eigen::VectorXd& rhs, const Eigen::VectorXd& guess,
+                          double looser_target) const;
 
   void apply_k(const Eigen::VectorXd& x, Eigen::VectorXd& Kx) const;  // K = 2 H + rho I
 
