@@ -15,11 +15,10 @@ namespace meshmark {
 namespace {
 
 // Unique undirected edges with their signed dihedral angle (0 on boundary and non-manifold
-// edges), and for every vertex the edges incident to it.
+// edges).
 struct EdgeTable {
   std::vector<std::array<int, 2>> ends;
   std::vector<double> beta;
-  Adjacency incident;  // vertex -> edge ids (reusing the compressed-row layout)
 };
 
 EdgeTable dihedral_edges(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
@@ -56,15 +55,6 @@ EdgeTable dihedral_edges(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
     table.beta.push_back(beta);
     k = e;
   }
-  const auto nv = static_cast<std::size_t>(V.rows());
-  table.incident.offsets.assign(nv + 1, 0);
-  for (const auto& [a, b] : table.ends)
-    ++table.incident.offsets[a + 1], ++table.incident.offsets[b + 1];
-  for (std::size_t i = 0; i < nv; ++i) table.incident.offsets[i + 1] += table.incident.offsets[i];
-  table.incident.indices.resize(2 * table.ends.size());
-  std::vector<int> fill(table.incident.offsets.begin(), table.incident.offsets.end() - 1);
-  for (std::size_t e = 0; e < table.ends.size(); ++e)
-    for (int v : table.ends[e]) table.incident.indices[fill[v]++] = static_cast<int>(e);
   return table;
 }
 
@@ -121,43 +111,34 @@ CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::Ma
   const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> P =
       V;  // one cache line per point
   const double r2 = radius * radius;
-  // Each edge's tensor beta / |d| d d^T (its 6 distinct entries), computed once: an edge lies
-  // in the balls of many vertices.
-  std::vector<std::array<double, 6>> tensor(edges.ends.size());
+  // Edges count the way the area does, by vertices: half an edge per endpoint inside the ball,
+  // so that their ratio carries no bias. The ball's tensor is then half the sum, over the
+  // vertices inside, of each vertex's sum of its edges' tensors beta / |d| d d^T (6 distinct
+  // entries), which is computed once: no edge is visited per ball.
+  std::vector<std::array<double, 6>> tensor(static_cast<std::size_t>(nv), {0, 0, 0, 0, 0, 0});
   for (std::size_t e = 0; e < edges.ends.size(); ++e) {
+    if (edges.beta[e] == 0) continue;
     const Eigen::Vector3d d = (P.row(edges.ends[e][1]) - P.row(edges.ends[e][0])).transpose();
     const double length = d.norm();
-    const double w = length > 0 ? edges.beta[e] / length : 0.0;
-    tensor[e] = {w * d(0) * d(0), w * d(0) * d(1), w * d(0) * d(2),
-                 w * d(1) * d(1), w * d(1) * d(2), w * d(2) * d(2)};
+    if (length == 0) continue;
+    const double w = 0.5 * edges.beta[e] / length;
+    const std::array<double, 6> te = {w * d(0) * d(0), w * d(0) * d(1), w * d(0) * d(2),
+                                      w * d(1) * d(1), w * d(1) * d(2), w * d(2) * d(2)};
+    for (int v : edges.ends[e])
+      for (int c = 0; c < 6; ++c) tensor[v][c] += te[c];
   }
-  // Vertices are independent: chunks of them on separate threads, each with its own marks.
+  // Vertices are independent: chunks of them on separate threads.
   detail::parallel_chunks(nv, [&](int, std::int64_t begin, std::int64_t end) {
-    std::vector<int> stamp(static_cast<std::size_t>(nv), -1), edge_stamp(edges.ends.size(), -1),
-        members;
     for (Eigen::Index i = begin; i < end; ++i) {
-      members.clear();
       double area = 0;
+      double t[6] = {0, 0, 0, 0, 0, 0};
       for (auto k = near.offsets[i]; k < near.offsets[i + 1]; ++k) {
         const int v = near.indices[k];
         if ((P.row(v) - P.row(i)).squaredNorm() > r2) continue;
-        stamp[v] = static_cast<int>(i);
-        members.push_back(v);
         area += vertex_area(v);
+        for (int c = 0; c < 6; ++c) t[c] += tensor[v][c];
       }
       if (area <= 0) continue;
-      // Edges count the way the area does, by vertices: half an edge per endpoint inside the
-      // ball, so that their ratio carries no bias.
-      double t[6] = {0, 0, 0, 0, 0, 0};
-      for (int v : members)
-        for (int k = edges.incident.offsets[v]; k < edges.incident.offsets[v + 1]; ++k) {
-          const int e = edges.incident.indices[k];
-          if (edge_stamp[e] == i || edges.beta[e] == 0) continue;
-          edge_stamp[e] = static_cast<int>(i);
-          const double inside =
-              0.5 * ((stamp[edges.ends[e][0]] == i) + (stamp[edges.ends[e][1]] == i));
-          for (int c = 0; c < 6; ++c) t[c] += inside * tensor[e][c];
-        }
       Eigen::Matrix3d T;
       T << t[0], t[1], t[2], t[1], t[3], t[4], t[2], t[4], t[5];
       T /= area;
