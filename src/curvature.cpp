@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numeric>
 
 #include "parallel.h"
 
@@ -22,15 +23,27 @@ struct EdgeTable {
 };
 
 EdgeTable dihedral_edges(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
-  std::vector<std::array<int, 4>> half;  // (min, max, face, +1 if the face runs min->max)
-  half.reserve(static_cast<std::size_t>(F.rows()) * 3);
+  // Half-edges (max, face, +1 if the face runs min->max) bucketed by their min vertex, each
+  // bucket sorted: linear in the faces, no global sort.
+  const auto nv = static_cast<std::size_t>(V.rows());
+  std::vector<int> start(nv + 1, 0);
+  for (Eigen::Index t = 0; t < F.rows(); ++t)
+    for (int c = 0; c < 3; ++c) {
+      const int a = F(t, c), b = F(t, (c + 1) % 3);
+      if (a != b) ++start[std::min(a, b) + 1];
+    }
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  std::vector<std::array<int, 4>> half(static_cast<std::size_t>(start[nv]));
+  std::vector<int> fill(start.begin(), start.end() - 1);
   for (Eigen::Index t = 0; t < F.rows(); ++t)
     for (int c = 0; c < 3; ++c) {
       const int a = F(t, c), b = F(t, (c + 1) % 3);
       if (a != b)
-        half.push_back({std::min(a, b), std::max(a, b), static_cast<int>(t), a < b ? 1 : -1});
+        half[fill[std::min(a, b)]++] = {std::min(a, b), std::max(a, b), static_cast<int>(t),
+                                        a < b ? 1 : -1};
     }
-  std::sort(half.begin(), half.end());
+  for (std::size_t v = 0; v < nv; ++v)
+    std::sort(half.begin() + start[v], half.begin() + start[v + 1]);
   auto normal = [&](int t) {
     const Eigen::Vector3d p0 = V.row(F(t, 0)), p1 = V.row(F(t, 1)), p2 = V.row(F(t, 2));
     const Eigen::Vector3d n = (p1 - p0).cross(p2 - p0);
@@ -142,7 +155,8 @@ CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::Ma
       Eigen::Matrix3d T;
       T << t[0], t[1], t[2], t[1], t[3], t[4], t[2], t[4], t[5];
       T /= area;
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(T, Eigen::EigenvaluesOnly);
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+      eig.computeDirect(T, Eigen::EigenvaluesOnly);  // closed form for 3 x 3
       Eigen::Vector3d ev = eig.eigenvalues();
       std::sort(ev.data(), ev.data() + 3,
                 [](double x, double y) { return std::abs(x) < std::abs(y); });
