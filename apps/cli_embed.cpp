@@ -15,6 +15,7 @@ namespace {
 
 struct EmbedArgs {
   std::string input, output, payload, id, variant = "DRS", solver = "native", batch;
+  std::string x_step = "cg";
   KeyArgs keys;
   int bits = 64;
   EmbedOptions embed;
@@ -27,6 +28,8 @@ int run(const EmbedArgs& a) {
   EmbedOptions options = a.embed;
   options.variant = parse_variant(a.variant);
   options.backend = a.solver == "ipopt" ? SolverBackend::Ipopt : SolverBackend::Native;
+  options.admm.x_step =
+      a.x_step == "cholesky" ? AdmmXStep::Cholesky : AdmmXStep::ConjugateGradients;
   if (!a.batch.empty()) {
     if (!a.input.empty() || !a.payload.empty() || !a.id.empty())
       throw InvalidArgumentError(
@@ -129,6 +132,10 @@ void register_embed(CLI::App& app, int& exit_code) {
   sub->add_option("--solver", args->solver,
                   "native (structured, exact) or ipopt (general-purpose, for comparison)")
       ->check(CLI::IsMember({"native", "ipopt"}));
+  sub->add_option("--x-step", args->x_step,
+                  "cost L, native solver: ADMM x-steps by matrix-free conjugate gradients (cg) or "
+                  "a sparse LDL^T factorization reused across iterations (cholesky)")
+      ->check(CLI::IsMember({"cg", "cholesky"}));
   sub->add_flag("--json", args->json, "print a JSON report");
   add_key_options(*sub, args->keys);
   add_input_options(*sub, args->in);

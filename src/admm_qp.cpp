@@ -10,6 +10,7 @@ namespace meshmark {
 
 void AdmmQpSolver::set_hessian(HessianOperator H, const AdmmSettings& settings, bool refactor) {
   settings_ = settings;
+  factored_k_ = false;  // an operator has no factors (the matrix overload sets them again)
   H_ = std::move(H);
   const Eigen::VectorXd d = 2 * H_.diagonal;
   if ((d.array() < 0).any() || !d.allFinite())
@@ -25,10 +26,34 @@ void AdmmQpSolver::set_hessian(HessianOperator H, const AdmmSettings& settings, 
 
 void AdmmQpSolver::set_hessian(const Eigen::SparseMatrix<double>& H, const AdmmSettings& settings,
                                bool refactor) {
+  const bool had_factors = factored_k_;
   HessianOperator op;
   op.diagonal = H.diagonal();
   op.apply = [H](const Eigen::VectorXd& x, Eigen::VectorXd& Hx) { Hx.noalias() = H * x; };
   set_hessian(std::move(op), settings, refactor);
+  if (settings.x_step != AdmmXStep::Cholesky) return;
+  Eigen::SparseMatrix<double> K = 2 * H;
+  K.diagonal().array() += rho_;
+  K.makeCompressed();
+  const bool same_pattern =
+      analyzed_ && K.rows() == K_.rows() && K.nonZeros() == K_.nonZeros() &&
+      std::equal(K.outerIndexPtr(), K.outerIndexPtr() + K.outerSize() + 1, K_.outerIndexPtr()) &&
+      std::equal(K.innerIndexPtr(), K.innerIndexPtr() + K.nonZeros(), K_.innerIndexPtr());
+  if (same_pattern && had_factors && !refactor &&
+      std::equal(K.valuePtr(), K.valuePtr() + K.nonZeros(), K_.valuePtr())) {
+    factored_k_ = true;  // the same matrix: keep its factors
+    return;
+  }
+  if (!same_pattern) {
+    ldlt_.analyzePattern(K);
+    analyzed_ = true;
+  }
+  ldlt_.factorize(K);
+  if (ldlt_.info() != Eigen::Success)
+    throw Error("ADMM: the LDL^T factorization failed (is the Hessian positive semidefinite?)");
+  K_ = std::move(K);
+  factored_k_ = true;
+  ++factorizations_;
 }
 
 void AdmmQpSolver::apply_k(const Eigen::VectorXd& x, Eigen::VectorXd& Kx) const {
@@ -42,6 +67,10 @@ void AdmmQpSolver::apply_k(const Eigen::VectorXd& x, Eigen::VectorXd& Kx) const 
 // iterations suffice and no factorization is needed. Works in the solver's scratch vectors.
 Eigen::VectorXd AdmmQpSolver::solve_x(const Eigen::VectorXd& rhs, const Eigen::VectorXd& guess,
                                       double looser_target) const {
+  if (settings_.x_step == AdmmXStep::Cholesky) {
+    if (!factored_k_) throw Error("ADMM: Cholesky x-steps need an assembled Hessian");
+    return ldlt_.solve(rhs);
+  }
   Eigen::VectorXd x = guess;
   apply_k(x, Kp_);
   r_ = rhs - Kp_;
@@ -82,8 +111,8 @@ QpResult AdmmQpSolver::solve(const SeparableQp& qp, const Eigen::VectorXd* warm_
   // Inexact x-steps: far from the answer, an x-step need not be more accurate than the ADMM
   // residuals show the iterate to be. Its error is at most |r|_2 / lambda_min(K) <= |r|_2 / rho,
   // so a residual of 0.3 rho times the last ADMM residual keeps the error below a third of it
-  // (0.1 to 1 measured alike); near the answer the relative cg_tolerance takes over. The errors shrink as fast as the
-  // residuals do, which keeps ADMM convergent.
+  // (0.1 to 1 measured alike); near the answer the relative cg_tolerance takes over. The errors
+  // shrink as fast as the residuals do, which keeps ADMM convergent.
   double progress = std::numeric_limits<double>::infinity();
   for (int it = 0; it < settings_.max_iterations; ++it) {
     x = solve_x(rho_ * (z - u_), x, std::isfinite(progress) ? 0.3 * rho_ * progress : 0.0);

@@ -3,8 +3,11 @@
 /// A solver for the embedding problem with a sparse, non-diagonal cost (the Laplacian cost L,
 /// WATERMARK.md section 4): minimize x^T H x over the constraint set of a SeparableQp (rows,
 /// center equality, bounds). ADMM (as in OSQP) splits it into
-///   x-step: (2 H + rho I) x = rho (z - u)  -- conjugate gradients preconditioned by the
-///           diagonal, warm-started from the previous x (the matrix is well conditioned);
+///   x-step: (2 H + rho I) x = rho (z - u)  -- by default conjugate gradients preconditioned by
+///           the diagonal, warm-started from the previous x, H applied as an operator (the
+///           matrix is well conditioned); or a sparse LDL^T factorization of the assembled
+///           matrix, its ordering and symbolic analysis computed once, its numeric factors
+///           reused by every iteration and by every round whose Hessian is unchanged;
 ///   z-step: the Euclidean projection onto the constraint set -- the separable problem, solved
 ///           exactly by solve_separable_qp, warm-started from the previous iteration;
 ///   u-step: u += x - z,
@@ -13,6 +16,7 @@
 /// dual residuals measure its optimality.
 
 #include <Eigen/Core>
+#include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <functional>
 
@@ -20,8 +24,15 @@
 
 namespace meshmark {
 
+/// How the ADMM x-step solves (2 H + rho I) x = rhs.
+enum class AdmmXStep {
+  ConjugateGradients,  ///< matrix-free, Jacobi-preconditioned, inexact where that suffices
+  Cholesky,            ///< sparse LDL^T (AMD ordering) of the assembled matrix, exact
+};
+
 /// Settings of the ADMM solver.
 struct AdmmSettings {
+  AdmmXStep x_step = AdmmXStep::ConjugateGradients;  ///< Cholesky needs an assembled Hessian
   double rho = 0;           ///< penalty; 0 picks sqrt(smallest * largest diagonal of 2H)
   double relaxation = 1.8;  ///< over-relaxation alpha in (0, 2)
   double tolerance = 1e-7;  ///< on |x - z|_inf and rho |z - z_prev|_inf
@@ -42,9 +53,13 @@ class AdmmQpSolver {
  public:
   /// Takes a new Hessian. The first call (or refactor = true) chooses rho; later calls keep it.
   void set_hessian(HessianOperator H, const AdmmSettings& settings = {}, bool refactor = false);
-  /// The same for an assembled matrix (n x n, symmetric, both triangles stored).
+  /// The same for an assembled matrix (n x n, symmetric, both triangles stored). With
+  /// AdmmXStep::Cholesky, factors 2 H + rho I, unless H is the previous call's (then the
+  /// factors are kept); the symbolic analysis is redone only when the pattern changes.
   void set_hessian(const Eigen::SparseMatrix<double>& H, const AdmmSettings& settings = {},
                    bool refactor = false);
+  /// Numeric factorizations done so far (Cholesky x-steps).
+  int factorizations() const { return factorizations_; }
   /// Solves over the constraints of qp (qp.h is ignored). warm_z and warm_u (size n) start the
   /// iteration where a previous solve ended. QpResult::x is z; primal_residual is |x - z|_inf;
   /// complementarity holds the dual residual rho |z - z_prev|_inf; iterations counts ADMM steps.
@@ -65,6 +80,10 @@ class AdmmQpSolver {
   void apply_k(const Eigen::VectorXd& x, Eigen::VectorXd& Kx) const;  // K = 2 H + rho I
 
   HessianOperator H_;
+  Eigen::SparseMatrix<double> K_;  // Cholesky: 2 H + rho I
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt_;
+  bool analyzed_ = false, factored_k_ = false;
+  int factorizations_ = 0;
   Eigen::VectorXd inv_diagonal_;  // Jacobi preconditioner: 1 / diag(K)
   bool factored_ = false;
   double rho_ = 1;
