@@ -72,8 +72,17 @@ Eigen::VectorXd AdmmQpSolver::solve_x(const Eigen::VectorXd& rhs, const Eigen::V
     return ldlt_.solve(rhs);
   }
   Eigen::VectorXd x = guess;
-  apply_k(x, Kp_);
-  r_ = rhs - Kp_;
+  // The guess is the previous x-step's answer, whose residual against the previous right-hand
+  // side CG has kept: K x = last_rhs - r, so the new residual costs no product with K. The
+  // caller asks for the true residual now and then, so that rounding cannot build up.
+  if (residual_known_) {
+    r_ += rhs - last_rhs_;
+  } else {
+    apply_k(x, Kp_);
+    r_ = rhs - Kp_;
+  }
+  last_rhs_ = rhs;
+  residual_known_ = true;
   const double target =
       std::max(settings_.cg_tolerance * std::max(rhs.norm(), 1e-300), looser_target);
   if (r_.norm() <= target) return x;
@@ -115,6 +124,7 @@ QpResult AdmmQpSolver::solve(const SeparableQp& qp, const Eigen::VectorXd* warm_
   // shrink as fast as the residuals do, which keeps ADMM convergent.
   double progress = std::numeric_limits<double>::infinity();
   for (int it = 0; it < settings_.max_iterations; ++it) {
+    if (it % 16 == 0) residual_known_ = false;  // a fresh K x now and then
     x = solve_x(rho_ * (z - u_), x, std::isfinite(progress) ? 0.3 * rho_ * progress : 0.0);
     const Eigen::VectorXd xr = alpha * x + (1 - alpha) * z;
     v = xr + u_;

@@ -91,6 +91,8 @@ class AdmmQpSolver {
   Eigen::VectorXd u_;
   mutable int cg_iterations_ = 0;
   mutable Eigen::VectorXd r_, z_, p_, Kp_;  // conjugate-gradient scratch
+  mutable Eigen::VectorXd last_rhs_;        // r_ = last_rhs_ - K x (x: the last x-step)
+  mutable bool residual_known_ = false;
 };
 
 }  // namespace meshmark
