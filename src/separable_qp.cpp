@@ -41,7 +41,7 @@ PackedQp pack(const SeparableQp& qp) {
     p.ey[k] = qp.e(1, i);
     p.ez[k] = qp.e(2, i);
     p.h[k] = qp.h(i);
-    p.d[k] = 0.5 / qp.h(i);
+    p.d[k] = qp.h(i) == 1.0 ? 0.5 : 0.5 / qp.h(i);  // unit weights are the common case
     p.lo[k] = qp.lo(i);
     p.hi[k] = qp.hi(i);
   }
@@ -132,15 +132,16 @@ Eigen::VectorXd newton_direction(const DualPoint& p, Eigen::Index m, double mu) 
   return dy;
 }
 
-// Rows whose bounds alone keep them below b_j.
-std::vector<int> unreachable_rows(const SeparableQp& qp, double tolerance) {
+// Rows whose bounds alone keep them below b_j (one pass over the packed rows).
+std::vector<int> unreachable_rows(const SeparableQp& qp, const PackedQp& pq, double tolerance) {
   const Eigen::Index m = qp.b.size();
-  Eigen::VectorXd reach = Eigen::VectorXd::Zero(m);
-  for (Eigen::Index i = 0; i < qp.h.size(); ++i)
-    if (qp.row[i] >= 0) reach(qp.row[i]) += qp.a(i) * (qp.a(i) > 0 ? qp.hi(i) : qp.lo(i));
   std::vector<int> rows;
-  for (Eigen::Index j = 0; j < m; ++j)
-    if (reach(j) < qp.b(j) - tolerance) rows.push_back(static_cast<int>(j));
+  for (Eigen::Index j = 0; j < m; ++j) {
+    double reach = 0;
+    for (int k = pq.offsets[j + 1]; k < pq.offsets[j + 2]; ++k)
+      reach += pq.a[k] * (pq.a[k] > 0 ? pq.hi[k] : pq.lo[k]);
+    if (reach < qp.b(j) - tolerance) rows.push_back(static_cast<int>(j));
+  }
   return rows;
 }
 
@@ -165,8 +166,8 @@ QpResult solve_separable_qp(const SeparableQp& qp, const QpSettings& settings,
   assert(qp.lo.size() == n && qp.hi.size() == n && qp.a.size() == n && qp.e.cols() == n);
   assert(static_cast<Eigen::Index>(qp.row.size()) == n);
   QpResult result;
-  result.infeasible_rows = unreachable_rows(qp, settings.tolerance);
   const PackedQp pq = pack(qp);
+  result.infeasible_rows = unreachable_rows(qp, pq, settings.tolerance);
   DualPoint p;
   p.y = warm_y && warm_y->size() == m + 3 ? *warm_y : Eigen::VectorXd::Zero(m + 3);
   p.y.head(m) = p.y.head(m).cwiseMax(0.0);
