@@ -269,13 +269,18 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
   }
   fall_back_where_bins_cannot_reach(ctx, V, h, counts, round);
   // The center rows: e_g = sum over the group's vertices of J_i u_g, and the center itself.
-  Eigen::MatrixX3d Uv(V.rows(), 3);
-  for (int g = 0; g < ng; ++g)
-    for (int k = ctx.groups.offsets[g]; k < ctx.groups.offsets[g + 1]; ++k)
-      Uv.row(ctx.groups.members[k]) = round.U.row(g);
-  for (Eigen::Index i = 0; i < V.rows(); ++i)
-    if (ctx.groups.group_of[i] < 0) Uv.row(i).setZero();
-  const CenterProducts cp = center_jacobian_products(V, F, ctx.referenced, o.variant.center, Uv);
+  // When every vertex is referenced and alone at its position (the common case), group g is
+  // vertex g and the per-vertex directions are the groups'.
+  const bool one_to_one = ng == V.rows();
+  Eigen::MatrixX3d Uv;
+  if (!one_to_one) {
+    Uv.setZero(V.rows(), 3);
+    for (int g = 0; g < ng; ++g)
+      for (int k = ctx.groups.offsets[g]; k < ctx.groups.offsets[g + 1]; ++k)
+        Uv.row(ctx.groups.members[k]) = round.U.row(g);
+  }
+  const CenterProducts cp =
+      center_jacobian_products(V, F, ctx.referenced, o.variant.center, one_to_one ? round.U : Uv);
   round.center = cp.center;
   if (!round.center.well_defined) {
     message = fmt::format(
@@ -285,10 +290,14 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
     return false;
   }
   qp.c = (ctx.original_center - round.center.point) / s;  // bring the center back where it was
-  qp.e.setZero();
-  for (int g = 0; g < ng; ++g)
-    for (int k = ctx.groups.offsets[g]; k < ctx.groups.offsets[g + 1]; ++k)
-      qp.e.col(g) += cp.E.row(ctx.groups.members[k]).transpose();
+  if (one_to_one) {
+    qp.e = cp.E.transpose();
+  } else {
+    qp.e.setZero();
+    for (int g = 0; g < ng; ++g)
+      for (int k = ctx.groups.offsets[g]; k < ctx.groups.offsets[g + 1]; ++k)
+        qp.e.col(g) += cp.E.row(ctx.groups.members[k]).transpose();
+  }
   if (o.variant.cost == CostKind::Quadric) {
     // q_i = sum over the faces around i of (u . n_f)^2: the quadric error of moving along u.
     const Eigen::MatrixX3d FN = face_normals(V, F);
