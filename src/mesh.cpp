@@ -140,13 +140,22 @@ PositionGroups group_identical_positions(const Eigen::MatrixX3d& V,
     std::memcpy(&b, &x, sizeof b);
     return b;
   };
-  std::vector<int> leader(static_cast<std::size_t>(nv), -1);
+  // The hashes first, in order, so that the table slot of a position some way ahead can be
+  // prefetched: on large meshes the table does not fit the cache and every probe would miss.
+  std::vector<std::uint64_t> hash(static_cast<std::size_t>(nv));
   for (int i = 0; i < nv; ++i) {
-    if (!referenced[static_cast<std::size_t>(i)]) continue;
     std::uint64_t h = bits(V(i, 0)) * 0x9E3779B97F4A7C15ull;
     h = (h ^ (h >> 29) ^ bits(V(i, 1))) * 0xBF58476D1CE4E5B9ull;
     h = (h ^ (h >> 32) ^ bits(V(i, 2))) * 0x94D049BB133111EBull;
-    h ^= h >> 31;
+    hash[static_cast<std::size_t>(i)] = h ^ (h >> 31);
+  }
+  constexpr int kAhead = 16;
+  std::vector<int> leader(static_cast<std::size_t>(nv), -1);
+  for (int i = 0; i < nv; ++i) {
+    if (i + kAhead < nv)
+      __builtin_prefetch(&table[hash[static_cast<std::size_t>(i + kAhead)] & (slots - 1)]);
+    if (!referenced[static_cast<std::size_t>(i)]) continue;
+    const std::uint64_t h = hash[static_cast<std::size_t>(i)];
     for (std::size_t k = h & (slots - 1);; k = (k + 1) & (slots - 1)) {
       const int j = table[k];
       if (j < 0) {
