@@ -15,11 +15,11 @@ void AdmmQpSolver::set_hessian(HessianOperator H, const AdmmSettings& settings, 
   const Eigen::VectorXd d = 2 * H_.diagonal;
   if ((d.array() < 0).any() || !d.allFinite())
     throw Error("ADMM: the Hessian has a negative diagonal (is it positive semidefinite?)");
-  if (!factored_ || refactor) {
+  if (!rho_chosen_ || refactor) {
     rho_ = settings.rho > 0
                ? settings.rho
                : std::sqrt(std::max(d.minCoeff(), 1e-12) * std::max(d.maxCoeff(), 1e-12));
-    factored_ = true;
+    rho_chosen_ = true;
   }
   inv_diagonal_ = (d.array() + rho_).inverse().matrix();
 }

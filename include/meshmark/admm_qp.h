@@ -85,7 +85,7 @@ class AdmmQpSolver {
   bool analyzed_ = false, factored_k_ = false;
   int factorizations_ = 0;
   Eigen::VectorXd inv_diagonal_;  // Jacobi preconditioner: 1 / diag(K)
-  bool factored_ = false;
+  bool rho_chosen_ = false;
   double rho_ = 1;
   AdmmSettings settings_;
   Eigen::VectorXd u_;
