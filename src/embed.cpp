@@ -77,7 +77,7 @@ detail::EmbedContext make_context(const Eigen::MatrixX3d& V, const Eigen::Matrix
   if (o.variant.cost == CostKind::Laplacian) {
     ctx.adjacency = vertex_adjacency(F, V.rows());
     ctx.laplacian = detail::laplacian_rows(ctx.groups, ctx.adjacency);
-    if (o.backend == SolverBackend::Ipopt || o.admm.x_step == AdmmXStep::Cholesky)
+    if (detail::needs_assembled_hessian(o))
       ctx.laplacian_topology = detail::laplacian_topology(ctx.groups, ctx.adjacency);
   }
   if (o.variant.direction == DirectionKind::Smooth) {
@@ -132,14 +132,16 @@ EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Pa
                                    options.variant.cost == CostKind::Laplacian ? &round.H : nullptr,
                                    options.ipopt);
     } else if (options.variant.cost == CostKind::Laplacian) {
-      const detail::LaplacianOperator H(ctx, round.U, options.lambda);
-      if (options.admm.x_step == AdmmXStep::Cholesky)
+      if (detail::needs_assembled_hessian(options)) {
         admm.set_hessian(round.H, options.admm);
-      else
+        sol = admm.solve(round.qp);
+      } else {
+        const detail::LaplacianOperator H(ctx, round.U, options.lambda);
         admm.set_hessian(
             {[&H](const Eigen::VectorXd& x, Eigen::VectorXd& Hx) { H.apply(x, Hx); }, H.diagonal()},
             options.admm);
-      sol = admm.solve(round.qp);
+        sol = admm.solve(round.qp);
+      }
     } else {
       // No warm start: a later round's problem is a small correction whose multipliers are near
       // zero, so the previous round's are a worse start than none (measured: one to two Newton

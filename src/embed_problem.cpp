@@ -311,9 +311,7 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
     qp.h = o.lambda * qp.h + (1 - o.lambda) * q;
     qp.h = qp.h.cwiseMax(1e-12 * qp.h.maxCoeff());  // keep the cost strictly convex
   }
-  if (o.variant.cost == CostKind::Laplacian &&
-      (o.backend == SolverBackend::Ipopt || o.admm.x_step == AdmmXStep::Cholesky))
-    round.H = laplacian_hessian(ctx, round.U, o.lambda);
+  if (needs_assembled_hessian(o)) round.H = laplacian_hessian(ctx, round.U, o.lambda);
   return true;
 }
 

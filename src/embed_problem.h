@@ -73,6 +73,13 @@ struct RoundProblem {
 Eigen::SparseMatrix<double> laplacian_topology(const PositionGroups& groups,
                                                const Adjacency& adjacency);
 
+/// Cost L: whether the Hessian must be assembled (for Ipopt, or for Cholesky x-steps) rather
+/// than only applied.
+inline bool needs_assembled_hessian(const EmbedOptions& o) {
+  return o.variant.cost == CostKind::Laplacian &&
+         (o.backend == SolverBackend::Ipopt || o.admm.x_step == AdmmXStep::Cholesky);
+}
+
 /// Builds the round's problem at positions V. Returns false when the histogram or the center
 /// is not defined (the message says which).
 bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProblem& round,
