@@ -12,6 +12,7 @@
 #include "meshmark/embed.h"
 #include "meshmark/io.h"
 #include "meshmark/key.h"
+#include "meshmark/watermark.h"
 
 namespace meshmark::cli {
 
@@ -78,10 +79,6 @@ std::optional<Key> resolve_key(const KeyArgs& args);
 
 /// Parses an ID: decimal, or hexadecimal with 0x. \throw InvalidArgumentError otherwise.
 std::uint64_t parse_id(const std::string& text);
-
-/// The layout of nb bits: keyed with the key; without one, coded IDs are whitened with the
-/// public key and raw payloads use the canonical layout.
-BitLayout layout_for(const std::optional<Key>& key, int nb, bool coded);
 
 /// The ID code for nb payload bits and --id-bits.
 IdCode id_code(const KeyArgs& args, int nb);

@@ -29,10 +29,11 @@ int run(const DetectArgs& a) {
     throw InvalidArgumentError("detect needs one of --expect ID or --expect-payload HEX");
   const bool coded = !a.expect_id.empty();
   const std::optional<Key> key = resolve_key(a.keys);
-  const Payload expected =
-      coded ? id_code(a.keys, a.bits).encode(parse_id(a.expect_id), key ? *key : public_key())
-            : payload_from_hex(a.expect_payload, a.bits);
-  const BitLayout layout = layout_for(key, a.bits, coded);
+  std::optional<IdCode> code;
+  if (coded) code.emplace(id_code(a.keys, a.bits));
+  const Payload expected = coded ? code->encode(parse_id(a.expect_id), id_key(key))
+                                 : payload_from_hex(a.expect_payload, a.bits);
+  const BitLayout layout = mark_layout(key, a.bits, coded);
   DetectOptions options;
   options.threshold = a.threshold;
   ExtractOptions eo;
@@ -40,7 +41,10 @@ int run(const DetectArgs& a) {
   eo.center = parse_variant(a.variant).center;
   const Mesh mesh = read_input(a.input, a.in);
   const ExtractResult r = extract(mesh.V, mesh.F, eo);
-  const DetectResult d = detect(layout.from_bins(r.bits), expected, options);
+  const std::vector<std::uint8_t> bits = layout.from_bins(r.bits);
+  const DetectResult d =
+      coded ? detect_id(bits, expected, CodewordNull(*code, bits, id_key(key)), options)
+            : detect(bits, expected, options);
   if (a.json) {
     nlohmann::json j = {
         {"input", a.input},
@@ -51,16 +55,23 @@ int run(const DetectArgs& a) {
         {"matches", d.matches},
         {"erasures", d.erasures},
         {"p_value", d.p_value},
+        {"null_model", null_model_name(d.model)},
         {"threshold", a.threshold},
         {"detected", d.detected}};
     fmt::print("{}\n", j.dump(2));
   } else {
     fmt::print("{}: {} of {} bits match{}\n", a.input, d.matches, d.compared,
                d.erasures ? fmt::format(" ({} unreadable)", d.erasures) : "");
-    fmt::print(
-        "probability that an unmarked mesh, or one marked under another key, matches as "
-        "well: {:.3g}\n",
-        d.p_value);
+    if (coded)
+      fmt::print(
+          "probability that this ID matches as well if it is innocent (its codeword independent "
+          "of the mark present: another buyer's copy, an unmarked mesh, another key): {:.3g}{}\n",
+          d.p_value, d.model == NullModel::CodewordBound ? " (an upper bound)" : "");
+    else
+      fmt::print(
+          "probability that a mesh without this payload matches as well (fair independent "
+          "bits{}): {:.3g}\n",
+          key ? "" : "; without a key only indicative", d.p_value);
     fmt::print("{} (threshold {:g})\n", d.detected ? "DETECTED" : "not detected", a.threshold);
   }
   return d.detected ? kOk : kNoId;

@@ -18,6 +18,7 @@ struct EmbedArgs {
   std::string x_step = "cg";
   KeyArgs keys;
   int bits = 64;
+  double strength_spread = 0.5;
   EmbedOptions embed;
   InputOptions in;
   OutputOptions out;
@@ -43,10 +44,17 @@ int run(const EmbedArgs& a) {
         "embed needs IN, OUT and one of --payload or --id (or --batch MANIFEST)");
   const std::optional<Key> key = resolve_key(a.keys);
   const bool coded = !a.id.empty();
-  const Payload payload =
-      coded ? id_code(a.keys, a.bits).encode(parse_id(a.id), key ? *key : public_key())
-            : payload_from_hex(a.payload, a.bits);
-  const Payload bins = layout_for(key, a.bits, coded).to_bins(payload);
+  const Payload payload = coded ? id_code(a.keys, a.bits).encode(parse_id(a.id), id_key(key))
+                                : payload_from_hex(a.payload, a.bits);
+  const Payload bins = mark_layout(key, a.bits, coded).to_bins(payload);
+  if (key || coded) {
+    // Keyed marks: per-bit strengths drawn from the key, in bin order like the bits.
+    const std::vector<double> per_bit =
+        keyed_strengths(id_key(key), a.bits, options.strength, a.strength_spread);
+    const BitLayout layout = mark_layout(key, a.bits, coded);
+    options.strengths.assign(per_bit.size(), options.strength);
+    for (int j = 0; j < layout.size(); ++j) options.strengths[layout.bin_of[j]] = per_bit[j];
+  }
   Mesh mesh = read_input(a.input, a.in);
   const EmbedResult r = embed(mesh.V, mesh.F, bins, options);
   const bool ok = r.status == EmbedStatus::Embedded;
@@ -66,6 +74,7 @@ int run(const EmbedArgs& a) {
                         {"keyed", key.has_value()},
                         {"bits", a.bits},
                         {"strength", options.strength},
+                        {"strength_spread", key || coded ? a.strength_spread : 0.0},
                         {"bin_offset", options.bin_offset},
                         {"vertices", mesh.V.rows()},
                         {"rounds", r.rounds},
@@ -125,6 +134,10 @@ void register_embed(CLI::App& app, int& exit_code) {
                   "costs Q and L: weight of the squared error, in [0, 1]");
   sub->add_option("--strength", args->embed.strength,
                   "alpha in (0, 1/2): target distance of bin means from 1/2");
+  sub->add_option("--strength-spread", args->strength_spread,
+                  "keyed or coded marks: bit j's strength is alpha (1 + spread u_j), u_j drawn "
+                  "from the key in [0, 1), so the histogram does not show alpha; 0 = uniform")
+      ->check(CLI::Range(0.0, 4.0));
   sub->add_option("--bin-offset", args->embed.bin_offset,
                   "G in [0, 1/2): vertices stay in [G, 1-G] of their bin");
   sub->add_option("--max-rounds", args->embed.max_rounds, "linearize-and-solve rounds at most")

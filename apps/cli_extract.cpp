@@ -31,22 +31,26 @@ int run(const ExtractArgs& a) {
   std::optional<Payload> expected;
   if (!a.expect.empty()) expected = payload_from_hex(a.expect, a.bits);
   const std::optional<Key> key = resolve_key(a.keys);
-  const BitLayout layout = layout_for(key, a.bits, a.coded);
+  const BitLayout layout = mark_layout(key, a.bits, a.coded);
   std::optional<IdCode> code;
   if (a.coded) code.emplace(id_code(a.keys, a.bits));
   const Mesh mesh = read_input(a.input, a.in);
-  const ExtractResult r = extract(mesh.V, mesh.F, options);
+  IdReading reading;
+  if (code)
+    reading = read_id(mesh.V, mesh.F, options, *code, key);
+  else
+    reading.reading = read_mark(mesh.V, mesh.F, options, layout);
+  const ExtractResult& r = reading.reading.extract;
+  const IdDecodeResult& id = reading.id;
   // Per bit, in payload order (the layout maps bits to bins).
-  const std::vector<std::uint8_t> bits = layout.from_bins(r.bits);
-  const std::vector<double> margins = layout.values_from_bins(r.margins);
-  const std::vector<double> means = layout.values_from_bins(r.means);
+  const std::vector<std::uint8_t>& bits = reading.reading.bits;
+  const std::vector<double>& margins = reading.reading.margins;
+  const std::vector<double>& means = reading.reading.means;
   Payload read;
   for (const std::uint8_t b : bits) read.bits.push_back(b == 1);
   const std::string hex = payload_to_hex(read);
   double ber = 0;
   if (expected) ber = bit_error_rate(bits, *expected);
-  IdDecodeResult id;
-  if (code) id = code->decode(bits, margins, key ? *key : public_key());
   if (a.json) {
     nlohmann::json per_bit = nlohmann::json::array();
     for (std::size_t j = 0; j < bits.size(); ++j) {
@@ -66,6 +70,12 @@ int run(const ExtractArgs& a) {
     if (expected) j["expected"] = payload_to_hex(*expected), j["bit_error_rate"] = ber;
     if (code) {
       j["id_valid"] = id.valid;
+      j["id_status"] = id_decode_status_name(id.status);
+      j["mark_format"] = kMarkFormatVersion;
+      j["min_distance"] = code->min_distance();
+      j["readings"] = reading.readings;
+      j["skipped_nearest"] = reading.skip_nearest;
+      j["skipped_farthest"] = reading.skip_farthest;
       j["id"] = id.valid ? nlohmann::json(id.id) : nlohmann::json(nullptr);
       j["id_message"] = id.message;
       j["id_bits_corrected"] = id.valid ? nlohmann::json(id.corrected) : nlohmann::json(nullptr);
@@ -76,11 +86,11 @@ int run(const ExtractArgs& a) {
     if (code) {
       if (id.valid)
         fmt::print(
-            "id {} ({} of {} bits corrected; a random word decodes with probability < "
-            "{:.1e})\n",
-            id.id, id.corrected, a.bits, code->false_accept_bound());
+            "id {} ({} of {} bits corrected; codewords differ in {} bits or more; a word "
+            "without this mark decodes with probability < {:.1e})\n",
+            id.id, id.corrected, a.bits, code->min_distance(), code->false_accept_bound());
       else
-        fmt::print("no valid ID: {}\n", id.message);
+        fmt::print("no valid ID ({}): {}\n", id_decode_status_name(id.status), id.message);
     }
     fmt::print("payload {}{}\n", hex, key ? " (keyed layout)" : "");
     if (r.erasures > 0) fmt::print("erasures {} (empty bins read as 0)\n", r.erasures);

@@ -46,11 +46,6 @@ std::uint64_t parse_id(const std::string& text) {
   return value;
 }
 
-BitLayout layout_for(const std::optional<Key>& key, int nb, bool coded) {
-  if (key) return BitLayout::keyed(*key, nb);
-  return coded ? BitLayout::keyed(public_key(), nb) : BitLayout::canonical(nb);
-}
-
 IdCode id_code(const KeyArgs& args, int nb) {
   IdCodeOptions o;
   o.bits = nb;

@@ -42,9 +42,27 @@ ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                       const ExtractOptions& options) {
   if (options.bits < 1)
     throw InvalidArgumentError(fmt::format("cannot extract {} bits", options.bits));
+  if (options.skip_nearest < 0 || options.skip_farthest < 0)
+    throw InvalidArgumentError("cannot skip a negative number of vertices");
   ExtractResult r;
-  const auto referenced = referenced_vertices(F, V.rows());
+  auto referenced = carrier_vertices(V, F);
   r.center = center_of_mass(V, F, referenced, options.center);
+  if (options.skip_nearest > 0 || options.skip_farthest > 0) {
+    // Leave out the extreme distances, then recompute the center without them (the discrete
+    // center counts every carrier vertex).
+    std::vector<std::pair<double, int>> rho;
+    for (Eigen::Index i = 0; i < V.rows(); ++i)
+      if (referenced[i])
+        rho.emplace_back((V.row(i).transpose() - r.center.point).norm(), static_cast<int>(i));
+    const std::size_t lo = static_cast<std::size_t>(options.skip_nearest);
+    const std::size_t hi = static_cast<std::size_t>(options.skip_farthest);
+    if (lo + hi < rho.size()) {
+      std::sort(rho.begin(), rho.end());
+      for (std::size_t q = 0; q < lo; ++q) referenced[rho[q].second] = 0;
+      for (std::size_t q = 0; q < hi; ++q) referenced[rho[rho.size() - 1 - q].second] = 0;
+      r.center = center_of_mass(V, F, referenced, options.center);
+    }
+  }
   r.histogram = build_histogram(V, referenced, r.center.point, options.bits);
   const auto nb = static_cast<std::size_t>(options.bits);
   if (!r.histogram.valid()) {

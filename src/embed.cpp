@@ -20,6 +20,14 @@ void check_options(const Payload& payload, const EmbedOptions& o) {
   if (payload.size() < 1) throw InvalidArgumentError("the payload is empty");
   if (!(o.strength > 0 && o.strength < 0.5))
     throw InvalidArgumentError(fmt::format("strength {} is outside (0, 1/2)", o.strength));
+  if (!o.strengths.empty() && static_cast<int>(o.strengths.size()) != payload.size())
+    throw InvalidArgumentError(
+        fmt::format("{} strengths for a payload of {} bits", o.strengths.size(), payload.size()));
+  for (std::size_t j = 0; j < o.strengths.size(); ++j)
+    if (!(o.strengths[j] >= o.strength && o.strengths[j] < 0.5))
+      throw InvalidArgumentError(
+          fmt::format("bit {}'s strength {} is outside [strength, 1/2) = [{}, 0.5)", j,
+                      o.strengths[j], o.strength));
   if (!(o.bin_offset >= 0 && o.bin_offset < 0.5))
     throw InvalidArgumentError(fmt::format("bin offset {} is outside [0, 1/2)", o.bin_offset));
   if (!(o.lambda >= 0 && o.lambda <= 1))
@@ -71,7 +79,7 @@ detail::EmbedContext make_context(const Eigen::MatrixX3d& V, const Eigen::Matrix
   ctx.F = &F;
   ctx.payload = &payload;
   ctx.options = &o;
-  ctx.referenced = referenced_vertices(F, V.rows());
+  ctx.referenced = carrier_vertices(V, F);
   ctx.groups = o.keep_duplicates_together ? group_identical_positions(V, ctx.referenced)
                                           : singleton_groups(ctx.referenced);
   if (o.variant.cost == CostKind::Laplacian) {
@@ -176,8 +184,10 @@ EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Pa
     res.min_margin = *std::min_element(res.margins.begin(), res.margins.end());
     res.center_drift = (c.point - ctx.original_center).norm() / res.bin_width;
     res.status = EmbedStatus::NotConverged;
-    if (sol.status == QpStatus::Solved &&
-        res.min_margin >= options.strength - options.margin_tolerance &&
+    bool margins_held = true;
+    for (int j = 0; j < payload.size(); ++j)
+      margins_held &= res.margins[j] >= bit_strength(options, j) - options.margin_tolerance;
+    if (sol.status == QpStatus::Solved && margins_held &&
         res.center_drift <= options.center_tolerance) {
       res.status = EmbedStatus::Embedded;
       break;
@@ -194,6 +204,11 @@ EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Pa
                           qp_status_name(res.solver_status));
   res.seconds = elapsed();
   return res;
+}
+
+double bit_strength(const EmbedOptions& options, int j) {
+  return options.strengths.empty() ? options.strength
+                                   : options.strengths[static_cast<std::size_t>(j)];
 }
 
 }  // namespace meshmark

@@ -228,7 +228,8 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
   qp.b.resize(nb);
   for (int j = 0; j < nb; ++j) {
     const double m = payload.bits[j] ? 1.0 : -1.0;
-    qp.b(j) = counts[j] > 0 ? o.strength - m * (means[j] - 0.5) : o.strength;
+    const double alpha = bit_strength(o, j);
+    qp.b(j) = counts[j] > 0 ? alpha - m * (means[j] - 0.5) : alpha;
   }
   round.U.resize(ng, 3);
   round.radial_fallbacks = 0;

@@ -1,9 +1,46 @@
 #include "meshmark/histogram.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
 namespace meshmark {
+
+std::vector<std::uint8_t> carrier_vertices(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
+  const Eigen::Index nv = V.rows();
+  std::vector<std::uint8_t> used(static_cast<std::size_t>(nv), 0);  // 1 carrier, 2 orphan
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const int a = F(f, 0), b = F(f, 1), c = F(f, 2);
+    if (a < 0 || b < 0 || c < 0 || a >= nv || b >= nv || c >= nv) continue;
+    const Eigen::RowVector3d pa = V.row(a), pb = V.row(b), pc = V.row(c);
+    if (pa != pb && pb != pc && pc != pa) used[a] = used[b] = used[c] = 1;
+  }
+  // Vertices only collapsed faces use (orphans): one at the position of a carrier vertex (a
+  // seam's twin) joins it, since they move together and its faces stay collapsed.
+  std::vector<int> orphans;
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int i = F(f, k);
+      if (i >= 0 && i < nv && used[i] == 0) used[i] = 2, orphans.push_back(i);
+    }
+  if (!orphans.empty()) {
+    auto less = [&](int i, int j) {
+      for (int k = 0; k < 3; ++k)
+        if (V(i, k) != V(j, k)) return V(i, k) < V(j, k);
+      return false;
+    };
+    std::sort(orphans.begin(), orphans.end(), less);
+    for (Eigen::Index i = 0; i < nv; ++i) {
+      if (used[i] != 1) continue;
+      const int v = static_cast<int>(i);
+      for (auto it = std::lower_bound(orphans.begin(), orphans.end(), v, less);
+           it != orphans.end() && !less(v, *it); ++it)
+        used[*it] = 3;
+    }
+    for (auto& u : used) u = u == 1 || u == 3;
+  }
+  return used;
+}
 
 Histogram build_histogram(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referenced,
                           const Eigen::Vector3d& center, int nbits) {

@@ -99,10 +99,20 @@ BitLayout BitLayout::canonical(int nb) {
   return layout;
 }
 
+Key derive_key(const Key& key, std::string_view purpose) {
+  ensure_sodium();
+  const std::string label = fmt::format("meshmark/mark-v{}/{}", kMarkFormatVersion, purpose);
+  Key out;
+  crypto_generichash(out.bytes.data(), out.bytes.size(),
+                     reinterpret_cast<const unsigned char*>(label.data()), label.size(),
+                     key.bytes.data(), key.bytes.size());
+  return out;
+}
+
 BitLayout BitLayout::keyed(const Key& key, int nb) {
   BitLayout layout = canonical(nb);
   ensure_sodium();
-  KeyStream stream(key, static_cast<std::uint64_t>(nb));
+  KeyStream stream(derive_key(key, "layout"), static_cast<std::uint64_t>(nb));
   // Fisher-Yates, uniform over the nb! permutations.
   for (int i = nb - 1; i > 0; --i)
     std::swap(layout.bin_of[i], layout.bin_of[stream.below(static_cast<std::uint32_t>(i) + 1)]);

@@ -16,6 +16,10 @@ namespace meshmark {
 struct ExtractOptions {
   int bits = 64;                             ///< payload length nb (nB = nb + 2 bins)
   CenterKind center = CenterKind::Discrete;  ///< the variant's center
+  /// Carrier vertices left out, nearest the center and farthest from it: a reading that undoes
+  /// outliers an attacker added (read_id in watermark.h tries a few). 0 for the normal reading.
+  int skip_nearest = 0;
+  int skip_farthest = 0;  ///< see skip_nearest
 };
 
 /// Value of an erased bit (its bin is empty) in ExtractResult::bits.
@@ -36,8 +40,9 @@ struct ExtractResult {
   double min_margin() const;
 };
 
-/// Decodes nb bits from V, F (#V x 3, #F x 3). Unreferenced vertices are ignored. A mesh
-/// whose vertices all lie at one distance gives all erasures.
+/// Decodes nb bits from V, F (#V x 3, #F x 3). Only the carrier counts (carrier_vertices in
+/// histogram.h: vertices of faces of nonzero area). A mesh whose vertices all lie at one
+/// distance gives all erasures.
 ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                       const ExtractOptions& options = {});
 

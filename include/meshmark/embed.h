@@ -28,9 +28,12 @@ enum class SolverBackend {
 
 /// Options of embed. Units: strength and bin offset are fractions of a bin width.
 struct EmbedOptions {
-  Variant variant;           ///< center, direction and cost (default DRS)
-  double lambda = 0.5;       ///< costs Q and L: weight of the squared error, in [0, 1]
-  double strength = 0.05;    ///< alpha in (0, 1/2): each bin mean moves to 1/2 +- alpha
+  Variant variant;         ///< center, direction and cost (default DRS)
+  double lambda = 0.5;     ///< costs Q and L: weight of the squared error, in [0, 1]
+  double strength = 0.05;  ///< alpha in (0, 1/2): each bin mean moves to 1/2 +- alpha
+  /// Per-bit strengths (bit j's bin mean moves to 1/2 +- strengths[j]), each in
+  /// [strength, 1/2); empty: every bit gets `strength`. watermark.h draws keyed ones.
+  std::vector<double> strengths;
   double bin_offset = 0.05;  ///< G in [0, 1/2): vertices stay inside [G, 1 - G] of their bin
   int max_rounds = 10;       ///< linearize-and-solve rounds at most
   /// A bit "decodes with its margin" when m_j (tbar_j - 1/2) >= strength - margin_tolerance.
@@ -81,6 +84,9 @@ struct EmbedResult {
 /// \throw InvalidArgumentError for an empty payload or options out of range.
 EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Payload& payload,
                   const EmbedOptions& options = {});
+
+/// Bit j's target strength under options: strengths[j], or strength when there are none.
+double bit_strength(const EmbedOptions& options, int j);
 
 /// "embedded", "infeasible", "not converged", "invalid mesh".
 const char* embed_status_name(EmbedStatus status);

@@ -26,6 +26,16 @@ struct Histogram {
   bool valid() const { return step > 0; }
 };
 
+/// The carrier: vertices used by at least one face whose three corners are at three different
+/// positions, and the vertices some face uses at the same position as one of those. A vertex
+/// that only collapsed faces use, away from the carrier, (a repeated index or two corners at the
+/// same point: an invisible vertex an attacker added, or debris a tool left) never counts in
+/// the histogram or the discrete center, and never moves. Embedding moves vertices at one
+/// position together, so the set is the same before and after embedding, and a decoder finds
+/// the one the embedder used. (Faces whose distinct corners are collinear count: embedding
+/// can unfold them, which would change the set.)
+std::vector<std::uint8_t> carrier_vertices(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F);
+
 /// Builds the histogram of the referenced vertices around center for nbits bits.
 /// Bin of vertex i: floor((rho_i - rho_min) / s), clamped to nB - 1.
 Histogram build_histogram(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referenced,

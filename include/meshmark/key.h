@@ -20,6 +20,12 @@
 
 namespace meshmark {
 
+/// The version of the mark format: the keyed layout of the bits over the bins and the coding
+/// of IDs (coding.h). Every key meshmark derives from a user's key includes it, so marks of
+/// different formats read as noise to each other and can never be confused. Version 1 (up to
+/// meshmark 0.3) coded IDs systematically; version 2 maps them through a keyed permutation.
+inline constexpr int kMarkFormatVersion = 2;
+
 /// A 256-bit secret key.
 struct Key {
   std::array<std::uint8_t, 32> bytes{};
@@ -38,6 +44,11 @@ Key key_from_file(const std::string& path);
 /// unmarked mesh's structured bits do not look like a codeword). Not a secret.
 const Key& public_key();
 
+/// A key for one purpose derived from key: BLAKE2b-256 keyed with key, of
+/// "meshmark/mark-v<kMarkFormatVersion>/" + purpose. Knowing a derived key reveals nothing of
+/// key or of the keys derived for other purposes.
+Key derive_key(const Key& key, std::string_view purpose);
+
 /// Which bin carries which bit, and the whitening of each bit.
 struct BitLayout {
   std::vector<int> bin_of;              ///< bit j is carried by payload bin bin_of[j] (0-based)
@@ -46,8 +57,8 @@ struct BitLayout {
 
   /// The canonical unkeyed layout of nb bits: bin_of[j] = j, no whitening.
   static BitLayout canonical(int nb);
-  /// The keyed layout of nb bits (a permutation and a mask drawn from the key's keystream;
-  /// nb is part of the stream's nonce, so each length has its own layout).
+  /// The keyed layout of nb bits: a permutation and a mask drawn from the keystream of
+  /// derive_key(key, "layout"), nb as the stream's nonce (so each length has its own layout).
   static BitLayout keyed(const Key& key, int nb);
 
   /// The word to embed: bin order, whitened. payload.size() must equal size().

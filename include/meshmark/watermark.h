@@ -1,0 +1,72 @@
+#pragma once
+/// \file watermark.h
+/// The watermark protocol: which bits go into which bins for a raw payload or a coded buyer
+/// ID, with or without a secret key, and how they are read back. A program using the library
+/// and the command line write and read the same marks through these functions.
+///
+/// - A raw payload without a key uses the canonical layout (WATERMARK.md section 1), readable
+///   by any implementation of the paper.
+/// - Under a key, bits are permuted over the bins and whitened (BitLayout::keyed).
+/// - A coded ID without a key is whitened with public_key(), not a secret, so that the
+///   structured bits of an unmarked mesh do not look like a codeword; its codeword is then
+///   also computed under public_key().
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "meshmark/coding.h"
+#include "meshmark/decode.h"
+#include "meshmark/key.h"
+#include "meshmark/payload.h"
+
+namespace meshmark {
+
+/// The layout of nb bits: keyed with key when there is one; without one, coded IDs are
+/// whitened with public_key() and raw payloads use the canonical layout.
+BitLayout mark_layout(const std::optional<Key>& key, int nb, bool coded);
+
+/// The key coded IDs are encoded and checked under: key, or public_key() without one.
+const Key& id_key(const std::optional<Key>& key);
+
+/// The bins' word for the coded id (the codeword, laid out): what embed() takes as payload.
+Payload id_bins(const IdCode& code, std::uint64_t id, const std::optional<Key>& key);
+
+/// What was read from a mesh, per payload bit (the layout undone).
+struct MarkReading {
+  ExtractResult extract;           ///< the blind decoder's output, in bin order
+  std::vector<std::uint8_t> bits;  ///< payload order: 0, 1 or kErasure
+  std::vector<double> margins;     ///< payload order: |bin mean - 1/2| (0 when erased)
+  std::vector<double> means;       ///< payload order: bin means (NaN when erased)
+};
+
+/// Reads nb = options.bits bits from V, F and undoes the layout.
+MarkReading read_mark(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                      const ExtractOptions& options, const BitLayout& layout);
+
+/// What read_id found.
+struct IdReading {
+  MarkReading reading;   ///< the reading the ID came from (the normal one when none did)
+  IdDecodeResult id;     ///< the decoded ID, or why none
+  int skip_nearest = 0;  ///< outliers left out of the reading the ID came from
+  int skip_farthest = 0;
+  int readings = 1;  ///< readings decoded (1 + the retries tried)
+};
+
+/// Reads a coded ID: the normal reading first; if it gives no ID, up to code.retries()
+/// further readings that leave out the 1 to 3 carrier vertices nearest to and farthest from
+/// the center (outliers an attacker may have added to move the histogram's range), each
+/// decoded with the code's retry rule. Two readings giving different IDs give none
+/// ("ambiguous"). The code's false-accept bound covers every reading.
+IdReading read_id(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                  const ExtractOptions& options, const IdCode& code, const std::optional<Key>& key);
+
+/// Per-bit strengths for a keyed mark: bit j gets strength * (1 + spread * u_j), u_j uniform in
+/// [0, 1) from derive_key(key, "strengths") (capped below 1/2), so that the bin means do not
+/// all sit at exactly 1/2 +- strength: the strength is not written in the histogram for
+/// anyone to read. spread = 0 gives the paper's uniform strength.
+/// \throw InvalidArgumentError when strength is not in (0, 1/2) or spread not in [0, 4].
+std::vector<double> keyed_strengths(const Key& key, int nb, double strength, double spread);
+
+}  // namespace meshmark

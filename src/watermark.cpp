@@ -1,0 +1,100 @@
+#include "meshmark/watermark.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+#include "meshmark/error.h"
+
+namespace meshmark {
+
+BitLayout mark_layout(const std::optional<Key>& key, int nb, bool coded) {
+  if (key) return BitLayout::keyed(*key, nb);
+  return coded ? BitLayout::keyed(public_key(), nb) : BitLayout::canonical(nb);
+}
+
+const Key& id_key(const std::optional<Key>& key) {
+  return key ? *key : public_key();
+}
+
+Payload id_bins(const IdCode& code, std::uint64_t id, const std::optional<Key>& key) {
+  return mark_layout(key, code.bits(), true).to_bins(code.encode(id, id_key(key)));
+}
+
+MarkReading read_mark(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                      const ExtractOptions& options, const BitLayout& layout) {
+  MarkReading r;
+  r.extract = extract(V, F, options);
+  r.bits = layout.from_bins(r.extract.bits);
+  r.margins = layout.values_from_bins(r.extract.margins);
+  r.means = layout.values_from_bins(r.extract.means);
+  return r;
+}
+
+IdReading read_id(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                  const ExtractOptions& options, const IdCode& code,
+                  const std::optional<Key>& key) {
+  if (options.bits != code.bits())
+    throw InvalidArgumentError(
+        fmt::format("reading {} bits for a code of {} bits", options.bits, code.bits()));
+  const BitLayout layout = mark_layout(key, code.bits(), true);
+  IdReading out;
+  out.reading = read_mark(V, F, options, layout);
+  out.id = code.decode(out.reading.bits, out.reading.margins, id_key(key));
+  if (out.id.valid || out.id.status == IdDecodeStatus::Unreadable) return out;
+  // Further readings, fewest vertices left out first.
+  std::vector<std::pair<int, int>> skips;
+  for (int total = 1; total <= 6; ++total)
+    for (int nearest = std::min(total, 3); nearest >= 0 && total - nearest <= 3; --nearest)
+      skips.emplace_back(nearest, total - nearest);
+  if (static_cast<int>(skips.size()) > code.retries()) skips.resize(code.retries());
+  std::optional<IdReading> found;
+  bool ambiguous = false;
+  for (const auto& [nearest, farthest] : skips) {
+    ExtractOptions o = options;
+    o.skip_nearest = nearest;
+    o.skip_farthest = farthest;
+    IdReading r;
+    r.reading = read_mark(V, F, o, layout);
+    r.id = code.decode(r.reading.bits, r.reading.margins, id_key(key), true);
+    ++out.readings;
+    if (!r.id.valid) continue;
+    r.skip_nearest = nearest, r.skip_farthest = farthest;
+    if (found && found->id.id != r.id.id) ambiguous = true;
+    if (!found) found = std::move(r);
+  }
+  if (ambiguous) {
+    out.id = IdDecodeResult{};
+    out.id.message = "readings without outliers give different IDs (ambiguous): no ID";
+    return out;
+  }
+  if (found) {
+    found->readings = out.readings;
+    found->id.message += fmt::format(" (after leaving out {} nearest and {} farthest vertices)",
+                                     found->skip_nearest, found->skip_farthest);
+    return *found;
+  }
+  return out;
+}
+
+std::vector<double> keyed_strengths(const Key& key, int nb, double strength, double spread) {
+  if (!(strength > 0 && strength < 0.5))
+    throw InvalidArgumentError(fmt::format("strength {} is outside (0, 1/2)", strength));
+  if (!(spread >= 0 && spread <= 4))
+    throw InvalidArgumentError(fmt::format("strength spread {} is outside [0, 4]", spread));
+  std::vector<double> out(static_cast<std::size_t>(nb), strength);
+  const Key k = derive_key(key, "strengths");
+  for (int first = 0; first < nb; first += 32) {  // 32 values of 16 bits per hash
+    const std::vector<std::uint8_t> data = {static_cast<std::uint8_t>(first / 32 & 0xFF),
+                                            static_cast<std::uint8_t>(first / 32 >> 8)};
+    const std::vector<std::uint8_t> bits = keyed_hash_bits(k, "strengths", data, 512);
+    for (int q = 0; q < 32 && first + q < nb; ++q) {
+      unsigned v = 0;
+      for (int i = 0; i < 16; ++i) v = v << 1 | bits[16 * q + i];
+      out[first + q] = std::max(strength, std::min(strength * (1 + spread * v / 65536.0), 0.49));
+    }
+  }
+  return out;
+}
+
+}  // namespace meshmark
