@@ -160,7 +160,8 @@ std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format, const Write
 }
 
 void write_mesh(const std::string& path, const Mesh& mesh, const WriteOptions& options) {
-  const FileFormat format = options.format.value_or(format_from_path(path));
+  // The extension is looked at only when no format is given (OUT may have none).
+  const FileFormat format = options.format ? *options.format : format_from_path(path);
   write_file_atomically(path, write_mesh_to_bytes(mesh, format, options));
 }
 

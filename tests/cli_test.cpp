@@ -122,3 +122,13 @@ TEST(Cli, BatchEmbedsOneCopyPerLineAndReportsFailuresPerLine) {
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.out.find("bad.txt:1:"), std::string::npos) << bad.out;
 }
+
+TEST(Cli, AGivenFormatNeedsNoExtensionOnOut) {
+  const std::string in = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(in, "spot.obj");
+  const std::string dir = test::scratch_dir();
+  const CliRun r = run("attack reorder " + in + " " + dir + "/copy --format ply");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const Mesh back = read_mesh_from_bytes(read_file(dir + "/copy"), FileFormat::Ply, "copy");
+  EXPECT_EQ(back.V.rows(), read_mesh(in).V.rows());
+}

@@ -1,0 +1,96 @@
+// What a hostile user can hand the readers and writers: byte-order marks, faces of fewer than
+// three vertices, files that are not regular files, escape sequences in quoted text, umasks
+// and existing modes, temporaries left by a killed writer, near-coincident vertices.
+
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <future>
+
+#include "meshmark/error.h"
+#include "meshmark/io.h"
+#include "test_data.h"
+
+using namespace meshmark;
+
+namespace {
+
+const std::string kBom = "\xEF\xBB\xBF";
+
+// A tetrahedron in every text format, written out by hand.
+const std::string kObj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+const std::string kOff =
+    "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+const std::string kPlyHeader =
+    "ply\nformat ascii 1.0\nelement vertex 4\nproperty double x\nproperty double y\n"
+    "property double z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n";
+const std::string kPly =
+    kPlyHeader + "0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+
+Eigen::MatrixX3d tetrahedron_positions() {
+  Eigen::MatrixX3d V(4, 3);
+  V << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
+  return V;
+}
+
+Eigen::MatrixX3i tetrahedron_triangles() {
+  Eigen::MatrixX3i F(4, 3);
+  F << 0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3;
+  return F;
+}
+
+std::string ascii_stl_triangle() {
+  return "solid t\nfacet normal 0 0 1\n outer loop\n  vertex 0 0 0\n  vertex 1 0 0\n"
+         "  vertex 0 1 0\n endloop\nendfacet\nendsolid t\n";
+}
+
+mode_t mode_of(const std::string& path) {
+  struct stat st {};
+  EXPECT_EQ(::stat(path.c_str(), &st), 0) << path;
+  return st.st_mode & 0777;
+}
+
+// Runs a shell command line, stdout and stderr together.
+test::CliRun shell(const std::string& command) {
+  test::CliRun r;
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
+  if (!pipe) return r;
+  char buf[4096];
+  std::size_t n;
+  while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) r.out.append(buf, n);
+  const int status = pclose(pipe);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+bool has_control_bytes(const std::string& text) {
+  for (const char c : text)
+    if ((static_cast<unsigned char>(c) < 0x20 && c != '\n') || c == 0x7f) return true;
+  return false;
+}
+
+}  // namespace
+
+// ----- 3. --format with an OUT without extension -----
+
+TEST(IoWrite, AGivenFormatNeedsNoExtension) {
+  const std::string dir = test::scratch_dir();
+  const Mesh m = make_mesh(tetrahedron_positions(), tetrahedron_triangles());
+  WriteOptions wo;
+  wo.format = FileFormat::Ply;
+  write_mesh(dir + "/no-extension", m, wo);
+  const std::string bytes = read_file(dir + "/no-extension");
+  EXPECT_EQ(bytes.rfind("ply\n", 0), 0u);
+  const Mesh back = read_mesh_from_bytes(bytes, FileFormat::Ply, "no-extension");
+  EXPECT_EQ(back.V, m.V);
+  EXPECT_EQ(back.F, m.F);
+}
+
