@@ -201,7 +201,7 @@ Corners read_ascii_corners(const std::string& bytes, const std::string& name) {
 }
 
 bool looks_ascii(const std::string& bytes) {
-  std::size_t i = 0;
+  std::size_t i = bom_length(bytes);
   while (i < bytes.size() && std::isspace(static_cast<unsigned char>(bytes[i]))) ++i;
   return bytes.compare(i, 5, "solid") == 0;
 }

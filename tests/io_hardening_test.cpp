@@ -79,6 +79,48 @@ bool has_control_bytes(const std::string& text) {
 
 }  // namespace
 
+// ----- 1. UTF-8 byte-order mark -----
+
+TEST(IoBom, EveryTextFormatSkipsALeadingByteOrderMark) {
+  const struct {
+    FileFormat format;
+    std::string text;
+  } cases[] = {{FileFormat::Obj, kObj}, {FileFormat::Off, kOff}, {FileFormat::Ply, kPly}};
+  for (const auto& c : cases) {
+    SCOPED_TRACE(format_name(c.format));
+    const Mesh m = read_mesh_from_bytes(kBom + c.text, c.format, "bom");
+    EXPECT_EQ(m.V, tetrahedron_positions());
+    EXPECT_EQ(m.F, tetrahedron_triangles());
+  }
+  const Mesh stl = read_mesh_from_bytes(kBom + ascii_stl_triangle(), FileFormat::Stl, "bom.stl");
+  EXPECT_EQ(stl.encoding, Encoding::Ascii);
+  ASSERT_EQ(stl.V.rows(), 3);
+  EXPECT_EQ(stl.V.row(1), Eigen::RowVector3d(1, 0, 0));
+}
+
+TEST(IoBom, BinaryPlyHeaderWithAByteOrderMarkReads) {
+  std::string ply =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+      "property float y\nproperty float z\nelement face 1\n"
+      "property list uchar int vertex_indices\nend_header\n";
+  const float xyz[9] = {0, 0, 0, 2, 0, 0, 0, 3, 0};
+  ply.append(reinterpret_cast<const char*>(xyz), sizeof xyz);
+  const std::int32_t face[3] = {0, 1, 2};
+  ply += '\x03';
+  ply.append(reinterpret_cast<const char*>(face), sizeof face);
+  const Mesh m = read_mesh_from_bytes(kBom + ply, FileFormat::Ply, "bom.ply");
+  ASSERT_EQ(m.V.rows(), 3);
+  EXPECT_EQ(m.V.row(2), Eigen::RowVector3d(0, 3, 0));
+  EXPECT_EQ(m.F.row(0), Eigen::RowVector3i(0, 1, 2));
+}
+
+TEST(IoBom, WritingBackKeepsTheByteOrderMarkAndMovesTheRightVertex) {
+  Mesh m = read_mesh_from_bytes(kBom + kObj, FileFormat::Obj, "bom.obj");
+  m.V(0, 0) = 0.5;
+  const std::string out = write_mesh_to_bytes(m, FileFormat::Obj);
+  EXPECT_EQ(out, kBom + "v 0.5 0 0" + kObj.substr(7));
+}
+
 // ----- 3. --format with an OUT without extension -----
 
 TEST(IoWrite, AGivenFormatNeedsNoExtension) {
