@@ -121,6 +121,54 @@ TEST(IoBom, WritingBackKeepsTheByteOrderMarkAndMovesTheRightVertex) {
   EXPECT_EQ(out, kBom + "v 0.5 0 0" + kObj.substr(7));
 }
 
+// ----- 2. faces of fewer than three vertices -----
+
+TEST(IoShortFaces, AFaceOfFewerThanThreeVerticesIsAnErrorNamingFileLineAndFace) {
+  const struct {
+    FileFormat format;
+    std::string bytes;
+    std::size_t line;
+    const char* mentions;
+  } cases[] = {
+      {FileFormat::Obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 2 3\n", 5, "face 2: 2 vertices"},
+      {FileFormat::Obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf\nf 1 2 3\n", 4, "face 1: 0 vertices"},
+      {FileFormat::Off, "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n2 0 1\n", 7,
+       "face 1: 2 vertices"},
+      {FileFormat::Ply,
+       "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+       "property float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n"
+       "0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n1 3\n",
+       15, "face 1: 1 vertices"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.bytes);
+    try {
+      (void)read_mesh_from_bytes(c.bytes, c.format, "short");
+      ADD_FAILURE() << "read without an error";
+    } catch (const InvalidInputError& e) {
+      EXPECT_EQ(e.line(), c.line) << e.what();
+      EXPECT_NE(std::string(e.what()).find(c.mentions), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("at least 3"), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(IoShortFaces, BinaryPlyNamesTheFace) {
+  std::string ply =
+      "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty float x\n"
+      "property float y\nproperty float z\nelement face 1\n"
+      "property list uchar int vertex_indices\nend_header\n";
+  ply += std::string(36, '\0');
+  ply += std::string("\x02\0\0\0\0\0\0\0\x01", 9);
+  try {
+    (void)read_mesh_from_bytes(ply, FileFormat::Ply, "short.ply");
+    ADD_FAILURE() << "read without an error";
+  } catch (const InvalidInputError& e) {
+    EXPECT_EQ(e.line(), 0u);
+    EXPECT_NE(std::string(e.what()).find("face 0: 2 vertices"), std::string::npos) << e.what();
+  }
+}
+
 // ----- 3. --format with an OUT without extension -----
 
 TEST(IoWrite, AGivenFormatNeedsNoExtension) {
