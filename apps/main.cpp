@@ -98,6 +98,12 @@ int main(int argc, char** argv) {
   cli::register_detect(app, exit_code);
   cli::register_calibrate(app, exit_code);
   cli::register_bench(app, exit_code);
+  // Every message printed goes through printable() (idempotent: meshmark's errors are escaped
+  // already, the others, parse errors included, may quote input).
+  app.failure_message([](const CLI::App* a, const CLI::Error& e) {
+    return printable(e.what()) + "\n" +
+           (a->get_help_ptr() ? "Run with --help for more information.\n" : "");
+  });
   try {
     app.parse(argc, argv);
     return exit_code;
@@ -105,19 +111,19 @@ int main(int argc, char** argv) {
     const int rc = app.exit(e);
     return rc == 0 ? cli::kOk : cli::kUsage;
   } catch (const cli::InputFailure& e) {
-    fmt::print(stderr, "meshmark: error: {}\n", e.what());
+    fmt::print(stderr, "meshmark: error: {}\n", printable(e.what()));
     return cli::kBadInput;
   } catch (const InvalidInputError& e) {
-    fmt::print(stderr, "meshmark: error: {}\n", e.what());
+    fmt::print(stderr, "meshmark: error: {}\n", printable(e.what()));
     return cli::kBadInput;
   } catch (const IOError& e) {
-    fmt::print(stderr, "meshmark: error: {}\n", e.what());
+    fmt::print(stderr, "meshmark: error: {}\n", printable(e.what()));
     return cli::kWriteFailed;
   } catch (const InvalidArgumentError& e) {
-    fmt::print(stderr, "meshmark: error: {}\n", e.what());
+    fmt::print(stderr, "meshmark: error: {}\n", printable(e.what()));
     return cli::kUsage;
   } catch (const std::exception& e) {
-    fmt::print(stderr, "meshmark: internal error: {}\n", e.what());
+    fmt::print(stderr, "meshmark: internal error: {}\n", printable(e.what()));
     return cli::kInternal;
   }
 }

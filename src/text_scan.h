@@ -60,7 +60,8 @@ std::string format_double(double value);
 /// Appends format_double(value) to out.
 void append_double(std::string& out, double value);
 
-/// Quotes a token for an error message, cut to a readable length.
+/// Quotes a token for an error message, cut to a readable length (the error escapes what a
+/// terminal would act on: see printable() in error.h).
 std::string quote(std::string_view token);
 
 }  // namespace meshmark::detail

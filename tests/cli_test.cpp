@@ -132,3 +132,20 @@ TEST(Cli, AGivenFormatNeedsNoExtensionOnOut) {
   const Mesh back = read_mesh_from_bytes(read_file(dir + "/copy"), FileFormat::Ply, "copy");
   EXPECT_EQ(back.V.rows(), read_mesh(in).V.rows());
 }
+
+TEST(Cli, MessagesQuotingInputOrArgumentsCarryNoEscapeSequences) {
+  const std::string dir = test::scratch_dir();
+  const std::string esc = "$(printf '\\033')";  // the shell makes the byte
+  std::ofstream(dir + "/evil.obj") << "v 0 0 0\nv 1 0 \x1b]0;pwned\x07\nv 0 1 0\nf 1 2 3\n";
+  const CliRun cases[] = {
+      run("extract " + dir + "/evil.obj"),
+      run("extract \"" + dir + "/" + esc + "[2Jmissing.obj\""),
+      run("attack reorder " + dir + "/evil.obj " + dir + "/o.obj --format \"" + esc + "[31m\""),
+      run("attack \"" + esc + "[31m\" " + dir + "/evil.obj " + dir + "/o.obj"),
+  };
+  for (const CliRun& r : cases) {
+    EXPECT_NE(r.code, 0) << r.out;
+    EXPECT_EQ(r.out.find('\x1b'), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("\\x1b"), std::string::npos) << r.out;
+  }
+}

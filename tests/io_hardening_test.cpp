@@ -184,3 +184,49 @@ TEST(IoWrite, AGivenFormatNeedsNoExtension) {
   EXPECT_EQ(back.F, m.F);
 }
 
+// ----- 5. escaping -----
+
+TEST(IoEscaping, PrintableEscapesWhatATerminalWouldActOn) {
+  EXPECT_EQ(printable("plain text: 1.5 /a/b"), "plain text: 1.5 /a/b");
+  EXPECT_EQ(printable("\x1b[31mred\x07"), "\\x1b[31mred\\x07");
+  EXPECT_EQ(printable(std::string("a\0b\tc\x7f", 6)), "a\\x00b\\x09c\\x7f");
+  EXPECT_EQ(printable("caf\xC3\xA9 \xE2\x82\xAC"), "caf\xC3\xA9 \xE2\x82\xAC") << "UTF-8 is kept";
+  EXPECT_EQ(printable("\xC2\x9B"
+                      "2J"),
+            "\\xc2\\x9b2J")
+      << "C1 CSI as UTF-8";
+  EXPECT_EQ(printable("\x9B"
+                      "2J"),
+            "\\x9b2J")
+      << "a lone C1 byte";
+  EXPECT_EQ(printable("\xE2\x80\xAE"
+                      "txt"),
+            "\\xe2\\x80\\xaetxt")
+      << "right-to-left override";
+  EXPECT_EQ(printable("\xC0\xAF \xED\xA0\x80 \xFF"), "\\xc0\\xaf \\xed\\xa0\\x80 \\xff")
+      << "overlong, surrogate, invalid";
+  EXPECT_EQ(printable("cut \xE2\x82"), "cut \\xe2\\x82") << "a truncated sequence";
+  const std::string once = printable("\x1b]0;title\x07 back\\slash");
+  EXPECT_EQ(printable(once), once) << "idempotent";
+}
+
+TEST(IoEscaping, ErrorsQuotingFileContentsOrNamesCarryNoControlBytes) {
+  const std::string name = "evil\x1b[2Jname.obj";
+  try {
+    (void)read_mesh_from_bytes("v 0 0 \x1b]0;pwned\x07\n", FileFormat::Obj, name);
+    ADD_FAILURE() << "read without an error";
+  } catch (const InvalidInputError& e) {
+    const std::string what = e.what();
+    EXPECT_FALSE(has_control_bytes(what)) << what;
+    EXPECT_NE(what.find("evil\\x1b[2Jname.obj:1:"), std::string::npos) << what;
+    EXPECT_NE(what.find("'\\x1b]0;pwned\\x07'"), std::string::npos) << what;
+    EXPECT_EQ(e.file(), name) << "the accessor gives the name as it was";
+  }
+  try {
+    (void)read_file("/nonexistent/\x1b[31m.obj");
+    ADD_FAILURE() << "read without an error";
+  } catch (const IOError& e) {
+    EXPECT_FALSE(has_control_bytes(e.what())) << e.what();
+  }
+}
+
