@@ -1,14 +1,18 @@
 #include "meshmark/io.h"
 
+#include <dirent.h>
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
+#include <csignal>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
+#include <limits>
+#include <random>
 
 #include <fmt/format.h>
 
@@ -101,15 +105,72 @@ FileFormat format_from_path(const std::string& path) {
       "{}: unknown mesh extension '{}' (expected .off, .obj, .ply or .stl)", path, ext));
 }
 
+namespace {
+
+// Closes a file descriptor on every path out of a scope.
+struct FileDescriptor {
+  int fd = -1;
+  ~FileDescriptor() {
+    if (fd >= 0) ::close(fd);
+  }
+};
+
+const char* file_kind(mode_t mode) {
+  if (S_ISDIR(mode)) return "a directory";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
+std::string size_text(std::size_t bytes) {
+  if (bytes % (1u << 20) == 0) return fmt::format("{} MiB", bytes >> 20);
+  return fmt::format("{} bytes", bytes);
+}
+
+}  // namespace
+
 std::string read_file(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw IOError(fmt::format("{}: is a directory", path));
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw IOError(fmt::format("{}: cannot open for reading: {}", path, std::strerror(errno)));
-  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw IOError(fmt::format("{}: read error", path));
+  return read_file(path, std::numeric_limits<std::size_t>::max(), "file");
+}
+
+std::string read_file(const std::string& path, std::size_t max_bytes, std::string_view what) {
+  // O_NONBLOCK: opening a FIFO must not wait for a writer; fstat then refuses it.
+  FileDescriptor file{::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC)};
+  if (file.fd < 0)
+    throw IOError(
+        fmt::format("{}: cannot open the {} for reading: {}", path, what, std::strerror(errno)));
+  struct stat st {};
+  if (::fstat(file.fd, &st) != 0)
+    throw IOError(fmt::format("{}: cannot read the {}: {}", path, what, std::strerror(errno)));
+  if (!S_ISREG(st.st_mode))
+    throw IOError(fmt::format("{}: the {} is {}; only regular files are read", path, what,
+                              file_kind(st.st_mode)));
+  auto too_large = [&] {
+    return IOError(fmt::format("{}: the {} is larger than {}, the most it may hold", path, what,
+                               size_text(max_bytes)));
+  };
+  if (static_cast<std::uint64_t>(st.st_size) > max_bytes) throw too_large();
+  std::string bytes(static_cast<std::size_t>(st.st_size), '\0');
+  std::size_t done = 0;
+  char chunk[1 << 16];
+  while (true) {
+    // Up to the size fstat gave straight into place; past it (the file grew, or reports no
+    // size as /proc files do) in chunks, within the limit.
+    const bool within = done < bytes.size();
+    const ssize_t n = within ? ::read(file.fd, bytes.data() + done, bytes.size() - done)
+                             : ::read(file.fd, chunk, sizeof chunk);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) throw IOError(fmt::format("{}: read error: {}", path, std::strerror(errno)));
+    if (n == 0) break;
+    if (!within) {
+      if (static_cast<std::size_t>(n) > max_bytes - done) throw too_large();
+      bytes.append(chunk, static_cast<std::size_t>(n));
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  bytes.resize(done);
   return bytes;
 }
 

@@ -230,3 +230,82 @@ TEST(IoEscaping, ErrorsQuotingFileContentsOrNamesCarryNoControlBytes) {
   }
 }
 
+// ----- 7. only regular files are read -----
+
+TEST(IoRegularFiles, DirectoriesDevicesAndFifosAreRefusedWithoutReading) {
+  const std::string dir = test::scratch_dir();
+  std::filesystem::create_directories(dir + "/folder.obj");
+  std::filesystem::create_symlink("/dev/zero", dir + "/zero.ply");
+  ASSERT_EQ(::mkfifo((dir + "/fifo.off").c_str(), 0600), 0);
+  const struct {
+    std::string path;
+    const char* kind;
+  } cases[] = {{dir + "/folder.obj", "a directory"},
+               {dir + "/zero.ply", "a character device"},
+               {dir + "/fifo.off", "a FIFO"}};
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.path);
+    // A reader blocked on the FIFO would hang the test: read in a thread and, if it has not
+    // answered in time, open the FIFO's other end to release it.
+    auto reading = std::async(std::launch::async, [&] {
+      try {
+        (void)read_mesh(c.path);
+        return std::string("read");
+      } catch (const IOError& e) {
+        return std::string(e.what());
+      }
+    });
+    if (reading.wait_for(std::chrono::seconds(10)) != std::future_status::ready) {
+      ADD_FAILURE() << "the read blocks";
+      const int fd = ::open(c.path.c_str(), O_WRONLY | O_NONBLOCK);
+      if (fd >= 0) ::close(fd);
+    }
+    const std::string what = reading.get();
+    EXPECT_EQ(what.rfind(c.path + ":", 0), 0u) << what;
+    EXPECT_NE(what.find(c.kind), std::string::npos) << what;
+  }
+}
+
+TEST(IoRegularFiles, SizeLimitsAreCheckedAndNamed) {
+  const std::string dir = test::scratch_dir();
+  std::ofstream(dir + "/key") << std::string(1 << 20, 'k');
+  EXPECT_EQ(read_file(dir + "/key", 1 << 20, "key file").size(), std::size_t{1} << 20);
+  std::ofstream(dir + "/key", std::ios::app) << 'k';
+  try {
+    (void)read_file(dir + "/key", 1 << 20, "key file");
+    ADD_FAILURE() << "read a file over the limit";
+  } catch (const IOError& e) {
+    EXPECT_NE(std::string(e.what()).find("key file is larger than 1 MiB"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(IoRegularFiles, TheCommandLineRefusesThemWithExitCodeTwo) {
+  const std::string spot = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir();
+  const std::string cli = MESHMARK_CLI;
+  std::filesystem::create_symlink("/dev/zero", dir + "/zero.ply");
+  ASSERT_EQ(::mkfifo((dir + "/fifo.obj").c_str(), 0600), 0);
+  std::filesystem::create_directories(dir + "/keys");
+  std::ofstream(dir + "/big.key") << std::string((1 << 20) + 1, 'k');
+  // A memory limit and a time limit, so that a regression fails instead of eating the machine.
+  const std::string limits = "ulimit -v 2000000; timeout 60 ";
+  const struct {
+    std::string args;
+    const char* mentions;
+  } cases[] = {
+      {"extract " + dir + "/zero.ply", "character device"},
+      {"extract " + dir + "/fifo.obj", "FIFO"},
+      {"extract " + spot + " --key-file " + dir + "/keys", "key file is a directory"},
+      {"extract " + spot + " --key-file /dev/zero", "key file is a character device"},
+      {"extract " + spot + " --key-file " + dir + "/fifo.obj", "key file is a FIFO"},
+      {"extract " + spot + " --key-file " + dir + "/big.key", "larger than 1 MiB"},
+  };
+  for (const auto& c : cases) {
+    const test::CliRun r = shell(limits + cli + " " + c.args);
+    EXPECT_EQ(r.code, 2) << c.args << "\n" << r.out;
+    EXPECT_NE(r.out.find(c.mentions), std::string::npos) << c.args << "\n" << r.out;
+  }
+}
+

@@ -12,6 +12,7 @@
 
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include "meshmark/mesh.h"
 
@@ -76,7 +77,13 @@ const char* encoding_name(Encoding encoding);
 /// \throw IOError on failure; the destination is then untouched.
 void write_file_atomically(const std::string& path, const std::string& bytes);
 
-/// Reads a whole file. \throw IOError.
+/// Reads a whole regular file (symbolic links are followed). \throw IOError when it cannot be
+/// opened or read, or is not a regular file (a directory, a FIFO, a device, a socket): such
+/// a file is refused without reading from it or waiting on it.
 std::string read_file(const std::string& path);
+
+/// read_file of at most max_bytes; `what` names the file in messages ("key file").
+/// \throw IOError as read_file does, and when the file holds more than max_bytes.
+std::string read_file(const std::string& path, std::size_t max_bytes, std::string_view what);
 
 }  // namespace meshmark
