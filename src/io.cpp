@@ -226,36 +226,120 @@ void write_mesh(const std::string& path, const Mesh& mesh, const WriteOptions& o
   write_file_atomically(path, write_mesh_to_bytes(mesh, format, options));
 }
 
-void write_file_atomically(const std::string& path, const std::string& bytes) {
-  const std::filesystem::path target(path);
-  std::filesystem::path dir = target.parent_path();
-  if (dir.empty()) dir = ".";
-  std::string tmpl = (dir / ("." + target.filename().string() + ".meshmark-XXXXXX")).string();
-  const int fd = ::mkstemp(tmpl.data());
-  if (fd < 0)
-    throw IOError(fmt::format("{}: cannot create a temporary file in {}: {}", path, dir.string(),
-                              std::strerror(errno)));
+namespace {
+
+// A write to TARGET goes through ".TARGET.meshmark-PID-XXXXXX" in TARGET's folder: PID is the
+// writing process, XXXXXX six random letters or digits.
+constexpr std::size_t kRandomChars = 6;
+
+bool is_alnum(char c) {
+  return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z');
+}
+
+// The PID in name when name is exactly prefix + PID + '-' + six letters or digits; 0 otherwise.
+pid_t temporary_owner(std::string_view name, std::string_view prefix) {
+  if (!name.starts_with(prefix)) return 0;
+  name.remove_prefix(prefix.size());
+  const std::size_t dash = name.find('-');
+  if (dash == std::string_view::npos || dash == 0 || dash > 9 ||
+      name.size() != dash + 1 + kRandomChars)
+    return 0;
+  std::int64_t pid = 0;
+  for (const char c : name.substr(0, dash)) {
+    if (c < '0' || c > '9') return 0;
+    pid = 10 * pid + (c - '0');
+  }
+  for (const char c : name.substr(dash + 1))
+    if (!is_alnum(c)) return 0;
+  return pid > 0 && pid <= std::numeric_limits<pid_t>::max() ? static_cast<pid_t>(pid) : 0;
+}
+
+// Removes what writers to the same target left when killed before their rename: regular files
+// of exactly our naming pattern whose PID names no running process.
+void remove_stale_temporaries(const std::string& dir, const std::string& prefix) {
+  DIR* d = ::opendir(dir.c_str());
+  if (!d) return;
+  while (const dirent* entry = ::readdir(d)) {
+    const pid_t pid = temporary_owner(entry->d_name, prefix);
+    if (pid == 0 || pid == ::getpid()) continue;
+    if (::kill(pid, 0) == 0 || errno != ESRCH) continue;  // running, or another user's
+    const std::string stale = dir + "/" + entry->d_name;
+    struct stat st {};
+    if (::lstat(stale.c_str(), &st) == 0 && S_ISREG(st.st_mode)) ::unlink(stale.c_str());
+  }
+  ::closedir(d);
+}
+
+// Creates a new temporary file for writing with the given mode (the kernel applies the umask).
+int create_temporary(const std::string& dir, const std::string& prefix, mode_t mode,
+                     std::string& name) {
+  static constexpr char kAlphabet[] =
+      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789";
+  std::random_device random;
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    name = fmt::format("{}/{}{}-", dir, prefix, ::getpid());
+    for (std::size_t k = 0; k < kRandomChars; ++k) name += kAlphabet[random() % 62];
+    const int fd = ::open(name.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, mode);
+    if (fd >= 0 || errno != EEXIST) return fd;
+  }
+  return -1;
+}
+
+// Gives the new file an existing target's permission bits, and its owner and group where the
+// system allows; a group that cannot be kept loses its access rather than pass it to ours.
+bool keep_mode(int fd, const struct stat& old) {
+  mode_t mode = old.st_mode & 0777;
+  struct stat now {};
+  if (::fstat(fd, &now) != 0) return false;
+  if ((now.st_uid != old.st_uid || now.st_gid != old.st_gid) &&
+      ::fchown(fd, old.st_uid, old.st_gid) != 0 && ::fchown(fd, -1, old.st_gid) != 0)
+    mode &= ~static_cast<mode_t>(070);
+  return ::fchmod(fd, mode) == 0;
+}
+
+bool write_all(int fd, const std::string& bytes) {
   std::size_t done = 0;
   while (done < bytes.size()) {
     const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
     if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      const int err = errno;
-      ::close(fd);
-      ::unlink(tmpl.c_str());
-      throw IOError(fmt::format("{}: write failed: {}", path, std::strerror(err)));
-    }
+    if (n <= 0) return false;
     done += static_cast<std::size_t>(n);
   }
-  ::fchmod(fd, 0644);
-  if (::fsync(fd) != 0 || ::close(fd) != 0) {
+  return true;
+}
+
+}  // namespace
+
+void write_file_atomically(const std::string& path, const std::string& bytes) {
+  const std::filesystem::path target(path);
+  std::string dir = target.parent_path().string();
+  if (dir.empty()) dir = ".";
+  const std::string prefix = "." + target.filename().string() + ".meshmark-";
+  remove_stale_temporaries(dir, prefix);
+  // A new file gets 0666 less the umask; an existing one keeps its mode (created no wider).
+  struct stat old {};
+  const bool existing = ::stat(path.c_str(), &old) == 0 && S_ISREG(old.st_mode);
+  std::string tmp;
+  const int fd = create_temporary(dir, prefix, existing ? old.st_mode & 0777 : 0666, tmp);
+  if (fd < 0)
+    throw IOError(fmt::format("{}: cannot create a temporary file in {}: {}", path, dir,
+                              std::strerror(errno)));
+  auto fail_with = [&](const char* what, int err) {
+    ::close(fd);
+    ::unlink(tmp.c_str());
+    throw IOError(fmt::format("{}: {}: {}", path, what, std::strerror(err)));
+  };
+  if (!write_all(fd, bytes)) fail_with("write failed", errno);
+  if (existing && !keep_mode(fd, old)) fail_with("cannot keep the file's mode", errno);
+  if (::fsync(fd) != 0) fail_with("write failed", errno);
+  if (::close(fd) != 0) {
     const int err = errno;
-    ::unlink(tmpl.c_str());
+    ::unlink(tmp.c_str());
     throw IOError(fmt::format("{}: write failed: {}", path, std::strerror(err)));
   }
-  if (::rename(tmpl.c_str(), path.c_str()) != 0) {
+  if (::rename(tmp.c_str(), path.c_str()) != 0) {
     const int err = errno;
-    ::unlink(tmpl.c_str());
+    ::unlink(tmp.c_str());
     throw IOError(fmt::format("{}: cannot rename the temporary file into place: {}", path,
                               std::strerror(err)));
   }

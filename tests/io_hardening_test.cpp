@@ -184,6 +184,30 @@ TEST(IoWrite, AGivenFormatNeedsNoExtension) {
   EXPECT_EQ(back.F, m.F);
 }
 
+// ----- 4. modes -----
+
+TEST(IoWrite, NewFilesHonourTheUmaskAndExistingFilesKeepTheirMode) {
+  const std::string dir = test::scratch_dir();
+  const Mesh m = make_mesh(tetrahedron_positions(), tetrahedron_triangles());
+  for (const mode_t mask : {mode_t{022}, mode_t{077}, mode_t{002}}) {
+    const mode_t previous = ::umask(mask);
+    const std::string path = dir + "/new-" + std::to_string(mask) + ".obj";
+    write_mesh(path, m);
+    ::umask(previous);
+    EXPECT_EQ(mode_of(path), 0666 & ~mask) << "umask " << std::oct << mask;
+  }
+  for (const mode_t mode : {mode_t{0600}, mode_t{0640}, mode_t{0444}}) {
+    const std::string path = dir + "/existing-" + std::to_string(mode) + ".obj";
+    std::ofstream(path) << "old";
+    ASSERT_EQ(::chmod(path.c_str(), mode), 0);
+    const mode_t previous = ::umask(022);
+    write_mesh(path, m);
+    ::umask(previous);
+    EXPECT_EQ(mode_of(path), mode) << std::oct << mode;
+    EXPECT_NE(read_file(path), "old");
+  }
+}
+
 // ----- 5. escaping -----
 
 TEST(IoEscaping, PrintableEscapesWhatATerminalWouldActOn) {
@@ -228,6 +252,38 @@ TEST(IoEscaping, ErrorsQuotingFileContentsOrNamesCarryNoControlBytes) {
   } catch (const IOError& e) {
     EXPECT_FALSE(has_control_bytes(e.what())) << e.what();
   }
+}
+
+// ----- 6. temporaries left by a killed writer -----
+
+TEST(IoWrite, StaleTemporariesOfTheSameTargetAreRemovedAndNothingElse) {
+  const std::string dir = test::scratch_dir();
+  // A process that has exited: its PID names no running process (until reused).
+  const pid_t child = ::fork();
+  if (child == 0) ::_exit(0);
+  ASSERT_GT(child, 0);
+  ASSERT_EQ(::waitpid(child, nullptr, 0), child);
+  const std::string dead = std::to_string(child), alive = std::to_string(::getppid());
+  const std::string stale = ".out.obj.meshmark-" + dead + "-a1B2c3";
+  const std::string kept[] = {
+      ".out.obj.meshmark-" + alive + "-a1B2c3",   // its writer still runs
+      ".out.obj.meshmark-" + dead + "-a1B2c",     // not our pattern (five letters)
+      ".out.obj.meshmark-" + dead + "-a1B2c3x",   // not our pattern (seven)
+      ".out.obj.meshmark-XXXXXX",                 // no PID
+      ".other.obj.meshmark-" + dead + "-a1B2c3",  // another target
+      "out.obj.meshmark-" + dead + "-a1B2c3",     // not hidden
+  };
+  std::ofstream(dir + "/" + stale) << "half a mesh";
+  for (const std::string& k : kept) std::ofstream(dir + "/" + k) << "someone's";
+  write_mesh(dir + "/out.obj", make_mesh(tetrahedron_positions(), tetrahedron_triangles()));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/" + stale));
+  for (const std::string& k : kept) EXPECT_TRUE(std::filesystem::exists(dir + "/" + k)) << k;
+  std::size_t entries = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    (void)e;
+    ++entries;
+  }
+  EXPECT_EQ(entries, std::size(kept) + 1) << "the kept files and out.obj, no temporary";
 }
 
 // ----- 7. only regular files are read -----

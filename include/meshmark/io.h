@@ -54,8 +54,8 @@ struct WriteOptions {
   const Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3>* vertex_colors = nullptr;
 };
 
-/// Writes a mesh atomically: to a temporary file in the destination's folder, then renamed
-/// over the destination. On failure the destination is untouched.
+/// Writes a mesh atomically (see write_file_atomically). On failure the destination is
+/// untouched. The path's extension is consulted only when options.format is unset.
 /// \throw IOError when the file cannot be written; InvalidArgumentError for an unknown
 ///        extension.
 void write_mesh(const std::string& path, const Mesh& mesh, const WriteOptions& options = {});
@@ -73,7 +73,11 @@ const char* format_name(FileFormat format);
 /// "ascii", "binary_little_endian", "binary_big_endian".
 const char* encoding_name(Encoding encoding);
 
-/// Writes bytes to path atomically (temporary file in the same folder, then rename).
+/// Writes bytes to path atomically: to ".NAME.meshmark-PID-XXXXXX" in the same folder (PID
+/// this process), then renamed over path. A new file gets mode 0666 less the umask; an existing
+/// one keeps its permission bits (and its owner and group where the system allows). Before
+/// writing, temporary files of this exact pattern for the same path whose PID names no
+/// running process (left by a writer killed before its rename) are removed.
 /// \throw IOError on failure; the destination is then untouched.
 void write_file_atomically(const std::string& path, const std::string& bytes);
 
