@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 #include <malloc.h>
 
+#include <cmath>
 #include <filesystem>
 
 #include "cli.h"
@@ -13,10 +14,19 @@
 namespace meshmark::cli {
 
 void add_input_options(CLI::App& app, InputOptions& options) {
-  app.add_option(
-         "--weld-tolerance", options.weld_tolerance,
-         "STL: weld corners closer than this distance (model units); 0 welds identical ones")
-      ->check(CLI::NonNegativeNumber);
+  const CLI::Validator distance(
+      [](const std::string& text) -> std::string {
+        double d = 0;
+        if (!CLI::detail::lexical_cast(text, d) || !std::isfinite(d) || d < 0)
+          return fmt::format("{} is not a finite distance >= 0", text);
+        return {};
+      },
+      "DISTANCE >= 0");
+  app.add_option("--weld-tolerance", options.weld_tolerance,
+                 "weld referenced vertices closer than this distance (model units) for the "
+                 "computations, in every format (STL always welds identical corners); writing "
+                 "back keeps the file's own vertices")
+      ->check(distance);
 }
 
 void add_output_options(CLI::App& app, OutputOptions& options) {

@@ -39,6 +39,8 @@ void append_position(std::string& out, const Eigen::MatrixX3d& V, Eigen::Index i
 Mesh assemble(Parsed parsed, std::string bytes, FileFormat format, Encoding encoding,
               const std::string& name, const ReadOptions& options) {
   if (parsed.faces.size() == 0) fail(name, 0, "the file has no faces");
+  if (format == FileFormat::Stl || options.weld_tolerance > 0)
+    weld_vertices(parsed, options.weld_tolerance);
   Mesh mesh;
   const auto nv = static_cast<Eigen::Index>(parsed.xyz.size() / 3);
   mesh.V = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(
@@ -176,6 +178,9 @@ std::string read_file(const std::string& path, std::size_t max_bytes, std::strin
 
 Mesh read_mesh_from_bytes(std::string bytes, FileFormat format, const std::string& name,
                           const ReadOptions& options) {
+  if (!(options.weld_tolerance >= 0) || !std::isfinite(options.weld_tolerance))
+    throw InvalidArgumentError(fmt::format(
+        "weld tolerance {} is not a finite non-negative distance", options.weld_tolerance));
   switch (format) {
     case FileFormat::Off:
       return detail::read_off(std::move(bytes), name, options);

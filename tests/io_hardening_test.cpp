@@ -365,3 +365,87 @@ TEST(IoRegularFiles, TheCommandLineRefusesThemWithExitCodeTwo) {
   }
 }
 
+// ----- 8. --weld-tolerance in every format -----
+
+namespace {
+
+// Two triangles sharing an edge whose shared corners are stored twice, 1e-9 apart (a seam),
+// plus an unreferenced vertex 1e-9 from corner 0.
+Mesh seamed_mesh() {
+  Eigen::MatrixX3d V(7, 3);
+  V << 0, 0, 0,        //
+      1, 0, 0,         //
+      0, 1, 0,         //
+      1 + 1e-9, 0, 0,  // the copy of 1
+      0, 1 - 1e-9, 0,  // the copy of 2
+      1, 1, 0.5,       //
+      1e-9, 0, 0;      // unreferenced
+  Eigen::MatrixX3i F(2, 3);
+  F << 0, 1, 2, 3, 5, 4;
+  return make_mesh(V, F);
+}
+
+}  // namespace
+
+TEST(IoWeld, EveryFormatWeldsWithinTheToleranceAndWritesBackEveryStoredVertex) {
+  const Mesh source = seamed_mesh();
+  const struct {
+    FileFormat format;
+    Encoding encoding;
+  } cases[] = {{FileFormat::Obj, Encoding::Ascii},
+               {FileFormat::Off, Encoding::Ascii},
+               {FileFormat::Ply, Encoding::Ascii},
+               {FileFormat::Ply, Encoding::BinaryBigEndian}};
+  ReadOptions weld;
+  weld.weld_tolerance = 1e-6;
+  for (const auto& c : cases) {
+    SCOPED_TRACE(std::string(format_name(c.format)) + " " + encoding_name(c.encoding));
+    WriteOptions wo;
+    wo.encoding = c.encoding;
+    const std::string file = write_mesh_to_bytes(source, c.format, wo);
+    Mesh m = read_mesh_from_bytes(file, c.format, "seam", weld);
+    // Expected by hand: 1 and 3, 2 and 4 become one vertex each; 6 is unreferenced and stays.
+    ASSERT_EQ(m.V.rows(), 5);
+    Eigen::MatrixX3i F(2, 3);
+    F << 0, 1, 2, 1, 3, 2;
+    EXPECT_EQ(m.F, F);
+    EXPECT_EQ(m.V.row(4), source.V.row(6));
+    EXPECT_EQ(read_mesh_from_bytes(file, c.format, "seam").V.rows(), 7) << "no weld at 0";
+    // Move every referenced vertex: each stored copy moves by its vertex's displacement.
+    const Eigen::RowVector3d d(0.25, -0.5, 0.125);
+    for (int i = 0; i < 4; ++i) m.V.row(i) += d;
+    const Mesh back = read_mesh_from_bytes(write_mesh_to_bytes(m, c.format), c.format, "seam");
+    ASSERT_EQ(back.V.rows(), 7) << "the file keeps its own vertices";
+    for (int i = 0; i < 6; ++i)
+      EXPECT_LE((back.V.row(i) - (source.V.row(i) + d)).cwiseAbs().maxCoeff(), 1e-15)
+          << "vertex " << i;
+    EXPECT_EQ(back.V.row(6), source.V.row(6)) << "unreferenced vertices never move";
+    EXPECT_EQ(back.faces, source.faces);
+  }
+}
+
+TEST(IoWeld, ToleranceMustBeAFiniteNonNegativeDistance) {
+  for (const double bad :
+       {-1.0, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+    ReadOptions ro;
+    ro.weld_tolerance = bad;
+    EXPECT_THROW(read_mesh_from_bytes(kObj, FileFormat::Obj, "t.obj", ro), InvalidArgumentError)
+        << bad;
+  }
+}
+
+TEST(IoWeld, HugeCoordinatesAndATinyToleranceWeldOnlyWhatIsClose) {
+  // x / tolerance far beyond the 64-bit range: the grid must neither overflow nor lump
+  // everything together.
+  Eigen::MatrixX3d V(4, 3);
+  V << 1e300, 0, 0, -1e300, 1, 0, 1e300, 0, 1e-300, 5e299, 2, 0;
+  Eigen::MatrixX3i F(2, 3);
+  F << 0, 1, 3, 2, 3, 1;
+  ReadOptions ro;
+  ro.weld_tolerance = 1e-200;
+  const Mesh m = read_mesh_from_bytes(write_mesh_to_bytes(make_mesh(V, F), FileFormat::Obj),
+                                      FileFormat::Obj, "huge.obj", ro);
+  ASSERT_EQ(m.V.rows(), 3) << "vertices 0 and 2 are 1e-300 apart; no others are close";
+  EXPECT_EQ(m.F(1, 0), 0);
+}
+

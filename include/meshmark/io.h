@@ -20,8 +20,12 @@ namespace meshmark {
 
 /// Options of read_mesh.
 struct ReadOptions {
-  /// STL only: positions closer than this (absolute, in model units) are welded into one
-  /// vertex. 0 welds bit-identical positions only.
+  /// Referenced positions closer than this (absolute, in model units; finite, >= 0) are
+  /// welded into one vertex for the computations, in every format; writing back in the same
+  /// format and encoding still patches each stored coordinate (by its vertex's displacement)
+  /// and keeps the file's own vertices. STL corners are always welded, bit-identical ones at
+  /// 0; the other formats weld nothing at 0. Unreferenced vertices are never welded.
+  /// \throw InvalidArgumentError (from the readers) when not finite or negative.
   double weld_tolerance = 0.0;
   /// Keep the file image for faithful writing (costs about the file's size in memory).
   bool keep_image = true;
