@@ -199,6 +199,27 @@ Mesh read_mesh(const std::string& path, const ReadOptions& options) {
   return read_mesh_from_bytes(read_file(path), format, path, options);
 }
 
+namespace {
+
+// Refuses positions that a float32 output would turn into infinities (unreadable, even by us).
+void check_fits_float32(const Mesh& mesh, const char* stored_as) {
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    for (int a = 0; a < 3; ++a)
+      if (std::isinf(static_cast<float>(mesh.V(i, a))))
+        throw InvalidArgumentError(fmt::format(
+            "{}: coordinates do not fit in float32, which {} stores (vertex {}: {} = {}; float32 "
+            "reaches about 3.4e38)",
+            mesh.source_path.empty() ? "the mesh" : mesh.source_path, stored_as, i, "xyz"[a],
+            mesh.V(i, a)));
+}
+
+bool has_float32_slots(const FileImage& image) {
+  return std::any_of(image.slots.begin(), image.slots.end(),
+                     [](const CoordSlot& s) { return s.type == SlotType::Float32; });
+}
+
+}  // namespace
+
 std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format, const WriteOptions& options) {
   Encoding encoding = Encoding::Ascii;
   if (format == FileFormat::Ply || format == FileFormat::Stl)
@@ -210,8 +231,14 @@ std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format, const Write
     throw InvalidArgumentError(fmt::format("{} vertex colors for {} vertices",
                                            options.vertex_colors->rows(), mesh.V.rows()));
   if (options.keep_source && !options.single_precision && !options.vertex_colors &&
-      detail::image_applies(mesh, format, encoding))
+      detail::image_applies(mesh, format, encoding)) {
+    if (has_float32_slots(*mesh.image)) check_fits_float32(mesh, "the source file");
     return detail::patch_image(*mesh.image, mesh.V);
+  }
+  if (format == FileFormat::Stl && encoding != Encoding::Ascii)
+    check_fits_float32(mesh, "binary STL");
+  if (format == FileFormat::Ply && options.single_precision)
+    check_fits_float32(mesh, "PLY with float32 coordinates");
   switch (format) {
     case FileFormat::Off:
       return detail::write_off(mesh);

@@ -449,3 +449,28 @@ TEST(IoWeld, HugeCoordinatesAndATinyToleranceWeldOnlyWhatIsClose) {
   EXPECT_EQ(m.F(1, 0), 0);
 }
 
+// ----- float32 outputs -----
+
+TEST(IoWrite, CoordinatesBeyondFloat32AreRefusedWhereFloat32IsStored) {
+  Eigen::MatrixX3d V = tetrahedron_positions();
+  V(2, 1) = 1e308;
+  Mesh m = make_mesh(V, tetrahedron_triangles());
+  m.source_path = "big.obj";
+  WriteOptions single;
+  single.single_precision = true;
+  for (const auto& [format, options] :
+       {std::pair{FileFormat::Stl, WriteOptions{}}, std::pair{FileFormat::Ply, single}}) {
+    try {
+      (void)write_mesh_to_bytes(m, format, options);
+      ADD_FAILURE() << format_name(format) << ": written";
+    } catch (const InvalidArgumentError& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(what.rfind("big.obj: coordinates do not fit in float32", 0), 0u) << what;
+      EXPECT_NE(what.find("vertex 2: y = 1e+308"), std::string::npos) << what;
+    }
+  }
+  // Doubles hold it.
+  const Mesh back =
+      read_mesh_from_bytes(write_mesh_to_bytes(m, FileFormat::Ply), FileFormat::Ply, "double.ply");
+  EXPECT_EQ(back.V, V);
+}
