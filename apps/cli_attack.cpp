@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <memory>
 
 #include "cli.h"
@@ -29,11 +30,17 @@ int run(const AttackArgs& a) {
     steps = parse_attack_chain(a.kind);  // validates the name
     steps[0].strength = a.strength;
   }
+  for (const AttackStep& s : steps)
+    if (!std::isfinite(s.strength))
+      throw InvalidArgumentError(
+          fmt::format("attack '{}': strength {} is not a finite number", s.kind, s.strength));
   const Mesh mesh = read_input(a.input, a.in);
-  const Mesh attacked = apply_attack_chain(mesh, steps, a.seed);
+  Mesh attacked = apply_attack_chain(mesh, steps, a.seed);
+  attacked.source_path = a.input;  // what a failed write (float32 range) names
   write_output(a.output, a.input, attacked, a.out);
-  fmt::print("{}: {} -> {} ({} vertices, {} faces, seed {})\n", a.kind, a.input, a.output,
-             attacked.V.rows(), attacked.faces.size(), a.seed);
+  fmt::print("{}: {} -> {} ({} vertices, {} faces, seed {})\n", printable(a.kind),
+             printable(a.input), printable(a.output), attacked.V.rows(), attacked.faces.size(),
+             a.seed);
   return kOk;
 }
 

@@ -46,7 +46,7 @@ int run(const CompareArgs& args) {
     fmt::print("{}\n", j.dump(2));
     return kOk;
   }
-  fmt::print("{} vs {}\n", args.a, args.b);
+  fmt::print("{} vs {}\n", printable(args.a), printable(args.b));
   if (same_connectivity) {
     fmt::print("  vertex RMS   {:.6f} % of the bounding-box diagonal\n",
                j["vertex_rms_percent"].get<double>());
@@ -57,7 +57,7 @@ int run(const CompareArgs& args) {
   fmt::print("  Hausdorff    {:.6f} % ({:.3g})\n", d.hausdorff_percent(), d.hausdorff);
   fmt::print("  MSDM2        {:.6f}\n", m2.global);
   if (!args.map.empty())
-    fmt::print("  local MSDM2 map written to {} (red = most distorted)\n", args.map);
+    fmt::print("  local MSDM2 map written to {} (red = most distorted)\n", printable(args.map));
   return kOk;
 }
 

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 #include <malloc.h>
 
+#include <cmath>
 #include <filesystem>
 
 #include "cli.h"
@@ -13,10 +14,19 @@
 namespace meshmark::cli {
 
 void add_input_options(CLI::App& app, InputOptions& options) {
-  app.add_option(
-         "--weld-tolerance", options.weld_tolerance,
-         "STL: weld corners closer than this distance (model units); 0 welds identical ones")
-      ->check(CLI::NonNegativeNumber);
+  const CLI::Validator distance(
+      [](const std::string& text) -> std::string {
+        double d = 0;
+        if (!CLI::detail::lexical_cast(text, d) || !std::isfinite(d) || d < 0)
+          return fmt::format("{} is not a finite distance >= 0", text);
+        return {};
+      },
+      "DISTANCE >= 0");
+  app.add_option("--weld-tolerance", options.weld_tolerance,
+                 "weld referenced vertices closer than this distance (model units) for the "
+                 "computations, in every format (STL always welds identical corners); writing "
+                 "back keeps the file's own vertices")
+      ->check(distance);
 }
 
 void add_output_options(CLI::App& app, OutputOptions& options) {
@@ -98,6 +108,12 @@ int main(int argc, char** argv) {
   cli::register_detect(app, exit_code);
   cli::register_calibrate(app, exit_code);
   cli::register_bench(app, exit_code);
+  // Every message printed goes through printable() (idempotent: meshmark's errors are escaped
+  // already, the others, parse errors included, may quote input).
+  app.failure_message([](const CLI::App* a, const CLI::Error& e) {
+    return printable(e.what()) + "\n" +
+           (a->get_help_ptr() ? "Run with --help for more information.\n" : "");
+  });
   try {
     app.parse(argc, argv);
     return exit_code;
@@ -105,19 +121,19 @@ int main(int argc, char** argv) {
     const int rc = app.exit(e);
     return rc == 0 ? cli::kOk : cli::kUsage;
   } catch (const cli::InputFailure& e) {
-    fmt::print(stderr, "meshmark: error: {}\n", e.what());
+    fmt::print(stderr, "meshmark: error: {}\n", printable(e.what()));
     return cli::kBadInput;
   } catch (const InvalidInputError& e) {
-    fmt::print(stderr, "meshmark: error: {}\n", e.what());
+    fmt::print(stderr, "meshmark: error: {}\n", printable(e.what()));
     return cli::kBadInput;
   } catch (const IOError& e) {
-    fmt::print(stderr, "meshmark: error: {}\n", e.what());
+    fmt::print(stderr, "meshmark: error: {}\n", printable(e.what()));
     return cli::kWriteFailed;
   } catch (const InvalidArgumentError& e) {
-    fmt::print(stderr, "meshmark: error: {}\n", e.what());
+    fmt::print(stderr, "meshmark: error: {}\n", printable(e.what()));
     return cli::kUsage;
   } catch (const std::exception& e) {
-    fmt::print(stderr, "meshmark: internal error: {}\n", e.what());
+    fmt::print(stderr, "meshmark: internal error: {}\n", printable(e.what()));
     return cli::kInternal;
   }
 }

@@ -34,7 +34,15 @@ struct Parsed {
   std::vector<CoordSlot> slots;
 };
 
-/// Builds the Mesh: V from xyz, F by triangulation, the image when asked. Throws
+/// Welds the referenced vertices closer than tolerance (bit-identical ones, -0.0 and +0.0
+/// alike, when it is 0) into one vertex, at the position of its first member; unreferenced
+/// vertices stay apart. Vertices are renumbered in order of first appearance and the faces and
+/// slots follow; a slot keeps its stored value, so a write patches it by the displacement of
+/// its vertex (see patch_image). Defined in io_stl.cpp, STL's reader being its first user.
+void weld_vertices(Parsed& parsed, double tolerance);
+
+/// Builds the Mesh: V from xyz (welded first, for STL always and for the other formats when
+/// options.weld_tolerance > 0), F by triangulation, the image when asked. Throws
 /// InvalidInputError when there are no faces or no triangles.
 Mesh assemble(Parsed parsed, std::string bytes, FileFormat format, Encoding encoding,
               const std::string& name, const ReadOptions& options);

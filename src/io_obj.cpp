@@ -61,6 +61,10 @@ void parse_face(const std::vector<Token>& tokens, const std::string& name, std::
                        quote(corner)));
     face.push_back(static_cast<int>(idx));
   }
+  if (face.size() < 3)
+    fail(name, line,
+         fmt::format("face {}: {} vertices; a face needs at least 3", parsed.faces.size() + 1,
+                     face.size()));
   parsed.faces.push_back(face.data(), face.size());
 }
 

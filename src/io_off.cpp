@@ -102,6 +102,9 @@ Mesh read_off(std::string bytes, const std::string& name, const ReadOptions& opt
     if (!parse_int(tokens[0].text, n) || n < 0)
       fail(name, lines.line_number(),
            fmt::format("face {}: expected a vertex count, found {}", k, quote(tokens[0].text)));
+    if (n < 3)
+      fail(name, lines.line_number(),
+           fmt::format("face {}: {} vertices; a face needs at least 3", k, n));
     if (static_cast<std::int64_t>(tokens.size()) < n + 1)
       fail(name, lines.line_number(),
            fmt::format("face {}: expected {} indices, found {}", k, n, tokens.size() - 1));

@@ -177,6 +177,9 @@ void add_indices(const std::vector<std::int64_t>& list, Role role, std::int64_t 
       fail(name, line,
            fmt::format("{} {}: vertex index {} is out of range [0, {})", e.name, record, idx, nv));
   }
+  if (role == Role::Face && list.size() < 3)
+    fail(name, line,
+         fmt::format("{} {}: {} vertices; a face needs at least 3", e.name, record, list.size()));
   if (role == Role::Strips) {
     unroll_strips(list, parsed.faces);
   } else {

@@ -1,8 +1,10 @@
-// STL, ascii and binary. STL stores every triangle's corners separately: the reader welds
-// identical positions (exactly, or within ReadOptions::weld_tolerance) into shared vertices,
-// and the file image writes the triangles back unwelded, in their original order.
+// STL, ascii and binary. STL stores every triangle's corners separately: the reader gives
+// each corner a vertex and assemble() welds identical positions (exactly, or within
+// ReadOptions::weld_tolerance) into shared vertices; the file image writes the triangles back
+// unwelded, in their original order.
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -49,6 +51,18 @@ int find_root(std::vector<int>& parent, int i) {
   return i;
 }
 
+// The grid cell of coordinate x for cells of size tolerance. Where x / tolerance is too large
+// for the cells to be told apart (beyond 2^52 no two distinct doubles are within the tolerance
+// along this axis), the coordinate's bits stand for the cell: only equal values share one.
+// Cells only gather candidates; the exact distance decides.
+std::int64_t cell(double x, double tolerance) {
+  const double q = std::floor(x / tolerance);
+  if (std::abs(q) < 0x1p52) return static_cast<std::int64_t>(q);
+  std::int64_t bits;
+  std::memcpy(&bits, &x, sizeof bits);
+  return bits;
+}
+
 // Maps every corner to a vertex: first exact welding, then (tolerance > 0) union of the
 // unique points closer than the tolerance, found through a hash grid of that cell size.
 std::vector<int> weld(const std::vector<double>& xyz, double tolerance,
@@ -76,9 +90,8 @@ std::vector<int> weld(const std::vector<double>& xyz, double tolerance,
     std::unordered_map<std::array<std::int64_t, 3>, std::vector<int>, CellHash> grid;
     auto cell_of = [&](int u) {
       const double* p = &xyz[3 * unique_corner[u]];
-      return std::array<std::int64_t, 3>{static_cast<std::int64_t>(std::floor(p[0] / tolerance)),
-                                         static_cast<std::int64_t>(std::floor(p[1] / tolerance)),
-                                         static_cast<std::int64_t>(std::floor(p[2] / tolerance))};
+      return std::array<std::int64_t, 3>{cell(p[0], tolerance), cell(p[1], tolerance),
+                                         cell(p[2], tolerance)};
     };
     for (int u = 0; u < nu; ++u) grid[cell_of(u)].push_back(u);
     for (int u = 0; u < nu; ++u) {
@@ -201,12 +214,48 @@ Corners read_ascii_corners(const std::string& bytes, const std::string& name) {
 }
 
 bool looks_ascii(const std::string& bytes) {
-  std::size_t i = 0;
+  std::size_t i = bom_length(bytes);
   while (i < bytes.size() && std::isspace(static_cast<unsigned char>(bytes[i]))) ++i;
   return bytes.compare(i, 5, "solid") == 0;
 }
 
 }  // namespace
+
+void weld_vertices(Parsed& parsed, double tolerance) {
+  const std::size_t nv = parsed.xyz.size() / 3;
+  std::vector<std::uint8_t> used(nv, 0);
+  for (const int i : parsed.faces.indices) used[static_cast<std::size_t>(i)] = 1;
+  const bool all_used = std::all_of(used.begin(), used.end(), [](std::uint8_t u) { return u; });
+  // The referenced vertices' positions (all of them, for STL's corners) go to weld().
+  std::vector<double> referenced;
+  if (!all_used)
+    for (std::size_t i = 0; i < nv; ++i)
+      if (used[i]) referenced.insert(referenced.end(), &parsed.xyz[3 * i], &parsed.xyz[3 * i + 3]);
+  std::vector<int> first;
+  const std::vector<int> cluster = weld(all_used ? parsed.xyz : referenced, tolerance, first);
+  // New numbers in order of first appearance: a cluster takes its first member's position;
+  // unreferenced vertices stay as they are.
+  std::vector<double> xyz;
+  auto add = [&](std::size_t i) {
+    xyz.insert(xyz.end(), &parsed.xyz[3 * i], &parsed.xyz[3 * i + 3]);
+    return static_cast<int>(xyz.size() / 3 - 1);
+  };
+  std::vector<int> number_of_cluster(first.size(), -1), new_index(nv);
+  std::size_t r = 0;
+  for (std::size_t i = 0; i < nv; ++i) {
+    if (!used[i]) {
+      new_index[i] = add(i);
+      continue;
+    }
+    int& number = number_of_cluster[static_cast<std::size_t>(cluster[r++])];
+    if (number < 0) number = add(i);
+    new_index[i] = number;
+  }
+  for (int& i : parsed.faces.indices) i = new_index[static_cast<std::size_t>(i)];
+  for (CoordSlot& slot : parsed.slots)
+    slot.vertex = new_index[static_cast<std::size_t>(slot.vertex)];
+  parsed.xyz = std::move(xyz);
+}
 
 Mesh read_stl(std::string bytes, const std::string& name, const ReadOptions& options) {
   // A binary file's size is 84 + 50 n; some binary headers start with "solid" too.
@@ -220,19 +269,20 @@ Mesh read_stl(std::string bytes, const std::string& name, const ReadOptions& opt
          fmt::format("too short for a binary STL ({} bytes) and not ascii STL", bytes.size()));
   }
   Corners corners = binary ? read_binary_corners(bytes, name) : read_ascii_corners(bytes, name);
-  std::vector<int> first_corner;
-  const std::vector<int> corner_vertex = weld(corners.xyz, options.weld_tolerance, first_corner);
+  // Every corner a vertex of its own; assemble() welds them.
   Parsed parsed;
-  parsed.xyz.resize(first_corner.size() * 3);
-  for (std::size_t v = 0; v < first_corner.size(); ++v)
-    for (int a = 0; a < 3; ++a) parsed.xyz[3 * v + a] = corners.xyz[3ull * first_corner[v] + a];
-  for (std::size_t t = 0; t < corner_vertex.size() / 3; ++t)
-    parsed.faces.push_back(&corner_vertex[3 * t], 3);
-  parsed.slots.resize(corners.xyz.size());
-  for (std::size_t k = 0; k < corners.xyz.size(); ++k)
+  parsed.xyz = std::move(corners.xyz);
+  std::vector<int> corner(parsed.xyz.size() / 3);
+  std::iota(corner.begin(), corner.end(), 0);
+  parsed.faces.indices = std::move(corner);
+  parsed.faces.offsets.resize(parsed.faces.indices.size() / 3 + 1);
+  for (std::size_t t = 0; t < parsed.faces.offsets.size(); ++t)
+    parsed.faces.offsets[t] = static_cast<std::int64_t>(3 * t);
+  parsed.slots.resize(parsed.xyz.size());
+  for (std::size_t k = 0; k < parsed.xyz.size(); ++k)
     parsed.slots[k] = {corners.offset[k],
-                       corners.xyz[k],
-                       corner_vertex[k / 3],
+                       parsed.xyz[k],
+                       static_cast<std::int32_t>(k / 3),
                        corners.length[k],
                        static_cast<std::uint8_t>(k % 3),
                        binary ? SlotType::Float32 : SlotType::Text,

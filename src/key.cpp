@@ -7,6 +7,7 @@
 #include <iterator>
 
 #include "meshmark/error.h"
+#include "meshmark/io.h"
 
 namespace meshmark {
 
@@ -76,13 +77,13 @@ Key key_from_passphrase(std::string_view passphrase) {
 }
 
 Key key_from_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IOError(fmt::format("{}: cannot open the key file", path));
-  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
-                                         std::istreambuf_iterator<char>());
-  if (in.bad()) throw IOError(fmt::format("{}: cannot read the key file", path));
+  // A regular file of at most 1 MiB: a directory, a FIFO or a device such as /dev/zero is
+  // refused before anything is read from it.
+  constexpr std::size_t kMaxKeyFileBytes = std::size_t{1} << 20;
+  const std::string bytes = read_file(path, kMaxKeyFileBytes, "key file");
   if (bytes.empty()) throw InvalidInputError(path, 0, "the key file is empty");
-  return hash_under_domain("meshmark/key-file/v1", bytes.data(), bytes.size());
+  return hash_under_domain("meshmark/key-file/v1",
+                           reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size());
 }
 
 const Key& public_key() {

@@ -4,6 +4,10 @@
 
 namespace meshmark::detail {
 
+std::size_t bom_length(std::string_view text) {
+  return text.starts_with("\xEF\xBB\xBF") ? 3 : 0;
+}
+
 bool LineScanner::next(std::string_view& line) {
   if (pos_ >= text_.size()) return false;
   line_start_ = pos_;

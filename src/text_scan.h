@@ -16,10 +16,16 @@ struct Token {
   std::size_t offset = 0;
 };
 
+/// Length of the UTF-8 byte-order mark that starts text (3), or 0 when there is none.
+std::size_t bom_length(std::string_view text);
+
 /// Iterates the lines of a buffer (terminated by \n, \r\n or \r), 1-based line numbers.
+/// Scanning from the start of the buffer (start 0) skips a leading UTF-8 byte-order mark, so
+/// that every text format accepts one; offsets stay offsets into the whole buffer.
 class LineScanner {
  public:
-  explicit LineScanner(std::string_view text, std::size_t start = 0) : text_(text), pos_(start) {}
+  explicit LineScanner(std::string_view text, std::size_t start = 0)
+      : text_(text), pos_(start == 0 ? bom_length(text) : start) {}
   /// Next line without its terminator; false at the end of the buffer.
   bool next(std::string_view& line);
   /// Number of the line last returned by next().
@@ -54,7 +60,8 @@ std::string format_double(double value);
 /// Appends format_double(value) to out.
 void append_double(std::string& out, double value);
 
-/// Quotes a token for an error message, cut to a readable length.
+/// Quotes a token for an error message, cut to a readable length (the error escapes what a
+/// terminal would act on: see printable() in error.h).
 std::string quote(std::string_view token);
 
 }  // namespace meshmark::detail

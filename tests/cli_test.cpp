@@ -122,3 +122,74 @@ TEST(Cli, BatchEmbedsOneCopyPerLineAndReportsFailuresPerLine) {
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.out.find("bad.txt:1:"), std::string::npos) << bad.out;
 }
+
+TEST(Cli, OptionValuesThatAreNotFiniteAreRefusedAndNamedSo) {
+  const std::string in = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(in, "spot.obj");
+  const std::string dir = test::scratch_dir();
+  for (const char* bad : {"nan", "inf", "-1"}) {
+    const CliRun r = run("attack reorder " + in + " " + dir + "/o.obj --weld-tolerance " + bad);
+    EXPECT_EQ(r.code, 1) << bad << "\n" << r.out;
+    EXPECT_NE(r.out.find("not a finite distance >= 0"), std::string::npos) << r.out;
+  }
+  for (const std::string& args : {std::string("noise ") + in + " " + dir + "/o.obj --strength nan",
+                                  std::string("noise:nan ") + in + " " + dir + "/o.obj",
+                                  std::string("noise:inf,quant:8 ") + in + " " + dir + "/o.obj"}) {
+    const CliRun r = run("attack " + args);
+    EXPECT_EQ(r.code, 1) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find("is not a finite number"), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("negative"), std::string::npos) << r.out;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir + "/o.obj"));
+}
+
+TEST(Cli, CompareAcceptsTheSameFileTwice) {
+  const std::string in = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(in, "spot.obj");
+  const CliRun r = run("compare " + in + " " + in + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::size_t at = r.out.find("\"hausdorff\": ");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  const Mesh m = read_mesh(in);
+  EXPECT_LE(std::stod(r.out.substr(at + 13)), 1e-12 * bounding_box_diagonal(m.V))
+      << "Hausdorff(M, M) = 0 up to rounding";
+}
+
+TEST(Cli, AGivenFormatNeedsNoExtensionOnOut) {
+  const std::string in = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(in, "spot.obj");
+  const std::string dir = test::scratch_dir();
+  const CliRun r = run("attack reorder " + in + " " + dir + "/copy --format ply");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const Mesh back = read_mesh_from_bytes(read_file(dir + "/copy"), FileFormat::Ply, "copy");
+  EXPECT_EQ(back.V.rows(), read_mesh(in).V.rows());
+}
+
+TEST(Cli, Float32ConversionOfHugeCoordinatesNamesTheInputAndTheReason) {
+  const std::string dir = test::scratch_dir();
+  const std::string in = dir + "/huge.obj";
+  std::ofstream(in) << "v 0 0 0\nv 1e308 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\nf 1 4 2\n";
+  for (const char* kind : {"float32", "to-stl"}) {
+    const CliRun r = run(std::string("attack ") + kind + " " + in + " " + dir + "/out.obj");
+    EXPECT_EQ(r.code, 1) << r.out;
+    EXPECT_NE(r.out.find(in + ": coordinates do not fit in float32"), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("converted"), std::string::npos) << r.out;
+  }
+}
+
+TEST(Cli, MessagesQuotingInputOrArgumentsCarryNoEscapeSequences) {
+  const std::string dir = test::scratch_dir();
+  const std::string esc = "$(printf '\\033')";  // the shell makes the byte
+  std::ofstream(dir + "/evil.obj") << "v 0 0 0\nv 1 0 \x1b]0;pwned\x07\nv 0 1 0\nf 1 2 3\n";
+  const CliRun cases[] = {
+      run("extract " + dir + "/evil.obj"),
+      run("extract \"" + dir + "/" + esc + "[2Jmissing.obj\""),
+      run("attack reorder " + dir + "/evil.obj " + dir + "/o.obj --format \"" + esc + "[31m\""),
+      run("attack \"" + esc + "[31m\" " + dir + "/evil.obj " + dir + "/o.obj"),
+  };
+  for (const CliRun& r : cases) {
+    EXPECT_NE(r.code, 0) << r.out;
+    EXPECT_EQ(r.out.find('\x1b'), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("\\x1b"), std::string::npos) << r.out;
+  }
+}

@@ -75,6 +75,12 @@ std::vector<Bad> cases() {
       {"obj no faces", FileFormat::Obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\n", 0, "no faces"},
       {"obj garbage face", FileFormat::Obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 b 3\n", 4,
        "vertex index"},
+      {"obj truncated last face", FileFormat::Obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 2 3", 5,
+       "at least 3"},
+      {"off two-vertex face", FileFormat::Off, "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n2 0 1\n3 0 1 2\n",
+       6, "at least 3"},
+      {"ply ascii two-vertex face", FileFormat::Ply, ply_ascii + "0 0 0\n1 0 0\n0 1 0\n2 0 1\n", 13,
+       "at least 3"},
       {"ply no end_header", FileFormat::Ply, "ply\nformat ascii 1.0\nelement vertex 3\n", 3,
        "end_header"},
       {"ply ascii truncated", FileFormat::Ply, ply_ascii + "0 0 0\n1 0 0\n", 11,
@@ -157,13 +163,13 @@ TEST(IoMalformed, MissingFilesAndDirectoriesAreIOErrors) {
 
 TEST(IoDefects, UnreferencedDuplicateAndDegenerateAreNormalInput) {
   const std::string obj =
-      "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 9 9 9\nv 1 0 0\n"          // vertex 5 unreferenced; 6
-                                                                        // duplicates 2
-      "f 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\nf 1 1 2\nf 6 3 4\nf 1 2\n";  // degenerate, 2-vertex face
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 9 9 9\nv 1 0 0\n"   // vertex 5 unreferenced; 6
+                                                                 // duplicates 2
+      "f 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\nf 1 1 2\nf 6 3 4\n";  // a degenerate face
   const Mesh m = read_mesh_from_bytes(obj, FileFormat::Obj, "defects.obj");
   EXPECT_EQ(m.V.rows(), 6);
-  EXPECT_EQ(m.faces.size(), 7u);
-  EXPECT_EQ(m.F.rows(), 6);  // the 2-vertex face gives no triangle
+  EXPECT_EQ(m.faces.size(), 6u);
+  EXPECT_EQ(m.F.rows(), 6);
   const auto used = referenced_vertices(m.F, m.V.rows());
   EXPECT_EQ(used[4], 0);
 }

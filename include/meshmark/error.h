@@ -7,27 +7,38 @@
 #include <cstddef>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 namespace meshmark {
 
-/// Base of every exception meshmark throws on purpose.
+/// text with every byte a terminal could act on written as an escape, so that a message quoting
+/// file contents, tokens or paths can be printed safely: control characters (C0, DEL, the C1
+/// range U+0080 to U+009F), bidirectional-text controls and bytes that are not valid UTF-8
+/// become \xNN (each byte). Other text, UTF-8 included, is unchanged; so is a backslash, which
+/// makes printable(printable(s)) == printable(s).
+std::string printable(std::string_view text);
+
+/// Base of every exception meshmark throws on purpose. Its message is stored through
+/// printable(): what() never carries raw control bytes from the input it quotes.
 class Error : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit Error(const std::string& message);
+  explicit Error(const char* message);
 };
 
 /// A file (or an in-memory mesh) that cannot be read as what it claims to be: truncated,
 /// wrong counts, indices out of range, non-finite or non-numeric coordinates, no faces.
 /// what() reads "FILE:LINE: MESSAGE" for text formats, "FILE: MESSAGE" otherwise, where the
-/// message names the element (vertex 12, face 3, ...).
+/// message names the element (vertex 12, face 3, ...); like every Error, escaped by printable().
 class InvalidInputError : public Error {
  public:
   /// \param file the path as given by the caller; \param line 1-based line, 0 when the
   /// format has no lines (binary) or the problem is not tied to one.
   InvalidInputError(std::string file, std::size_t line, const std::string& message);
+  /// The file name as given (not escaped).
   const std::string& file() const { return file_; }
   std::size_t line() const { return line_; }
-  /// The message without the file and line prefix.
+  /// The message without the file and line prefix (not escaped).
   const std::string& detail() const { return detail_; }
 
  private:

@@ -12,6 +12,7 @@
 
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include "meshmark/mesh.h"
 
@@ -19,8 +20,12 @@ namespace meshmark {
 
 /// Options of read_mesh.
 struct ReadOptions {
-  /// STL only: positions closer than this (absolute, in model units) are welded into one
-  /// vertex. 0 welds bit-identical positions only.
+  /// Referenced positions closer than this (absolute, in model units; finite, >= 0) are
+  /// welded into one vertex for the computations, in every format; writing back in the same
+  /// format and encoding still patches each stored coordinate (by its vertex's displacement)
+  /// and keeps the file's own vertices. STL corners are always welded, bit-identical ones at
+  /// 0; the other formats weld nothing at 0. Unreferenced vertices are never welded.
+  /// \throw InvalidArgumentError (from the readers) when not finite or negative.
   double weld_tolerance = 0.0;
   /// Keep the file image for faithful writing (costs about the file's size in memory).
   bool keep_image = true;
@@ -53,8 +58,8 @@ struct WriteOptions {
   const Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3>* vertex_colors = nullptr;
 };
 
-/// Writes a mesh atomically: to a temporary file in the destination's folder, then renamed
-/// over the destination. On failure the destination is untouched.
+/// Writes a mesh atomically (see write_file_atomically). On failure the destination is
+/// untouched. The path's extension is consulted only when options.format is unset.
 /// \throw IOError when the file cannot be written; InvalidArgumentError for an unknown
 ///        extension.
 void write_mesh(const std::string& path, const Mesh& mesh, const WriteOptions& options = {});
@@ -72,11 +77,21 @@ const char* format_name(FileFormat format);
 /// "ascii", "binary_little_endian", "binary_big_endian".
 const char* encoding_name(Encoding encoding);
 
-/// Writes bytes to path atomically (temporary file in the same folder, then rename).
+/// Writes bytes to path atomically: to ".NAME.meshmark-PID-XXXXXX" in the same folder (PID
+/// this process), then renamed over path. A new file gets mode 0666 less the umask; an existing
+/// one keeps its permission bits (and its owner and group where the system allows). Before
+/// writing, temporary files of this exact pattern for the same path whose PID names no
+/// running process (left by a writer killed before its rename) are removed.
 /// \throw IOError on failure; the destination is then untouched.
 void write_file_atomically(const std::string& path, const std::string& bytes);
 
-/// Reads a whole file. \throw IOError.
+/// Reads a whole regular file (symbolic links are followed). \throw IOError when it cannot be
+/// opened or read, or is not a regular file (a directory, a FIFO, a device, a socket): such
+/// a file is refused without reading from it or waiting on it.
 std::string read_file(const std::string& path);
+
+/// read_file of at most max_bytes; `what` names the file in messages ("key file").
+/// \throw IOError as read_file does, and when the file holds more than max_bytes.
+std::string read_file(const std::string& path, std::size_t max_bytes, std::string_view what);
 
 }  // namespace meshmark
