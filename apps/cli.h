@@ -67,9 +67,19 @@ void write_heat_map(const std::string& path, std::initializer_list<std::string> 
 void write_output(const std::string& path, const std::string& input_path, const Mesh& mesh,
                   const OutputOptions& options);
 
+/// Writes a watermarked mesh only if the bytes carry bins (every bit right, margins at least
+/// half the strength): write_marked_mesh; refuses to write over the input file.
+WrittenCheck write_marked_output(const std::string& path, const std::string& input_path,
+                                 const Mesh& mesh, const OutputOptions& options,
+                                 const InputOptions& input, const Payload& bins, CenterKind center,
+                                 double strength);
+
+/// Largest --bits any command takes (a payload needs at least one vertex per bin).
+inline constexpr int kMaxBits = 4096;
+
 /// --key, --key-file, --id-bits.
 struct KeyArgs {
-  std::string passphrase, file;
+  std::optional<std::string> passphrase, file;  // given (even empty) or not
   int id_bits = 32;
 };
 void add_key_options(CLI::App& app, KeyArgs& args);

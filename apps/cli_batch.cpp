@@ -5,7 +5,7 @@
 
 #include <atomic>
 #include <chrono>
-#include <fstream>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <sstream>
@@ -14,6 +14,7 @@
 #include "cli.h"
 #include "meshmark/embed.h"
 #include "meshmark/error.h"
+#include "meshmark/io.h"
 
 namespace meshmark::cli {
 
@@ -22,14 +23,22 @@ namespace {
 struct Job {
   std::size_t line = 0;
   std::string input, output, payload;
-  std::string outcome;  // filled by the worker
+  std::string outcome;  // a refusal found before embedding, or what the worker did
   bool ok = false;
+  bool refused = false;  // not run: malformed line, output clash
 };
 
+// Every line is a job, malformed ones included (refused, with the reason), so that one bad
+// line is reported like any other failure.
 std::vector<Job> read_manifest(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputFailure(fmt::format("{}: cannot open the manifest", path));
+  std::string bytes;
+  try {
+    bytes = read_file(path, std::size_t(64) << 20, "manifest");
+  } catch (const IOError& e) {
+    throw InputFailure(e.what());
+  }
   std::vector<Job> jobs;
+  std::istringstream in(bytes);
   std::string text;
   for (std::size_t line = 1; std::getline(in, text); ++line) {
     const auto hash = text.find('#');
@@ -40,10 +49,45 @@ std::vector<Job> read_manifest(const std::string& path) {
     if (!(words >> job.input)) continue;  // blank or comment
     std::string extra;
     if (!(words >> job.output >> job.payload) || (words >> extra))
-      throw InvalidInputError(path, line, "expected three fields: INPUT OUTPUT PAYLOAD");
+      job.refused = true, job.outcome = "expected three fields: INPUT OUTPUT PAYLOAD";
     jobs.push_back(job);
   }
   return jobs;
+}
+
+// The same file for two names (an existing file by identity, a new one by its absolute path).
+std::string file_identity(const std::string& path) {
+  std::error_code ec;
+  const auto canonical = std::filesystem::weakly_canonical(path, ec);
+  return ec ? path : canonical.string();
+}
+
+// Before anything is embedded: no two lines write the same file, and no line writes a file
+// some line reads. Every line involved is refused (a buyer must never get another's copy).
+void refuse_clashes(std::vector<Job>& jobs) {
+  std::map<std::string, std::vector<std::size_t>> writers;
+  std::map<std::string, std::size_t> readers;
+  for (std::size_t k = 0; k < jobs.size(); ++k) {
+    if (jobs[k].refused) continue;
+    writers[file_identity(jobs[k].output)].push_back(k);
+    readers.emplace(file_identity(jobs[k].input), jobs[k].line);
+  }
+  for (const auto& [file, ks] : writers) {
+    if (ks.size() > 1) {
+      std::string lines;
+      for (const std::size_t k : ks)
+        lines += (lines.empty() ? "" : ", ") + std::to_string(jobs[k].line);
+      for (const std::size_t k : ks)
+        jobs[k].refused = true,
+        jobs[k].outcome = fmt::format("lines {} all write this output: none of them is run", lines);
+    }
+    const auto r = readers.find(file);
+    if (r != readers.end())
+      for (const std::size_t k : ks)
+        if (!jobs[k].refused)
+          jobs[k].refused = true,
+          jobs[k].outcome = fmt::format("the output is the input of line {}", r->second);
+  }
 }
 
 }  // namespace
@@ -52,11 +96,12 @@ int run_batch(const std::string& manifest, int bits, const EmbedOptions& options
               const InputOptions& in_options, const OutputOptions& out_options) {
   const auto start = std::chrono::steady_clock::now();
   std::vector<Job> jobs = read_manifest(manifest);
+  refuse_clashes(jobs);
   // Each distinct input is read once, before the work is shared out.
   std::map<std::string, std::shared_ptr<const Mesh>> meshes;
   std::map<std::string, std::string> unreadable;
   for (const Job& job : jobs) {
-    if (meshes.count(job.input) || unreadable.count(job.input)) continue;
+    if (job.refused || meshes.count(job.input) || unreadable.count(job.input)) continue;
     try {
       meshes[job.input] = std::make_shared<const Mesh>(read_input(job.input, in_options));
     } catch (const std::exception& e) {
@@ -67,6 +112,7 @@ int run_batch(const std::string& manifest, int bits, const EmbedOptions& options
   auto worker = [&] {
     for (std::size_t k = next++; k < jobs.size(); k = next++) {
       Job& job = jobs[k];
+      if (job.refused) continue;
       try {
         auto it = meshes.find(job.input);
         if (it == meshes.end()) throw Error(unreadable[job.input]);
@@ -75,7 +121,10 @@ int run_batch(const std::string& manifest, int bits, const EmbedOptions& options
         if (r.status != EmbedStatus::Embedded) throw Error(r.message);
         Mesh out = *it->second;
         out.V = r.V;
-        write_output(job.output, job.input, out, out_options);
+        const WrittenCheck written =
+            write_marked_output(job.output, job.input, out, out_options, in_options, payload,
+                                options.variant.center, options.strength);
+        if (!written.carried) throw Error(written.message);
         job.ok = true;
         job.outcome = fmt::format("{} rounds, RMS {:.5f} %, {:.1f} ms", r.rounds, r.rms_percent,
                                   1e3 * r.seconds);
@@ -91,8 +140,8 @@ int run_batch(const std::string& manifest, int bits, const EmbedOptions& options
   for (auto& t : pool) t.join();
   std::size_t failed = 0;
   for (const Job& job : jobs) {
-    fmt::print("{}:{}: {} {} -> {}: {}\n", manifest, job.line, job.ok ? "ok" : "FAILED", job.input,
-               job.output, job.outcome);
+    fmt::print("{}:{}: {} {} -> {}: {}\n", printable(manifest), job.line, job.ok ? "ok" : "FAILED",
+               printable(job.input), printable(job.output), printable(job.outcome));
     failed += !job.ok;
   }
   const double seconds =

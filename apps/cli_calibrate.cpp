@@ -125,7 +125,7 @@ void register_calibrate(CLI::App& app, int& exit_code) {
       "calibrate", "The largest strength whose distortion stays within RMS and MSDM limits");
   sub->add_option("IN", args->input, "mesh to calibrate on")->required();
   sub->add_option("--variant", args->variant, "variant (default DRS)");
-  sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, 1 << 20));
+  sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, kMaxBits));
   sub->add_option("--max-rms", args->options.max_rms_percent,
                   "vertex RMS limit, % of the bounding-box diagonal (default 0.04)")
       ->check(CLI::PositiveNumber);

@@ -87,7 +87,7 @@ void register_detect(CLI::App& app, int& exit_code) {
   sub->add_option("--expect", args->expect_id, "expected ID (embed --id): decimal or 0x hex");
   sub->add_option("--expect-payload", args->expect_payload,
                   "expected raw payload (embed --payload), hexadecimal");
-  sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, 1 << 20));
+  sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, kMaxBits));
   sub->add_option("--variant", args->variant, "the embedding's variant (its center matters)");
   sub->add_option("--threshold", args->threshold,
                   "declare the mark present below this false-alarm probability")

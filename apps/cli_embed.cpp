@@ -18,7 +18,7 @@ struct EmbedArgs {
   std::string x_step = "cg";
   KeyArgs keys;
   int bits = 64;
-  double strength_spread = 0.5;
+  double strength_spread = 0.25;
   EmbedOptions embed;
   InputOptions in;
   OutputOptions out;
@@ -35,10 +35,12 @@ int run(const EmbedArgs& a) {
     if (!a.input.empty() || !a.payload.empty() || !a.id.empty())
       throw InvalidArgumentError(
           "--batch takes its inputs, outputs and payloads from the manifest");
-    if (!a.keys.passphrase.empty() || !a.keys.file.empty())
+    if (a.keys.passphrase || a.keys.file)
       throw InvalidArgumentError("--batch embeds raw payloads in the canonical layout: no key");
     return run_batch(a.batch, a.bits, options, a.in, a.out);
   }
+  if (!a.payload.empty() && !a.id.empty())
+    throw InvalidArgumentError("give --payload or --id, not both");
   if (a.input.empty() || a.output.empty() || a.payload.empty() == a.id.empty())
     throw InvalidArgumentError(
         "embed needs IN, OUT and one of --payload or --id (or --batch MANIFEST)");
@@ -56,14 +58,18 @@ int run(const EmbedArgs& a) {
     for (int j = 0; j < layout.size(); ++j) options.strengths[layout.bin_of[j]] = per_bit[j];
   }
   Mesh mesh = read_input(a.input, a.in);
-  const EmbedResult r = embed(mesh.V, mesh.F, bins, options);
-  const bool ok = r.status == EmbedStatus::Embedded;
-  if (ok) {
+  EmbedResult r = embed(mesh.V, mesh.F, bins, options);
+  std::string status = embed_status_name(r.status);
+  if (r.status == EmbedStatus::Embedded) {
     mesh.V = r.V;
-    write_output(a.output, a.input, mesh, a.out);
+    const WrittenCheck written = write_marked_output(a.output, a.input, mesh, a.out, a.in, bins,
+                                                     options.variant.center, options.strength);
+    if (!written.carried) r.status = EmbedStatus::NotConverged, r.message = written.message;
+    if (!written.carried) status = "not carried by the file";
   }
+  const bool ok = r.status == EmbedStatus::Embedded;
   if (a.json) {
-    nlohmann::json j = {{"status", embed_status_name(r.status)},
+    nlohmann::json j = {{"status", status},
                         {"message", r.message},
                         {"input", a.input},
                         {"output", ok ? a.output : ""},
@@ -107,7 +113,8 @@ int run(const EmbedArgs& a) {
     fmt::print("  time             {:.2f} ms (without file I/O)\n", 1e3 * r.seconds);
     if (!r.infeasible_bits.empty())
       fmt::print("  infeasible bits  {}\n", fmt::join(r.infeasible_bits, " "));
-    if (ok) fmt::print("  written          {}\n", a.output);
+    if (ok)
+      fmt::print("  written          {} (read back: every bit decodes)\n", printable(a.output));
   }
   if (!ok) fmt::print(stderr, "meshmark: error: {}: {}\n", a.input, r.message);
   return ok ? kOk : kNotEmbedded;
@@ -127,7 +134,7 @@ void register_embed(CLI::App& app, int& exit_code) {
   sub->add_option("--id", args->id,
                   "buyer ID to embed with error correction and an integrity check (decimal or "
                   "0x hex; --id-bits long)");
-  sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, 1 << 20));
+  sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, kMaxBits));
   sub->add_option("--variant", args->variant,
                   "center (D S V), direction (R N S), cost (S Q L); default DRS");
   sub->add_option("--lambda", args->embed.lambda,
@@ -141,7 +148,7 @@ void register_embed(CLI::App& app, int& exit_code) {
   sub->add_option("--bin-offset", args->embed.bin_offset,
                   "G in [0, 1/2): vertices stay in [G, 1-G] of their bin");
   sub->add_option("--max-rounds", args->embed.max_rounds, "linearize-and-solve rounds at most")
-      ->check(CLI::PositiveNumber);
+      ->check(CLI::Range(1, 1000));
   sub->add_option("--solver", args->solver,
                   "native (structured, exact) or ipopt (general-purpose, for comparison)")
       ->check(CLI::IsMember({"native", "ipopt"}));

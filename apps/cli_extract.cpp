@@ -86,9 +86,14 @@ int run(const ExtractArgs& a) {
     if (code) {
       if (id.valid)
         fmt::print(
-            "id {} ({} of {} bits corrected; codewords differ in {} bits or more; a word "
+            "id {} ({} of {} bits corrected{}; codewords differ in {} bits or more; a word "
             "without this mark decodes with probability < {:.1e})\n",
-            id.id, id.corrected, a.bits, code->min_distance(), code->false_accept_bound());
+            id.id, id.corrected, a.bits,
+            reading.skip_nearest + reading.skip_farthest > 0
+                ? fmt::format("; read without the {} nearest and {} farthest vertices",
+                              reading.skip_nearest, reading.skip_farthest)
+                : "",
+            code->min_distance(), code->false_accept_bound());
       else
         fmt::print("no valid ID ({}): {}\n", id_decode_status_name(id.status), id.message);
     }
@@ -113,7 +118,7 @@ void register_extract(CLI::App& app, int& exit_code) {
   auto args = std::make_shared<ExtractArgs>();
   CLI::App* sub = app.add_subcommand("extract", "Read the payload back from a mesh (blind)");
   sub->add_option("IN", args->input, "watermarked mesh")->required();
-  sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, 1 << 20));
+  sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, kMaxBits));
   sub->add_option("--variant", args->variant,
                   "the embedding's variant (its center letter matters)");
   sub->add_option("--expect", args->expect, "expected payload (hex): report the bit error rate");

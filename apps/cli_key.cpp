@@ -21,12 +21,12 @@ void add_key_options(CLI::App& app, KeyArgs& args) {
 }
 
 std::optional<Key> resolve_key(const KeyArgs& args) {
-  if (!args.passphrase.empty() && !args.file.empty())
+  if (args.passphrase && args.file)
     throw InvalidArgumentError("give --key or --key-file, not both");
-  if (!args.passphrase.empty()) return key_from_passphrase(args.passphrase);
-  if (!args.file.empty()) {
+  if (args.passphrase) return key_from_passphrase(*args.passphrase);  // refuses an empty one
+  if (args.file) {
     try {
-      return key_from_file(args.file);
+      return key_from_file(*args.file);
     } catch (const IOError& e) {
       throw InputFailure(e.what());
     }

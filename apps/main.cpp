@@ -74,16 +74,36 @@ void write_heat_map(const std::string& path, std::initializer_list<std::string> 
   write_mesh(path, mesh, wo);
 }
 
-void write_output(const std::string& path, const std::string& input_path, const Mesh& mesh,
-                  const OutputOptions& options) {
-  refuse_overwrite(path, {input_path});
+namespace {
+
+WriteOptions write_options(const OutputOptions& options) {
   WriteOptions wo;
   if (!options.format.empty()) wo.format = format_from_path("x." + options.format);
   if (options.encoding == "ascii") wo.encoding = Encoding::Ascii;
   if (options.encoding == "binary_little_endian") wo.encoding = Encoding::BinaryLittleEndian;
   if (options.encoding == "binary_big_endian") wo.encoding = Encoding::BinaryBigEndian;
   wo.single_precision = options.float32;
-  write_mesh(path, mesh, wo);
+  return wo;
+}
+
+}  // namespace
+
+void write_output(const std::string& path, const std::string& input_path, const Mesh& mesh,
+                  const OutputOptions& options) {
+  refuse_overwrite(path, {input_path});
+  write_mesh(path, mesh, write_options(options));
+}
+
+WrittenCheck write_marked_output(const std::string& path, const std::string& input_path,
+                                 const Mesh& mesh, const OutputOptions& options,
+                                 const InputOptions& input, const Payload& bins, CenterKind center,
+                                 double strength) {
+  refuse_overwrite(path, {input_path});
+  ReadOptions ro;
+  ro.weld_tolerance = input.weld_tolerance;
+  ExtractOptions eo;
+  eo.center = center;
+  return write_marked_mesh(path, mesh, write_options(options), ro, bins, eo, 0.5 * strength);
 }
 
 }  // namespace meshmark::cli

@@ -48,20 +48,31 @@ ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
   auto referenced = carrier_vertices(V, F);
   r.center = center_of_mass(V, F, referenced, options.center);
   if (options.skip_nearest > 0 || options.skip_farthest > 0) {
-    // Leave out the extreme distances, then recompute the center without them (the discrete
-    // center counts every carrier vertex).
-    std::vector<std::pair<double, int>> rho;
-    for (Eigen::Index i = 0; i < V.rows(); ++i)
-      if (referenced[i])
-        rho.emplace_back((V.row(i).transpose() - r.center.point).norm(), static_cast<int>(i));
-    const std::size_t lo = static_cast<std::size_t>(options.skip_nearest);
-    const std::size_t hi = static_cast<std::size_t>(options.skip_farthest);
-    if (lo + hi < rho.size()) {
-      std::sort(rho.begin(), rho.end());
-      for (std::size_t q = 0; q < lo; ++q) referenced[rho[q].second] = 0;
-      for (std::size_t q = 0; q < hi; ++q) referenced[rho[rho.size() - 1 - q].second] = 0;
-      r.center = center_of_mass(V, F, referenced, options.center);
-    }
+    // Leave out the farthest vertices one at a time, then the nearest, each time recomputing
+    // the center without the vertices left out and without their faces (an outlier's faces
+    // add area and volume to the surface and volume centers).
+    std::vector<std::uint8_t> left_out(referenced.size(), 0);
+    Eigen::MatrixX3i kept = F;
+    auto leave_out_one = [&](bool farthest) {
+      int pick = -1;
+      double best = 0;
+      for (Eigen::Index i = 0; i < V.rows(); ++i) {
+        if (!referenced[i]) continue;
+        const double d = (V.row(i).transpose() - r.center.point).squaredNorm();
+        if (pick < 0 || (farthest ? d > best : d < best)) pick = static_cast<int>(i), best = d;
+      }
+      if (pick < 0) return;
+      referenced[pick] = 0;
+      left_out[pick] = 1;
+      Eigen::Index count = 0;
+      for (Eigen::Index f = 0; f < kept.rows(); ++f)
+        if (!left_out[kept(f, 0)] && !left_out[kept(f, 1)] && !left_out[kept(f, 2)])
+          kept.row(count++) = kept.row(f);
+      kept.conservativeResize(count, 3);
+      r.center = center_of_mass(V, kept, referenced, options.center);
+    };
+    for (int q = 0; q < options.skip_farthest; ++q) leave_out_one(true);
+    for (int q = 0; q < options.skip_nearest; ++q) leave_out_one(false);
   }
   r.histogram = build_histogram(V, referenced, r.center.point, options.bits);
   const auto nb = static_cast<std::size_t>(options.bits);

@@ -41,7 +41,7 @@ IdReading read_id(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
   IdReading out;
   out.reading = read_mark(V, F, options, layout);
   out.id = code.decode(out.reading.bits, out.reading.margins, id_key(key));
-  if (out.id.valid || out.id.status == IdDecodeStatus::Unreadable) return out;
+  if (out.id.valid) return out;
   // Further readings, fewest vertices left out first.
   std::vector<std::pair<int, int>> skips;
   for (int total = 1; total <= 6; ++total)
@@ -75,6 +75,40 @@ IdReading read_id(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
     return *found;
   }
   return out;
+}
+
+WrittenCheck write_marked_mesh(const std::string& path, const Mesh& mesh,
+                               const WriteOptions& options, const ReadOptions& read_options,
+                               const Payload& bins, const ExtractOptions& extract_options,
+                               double min_margin) {
+  const FileFormat format = options.format ? *options.format : format_from_path(path);
+  std::string bytes = write_mesh_to_bytes(mesh, format, options);
+  ReadOptions ro = read_options;
+  ro.keep_image = false;
+  const Mesh back = read_mesh_from_bytes(bytes, format, path, ro);
+  ExtractOptions eo = extract_options;
+  eo.bits = bins.size();
+  const ExtractResult x = extract(back.V, back.F, eo);
+  WrittenCheck check;
+  check.min_margin = 1;
+  for (int j = 0; j < bins.size(); ++j) {
+    const double signed_margin =
+        x.bits[j] == kErasure ? -1.0 : (bins.bits[j] ? 1.0 : -1.0) * (x.means[j] - 0.5);
+    check.bit_errors += x.bits[j] != bins.bits[j];
+    check.min_margin = std::min(check.min_margin, signed_margin);
+  }
+  check.carried = check.bit_errors == 0 && check.min_margin >= min_margin;
+  if (!check.carried) {
+    check.message = fmt::format(
+        "the {} file as it would be written does not carry the mark: {} of {} bits wrong, "
+        "smallest margin {:.3g} (at least {:.3g} needed); nothing written (a larger strength, "
+        "or more precise coordinates: --float32 off, binary PLY)",
+        format_name(format), check.bit_errors, bins.size(), check.min_margin, min_margin);
+    return check;
+  }
+  write_file_atomically(path, bytes);
+  check.message = fmt::format("written and read back: smallest margin {:.4g}", check.min_margin);
+  return check;
 }
 
 std::vector<double> keyed_strengths(const Key& key, int nb, double strength, double spread) {

@@ -18,6 +18,7 @@
 
 #include "meshmark/coding.h"
 #include "meshmark/decode.h"
+#include "meshmark/io.h"
 #include "meshmark/key.h"
 #include "meshmark/payload.h"
 
@@ -61,6 +62,28 @@ struct IdReading {
 /// ("ambiguous"). The code's false-accept bound covers every reading.
 IdReading read_id(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                   const ExtractOptions& options, const IdCode& code, const std::optional<Key>& key);
+
+/// What write_marked_mesh found in the bytes it was about to write.
+struct WrittenCheck {
+  bool carried = false;   ///< every bit decodes right with at least the required margin
+  int bit_errors = 0;     ///< bits that decode wrong or not at all
+  double min_margin = 0;  ///< smallest signed margin of the written bits (bin-width units)
+  std::string message;    ///< one line for a person
+};
+
+/// Writes a watermarked mesh only if what is written carries the mark: serializes mesh as
+/// write_mesh would (format from options or the path's extension), decodes those bytes as a
+/// reader would (read_options, e.g. the weld tolerance; extract for bins.size() bits and
+/// the center of extract_options), and writes them atomically (write_file_atomically) only
+/// when every bit of bins (the embedded word, bin order) decodes right with a signed margin
+/// of at least min_margin. Float32 storage, text rounding or a strength too small for the
+/// coordinates' precision are caught here. Nothing is written otherwise.
+/// \throw IOError when the file cannot be written; InvalidArgumentError for an unknown
+///        extension.
+WrittenCheck write_marked_mesh(const std::string& path, const Mesh& mesh,
+                               const WriteOptions& options, const ReadOptions& read_options,
+                               const Payload& bins, const ExtractOptions& extract_options,
+                               double min_margin);
 
 /// Per-bit strengths for a keyed mark: bit j gets strength * (1 + spread * u_j), u_j uniform in
 /// [0, 1) from derive_key(key, "strengths") (capped below 1/2), so that the bin means do not
