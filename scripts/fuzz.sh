@@ -13,7 +13,7 @@ sources="src/error.cpp src/mesh.cpp src/text_scan.cpp src/file_image.cpp src/io.
 clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
   -Iinclude -Isrc -isystem /usr/include/eigen3 $sources fuzz/fuzz_read.cpp -lfmt -o "$out/fuzz_read"
 clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
-  -Iinclude -Isrc src/error.cpp src/payload.cpp src/key.cpp src/coding.cpp fuzz/fuzz_decode.cpp \
+  -Iinclude -Isrc -isystem /usr/include/eigen3 $sources src/payload.cpp src/key.cpp src/coding.cpp fuzz/fuzz_decode.cpp \
   -lfmt -lsodium -o "$out/fuzz_decode"
 # Seeds: real meshes, each prefixed with the byte that selects its format.
 seeds="$out/seeds"

@@ -3,9 +3,6 @@
 #include <fmt/format.h>
 #include <sodium.h>
 
-#include <fstream>
-#include <iterator>
-
 #include "meshmark/error.h"
 #include "meshmark/io.h"
 

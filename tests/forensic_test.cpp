@@ -14,6 +14,7 @@
 #include "meshmark/key.h"
 #include "meshmark/random.h"
 #include "meshmark/variant.h"
+#include "meshmark/watermark.h"
 #include "test_data.h"
 
 namespace meshmark {
@@ -124,6 +125,11 @@ TEST(Forensic, ConsecutiveNeighboursOfMarkedCopiesAreNeverDetected) {
     }
   }
   EXPECT_GE(tested, 30000);
+  // Decoding the averaged copy names one of the two colluders or nobody, never a third.
+  const IdReading avg = read_id(averaged.V, averaged.F, xo, code, key);
+  if (avg.id.valid) EXPECT_TRUE(avg.id.id == 1000 || avg.id.id == 1001) << avg.id.id;
+  RecordProperty("averaged_decodes_to",
+                 avg.id.valid ? std::to_string(avg.id.id) : std::string("none"));
   RecordProperty("innocents", tested);
   RecordProperty("smallest_innocent_p", std::to_string(smallest_innocent));
 }

@@ -37,7 +37,8 @@ struct Key {
 Key key_from_passphrase(std::string_view passphrase);
 
 /// The key of a key file's bytes (BLAKE2b-256 under the domain "meshmark/key-file/v1").
-/// \throw IOError when the file cannot be read; InvalidInputError when it is empty.
+/// \throw IOError when the file cannot be read, is not a regular file (a directory, a FIFO, a
+///        device) or holds more than 1 MiB; InvalidInputError when it is empty.
 Key key_from_file(const std::string& path);
 
 /// The public key meshmark uses to whiten coded IDs when no secret key is given (so that an
