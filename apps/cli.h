@@ -12,6 +12,7 @@
 #include "meshmark/embed.h"
 #include "meshmark/io.h"
 #include "meshmark/key.h"
+#include "meshmark/registry.h"
 #include "meshmark/watermark.h"
 
 namespace meshmark::cli {
@@ -93,12 +94,38 @@ std::uint64_t parse_id(const std::string& text);
 /// The ID code for nb payload bits and --id-bits.
 IdCode id_code(const KeyArgs& args, int nb);
 
-void register_embed(CLI::App& app, int& exit_code);
+/// The registry record of a copy about to be issued from input (its content hash read from
+/// the file), with the settings of options; output fields are filled by record_copies.
+IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::uint64_t id,
+                       int id_bits, int bits, const std::string& variant,
+                       const EmbedOptions& options, double strength_spread, const Key& key);
 
-/// embed --batch: runs every line of the manifest (INPUT OUTPUT PAYLOAD) on all cores, each
-/// distinct input read once; prints one line per job; kOk when every job succeeded.
-int run_batch(const std::string& manifest, int bits, const EmbedOptions& options,
-              const InputOptions& in, const OutputOptions& out);
+/// Records copies written to outputs (their content hashes read back) in one transaction.
+/// When that fails, the outputs are removed (no issued copy goes unrecorded) and the error
+/// is thrown again.
+void record_copies(Registry& registry, std::vector<IssuedCopy> copies,
+                   const std::vector<std::string>& outputs);
+
+void register_embed(CLI::App& app, int& exit_code);
+void register_registry(CLI::App& app, int& exit_code);
+
+/// What embed --batch applies to every line.
+struct BatchSettings {
+  int bits = 64;
+  EmbedOptions options;
+  InputOptions in;
+  OutputOptions out;
+  std::optional<Key> key;      ///< keyed layout (raw payloads), and the key of coded IDs
+  IdCodeOptions code;          ///< the ID code of id:N lines
+  int id_bits = 32;            ///< recorded with each coded copy
+  double strength_spread = 0;  ///< keyed per-bit strengths
+  std::string registry;        ///< record coded copies there (one transaction), or ""
+};
+
+/// embed --batch: runs every line of the manifest (INPUT OUTPUT PAYLOAD, or INPUT OUTPUT id:N
+/// BUYER) on all cores, each distinct input read once; prints one line per job; kOk when
+/// every job succeeded.
+int run_batch(const std::string& manifest, const BatchSettings& settings);
 void register_extract(CLI::App& app, int& exit_code);
 void register_attack(CLI::App& app, int& exit_code);
 void register_roughness(CLI::App& app, int& exit_code);

@@ -15,6 +15,7 @@
 #include "meshmark/embed.h"
 #include "meshmark/error.h"
 #include "meshmark/io.h"
+#include "meshmark/watermark.h"
 
 namespace meshmark::cli {
 
@@ -23,6 +24,9 @@ namespace {
 struct Job {
   std::size_t line = 0;
   std::string input, output, payload;
+  bool coded = false;  // payload "id:N": a coded ID, with the buyer's label after it
+  std::uint64_t id = 0;
+  std::string buyer;
   std::string outcome;  // a refusal found before embedding, or what the worker did
   bool ok = false;
   bool refused = false;  // not run: malformed line, output clash
@@ -47,9 +51,20 @@ std::vector<Job> read_manifest(const std::string& path) {
     Job job;
     job.line = line;
     if (!(words >> job.input)) continue;  // blank or comment
-    std::string extra;
-    if (!(words >> job.output >> job.payload) || (words >> extra))
+    if (!(words >> job.output >> job.payload)) {
+      job.refused = true, job.outcome = "expected INPUT OUTPUT PAYLOAD or INPUT OUTPUT id:N BUYER";
+    } else if (job.payload.rfind("id:", 0) == 0) {
+      job.coded = true;
+      try {
+        job.id = parse_id(job.payload.substr(3));
+      } catch (const Error& e) {
+        job.refused = true, job.outcome = e.what();
+      }
+      std::string word;
+      while (words >> word) job.buyer += (job.buyer.empty() ? "" : " ") + word;
+    } else if (std::string extra; words >> extra) {
       job.refused = true, job.outcome = "expected three fields: INPUT OUTPUT PAYLOAD";
+    }
     jobs.push_back(job);
   }
   return jobs;
@@ -92,11 +107,54 @@ void refuse_clashes(std::vector<Job>& jobs) {
 
 }  // namespace
 
-int run_batch(const std::string& manifest, int bits, const EmbedOptions& options,
-              const InputOptions& in_options, const OutputOptions& out_options) {
+int run_batch(const std::string& manifest, const BatchSettings& settings) {
   const auto start = std::chrono::steady_clock::now();
+  const int bits = settings.bits;
+  const EmbedOptions& options = settings.options;
+  const InputOptions& in_options = settings.in;
+  const OutputOptions& out_options = settings.out;
   std::vector<Job> jobs = read_manifest(manifest);
   refuse_clashes(jobs);
+  // The registry: every coded line's record prepared (each original hashed once), and IDs
+  // already issued, or repeated in this manifest, refused before anything is embedded.
+  std::optional<Registry> registry;
+  std::vector<IssuedCopy> records(jobs.size());
+  if (!settings.registry.empty()) {
+    registry.emplace(settings.registry);
+    std::map<std::string, std::string> hashes;
+    std::vector<std::size_t> candidates;
+    for (std::size_t k = 0; k < jobs.size(); ++k) {
+      Job& job = jobs[k];
+      if (job.refused) continue;
+      if (!job.coded) {
+        job.refused = true, job.outcome = "--registry records coded IDs only (id:N)";
+        continue;
+      }
+      try {
+        records[k] = issued_copy(job.input, job.buyer, job.id, settings.id_bits, bits,
+                                 options.variant.name(), options, settings.strength_spread,
+                                 id_key(settings.key));
+        candidates.push_back(k);
+      } catch (const std::exception& e) {
+        job.refused = true, job.outcome = e.what();
+      }
+    }
+    std::vector<IssuedCopy> wanted;
+    for (const std::size_t k : candidates) wanted.push_back(records[k]);
+    for (const IssuedCopy& taken : registry->conflicts(wanted))
+      for (const std::size_t k : candidates)
+        if (!jobs[k].refused && records[k].id == taken.id &&
+            records[k].original_hash == taken.original_hash) {
+          jobs[k].refused = true;
+          jobs[k].outcome =
+              taken.row ? fmt::format("ID {} already issued from this original to '{}' on {}",
+                                      taken.id, taken.buyer, taken.issued_at)
+                        : fmt::format("ID {} is given twice for this original", taken.id);
+        }
+  }
+  std::optional<IdCode> code;
+  for (const Job& job : jobs)
+    if (job.coded && !job.refused && !code) code.emplace(settings.code);
   // Each distinct input is read once, before the work is shared out.
   std::map<std::string, std::shared_ptr<const Mesh>> meshes;
   std::map<std::string, std::string> unreadable;
@@ -116,8 +174,13 @@ int run_batch(const std::string& manifest, int bits, const EmbedOptions& options
       try {
         auto it = meshes.find(job.input);
         if (it == meshes.end()) throw Error(unreadable[job.input]);
-        const Payload payload = payload_from_hex(job.payload, bits);
-        const EmbedResult r = embed(it->second->V, it->second->F, payload, options);
+        const Payload word = job.coded ? code->encode(job.id, id_key(settings.key))
+                                       : payload_from_hex(job.payload, bits);
+        const Payload payload = mark_layout(settings.key, bits, job.coded).to_bins(word);
+        EmbedOptions o = options;
+        o.strengths = mark_strengths(settings.key, bits, job.coded, options.strength,
+                                     settings.strength_spread);
+        const EmbedResult r = embed(it->second->V, it->second->F, payload, o);
         if (r.status != EmbedStatus::Embedded) throw Error(r.message);
         Mesh out = *it->second;
         out.V = r.V;
@@ -138,6 +201,21 @@ int run_batch(const std::string& manifest, int bits, const EmbedOptions& options
   std::vector<std::thread> pool;
   for (unsigned t = 0; t < threads; ++t) pool.emplace_back(worker);
   for (auto& t : pool) t.join();
+  if (registry) {
+    // One transaction for the whole batch: every copy written is recorded, or none is and
+    // their files are removed.
+    std::vector<IssuedCopy> done;
+    std::vector<std::string> outputs;
+    for (std::size_t k = 0; k < jobs.size(); ++k)
+      if (jobs[k].ok) done.push_back(records[k]), outputs.push_back(jobs[k].output);
+    try {
+      if (!done.empty()) record_copies(*registry, done, outputs);
+    } catch (const std::exception& e) {
+      for (Job& job : jobs)
+        if (job.ok)
+          job.ok = false, job.outcome = fmt::format("not recorded, removed: {}", e.what());
+    }
+  }
   std::size_t failed = 0;
   for (const Job& job : jobs) {
     fmt::print("{}:{}: {} {} -> {}: {}\n", printable(manifest), job.line, job.ok ? "ok" : "FAILED",

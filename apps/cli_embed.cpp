@@ -8,6 +8,7 @@
 #include "cli.h"
 #include "meshmark/embed.h"
 #include "meshmark/error.h"
+#include "meshmark/registry.h"
 
 namespace meshmark::cli {
 
@@ -15,7 +16,7 @@ namespace {
 
 struct EmbedArgs {
   std::string input, output, payload, id, variant = "DRS", solver = "native", batch;
-  std::string x_step = "cg";
+  std::string x_step = "cg", registry, buyer;
   KeyArgs keys;
   int bits = 64;
   double strength_spread = 0.25;
@@ -35,9 +36,20 @@ int run(const EmbedArgs& a) {
     if (!a.input.empty() || !a.payload.empty() || !a.id.empty())
       throw InvalidArgumentError(
           "--batch takes its inputs, outputs and payloads from the manifest");
-    if (a.keys.passphrase || a.keys.file)
-      throw InvalidArgumentError("--batch embeds raw payloads in the canonical layout: no key");
-    return run_batch(a.batch, a.bits, options, a.in, a.out);
+    if (!a.buyer.empty())
+      throw InvalidArgumentError("--batch takes each buyer from its manifest line");
+    BatchSettings b;
+    b.bits = a.bits;
+    b.options = options;
+    b.in = a.in;
+    b.out = a.out;
+    b.key = resolve_key(a.keys);
+    b.code.bits = a.bits;
+    b.code.id_bits = a.keys.id_bits;
+    b.id_bits = a.keys.id_bits;
+    b.strength_spread = a.strength_spread;
+    b.registry = a.registry;
+    return run_batch(a.batch, b);
   }
   if (!a.payload.empty() && !a.id.empty())
     throw InvalidArgumentError("give --payload or --id, not both");
@@ -49,13 +61,24 @@ int run(const EmbedArgs& a) {
   const Payload payload = coded ? id_code(a.keys, a.bits).encode(parse_id(a.id), id_key(key))
                                 : payload_from_hex(a.payload, a.bits);
   const Payload bins = mark_layout(key, a.bits, coded).to_bins(payload);
-  if (key || coded) {
-    // Keyed marks: per-bit strengths drawn from the key, in bin order like the bits.
-    const std::vector<double> per_bit =
-        keyed_strengths(id_key(key), a.bits, options.strength, a.strength_spread);
-    const BitLayout layout = mark_layout(key, a.bits, coded);
-    options.strengths.assign(per_bit.size(), options.strength);
-    for (int j = 0; j < layout.size(); ++j) options.strengths[layout.bin_of[j]] = per_bit[j];
+  options.strengths = mark_strengths(key, a.bits, coded, options.strength, a.strength_spread);
+  // The registry: refuse an ID already issued from this original under this key before
+  // anything is embedded.
+  std::optional<Registry> registry;
+  IssuedCopy copy;
+  if (!a.registry.empty()) {
+    if (!coded) throw InvalidArgumentError("--registry records coded IDs: give --id");
+    registry.emplace(a.registry);
+    copy = issued_copy(a.input, a.buyer, parse_id(a.id), a.keys.id_bits, a.bits, a.variant, options,
+                       a.strength_spread, id_key(key));
+    const std::vector<IssuedCopy> taken = registry->conflicts({copy});
+    if (!taken.empty())
+      throw InvalidArgumentError(
+          fmt::format("ID {} was already issued from {} under this key, to '{}' on {} ({}): choose "
+                      "another ID",
+                      copy.id, a.input, taken[0].buyer, taken[0].issued_at, taken[0].output_path));
+  } else if (!a.buyer.empty()) {
+    throw InvalidArgumentError("--buyer is recorded in a registry: give --registry DB");
   }
   Mesh mesh = read_input(a.input, a.in);
   EmbedResult r = embed(mesh.V, mesh.F, bins, options);
@@ -66,6 +89,7 @@ int run(const EmbedArgs& a) {
                                                      options.variant.center, options.strength);
     if (!written.carried) r.status = EmbedStatus::NotConverged, r.message = written.message;
     if (!written.carried) status = "not carried by the file";
+    if (written.carried && registry) record_copies(*registry, {copy}, {a.output});
   }
   const bool ok = r.status == EmbedStatus::Embedded;
   if (a.json) {
@@ -129,7 +153,8 @@ void register_embed(CLI::App& app, int& exit_code) {
   sub->add_option("IN", args->input, "input mesh (.off .obj .ply .stl)");
   sub->add_option("OUT", args->output, "output mesh; format from its extension");
   sub->add_option("--batch", args->batch,
-                  "manifest: one 'INPUT OUTPUT PAYLOAD' per line, run on all cores");
+                  "manifest: one 'INPUT OUTPUT PAYLOAD' or 'INPUT OUTPUT id:N BUYER' per line, "
+                  "run on all cores");
   sub->add_option("--payload", args->payload, "payload in hexadecimal (bin 1's bit first)");
   sub->add_option("--id", args->id,
                   "buyer ID to embed with error correction and an integrity check (decimal or "
@@ -156,6 +181,10 @@ void register_embed(CLI::App& app, int& exit_code) {
                   "cost L, native solver: ADMM x-steps by matrix-free conjugate gradients (cg) or "
                   "a sparse LDL^T factorization reused across iterations (cholesky)")
       ->check(CLI::IsMember({"cg", "cholesky"}));
+  sub->add_option("--registry", args->registry,
+                  "record the issued copy (coded ID) in this SQLite registry; an ID already "
+                  "issued from this original under this key is refused");
+  sub->add_option("--buyer", args->buyer, "the buyer's label recorded with --registry");
   sub->add_flag("--json", args->json, "print a JSON report");
   add_key_options(*sub, args->keys);
   add_input_options(*sub, args->in);

@@ -15,6 +15,7 @@
 #include "meshmark/embed.h"
 #include "meshmark/io.h"
 #include "meshmark/metrics.h"
+#include "meshmark/registry.h"
 #include "meshmark/roughness.h"
 
 using namespace meshmark;
@@ -207,6 +208,31 @@ BENCHMARK_CAPTURE(metric, msdm2_horse_48k, shared("horse.ply"), 2)->Unit(benchma
 BENCHMARK_CAPTURE(extract_drs, stanford_bunny_35k, shared("stanford-bunny.obj"))
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(extract_drs, igea_134k, shared("igea.ply"))->Unit(benchmark::kMillisecond);
+
+// The registry: one batch of 10,000 issued copies recorded in one transaction into a fresh
+// SQLite file (WAL), as `embed --batch --registry` does; copies per second.
+void registry_batch(benchmark::State& state) {
+  const std::string db = std::filesystem::temp_directory_path() / "meshmark-bench-registry.db";
+  std::vector<IssuedCopy> batch(10000);
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    batch[i].original_hash = std::string(64, 'a');
+    batch[i].original_path = "/shop/original.ply";
+    batch[i].buyer = "buyer " + std::to_string(i);
+    batch[i].id = i;
+    batch[i].key_fingerprint = std::string(32, 'f');
+    batch[i].output_path = "/shop/out/" + std::to_string(i) + ".ply";
+    batch[i].output_hash = std::string(64, 'b');
+  }
+  for (auto _ : state) {
+    state.PauseTiming();
+    for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(db + suffix);
+    Registry registry(db);
+    state.ResumeTiming();
+    benchmark::DoNotOptimize(registry.record(batch));
+  }
+  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(batch.size()));
+}
+BENCHMARK(registry_batch)->Unit(benchmark::kMillisecond);
 
 int main(int argc, char** argv) {
   // As the CLI does: keep large temporaries on the heap instead of mapping pages each time.

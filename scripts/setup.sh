@@ -11,6 +11,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev       # tests and benchmarks
   coinor-libipopt-dev                              # independent QP solver for the optimality tests
   libsodium-dev                                    # BLAKE2b and ChaCha20 for secret keys
+  libsqlite3-dev                                   # the registry of issued copies
   libopenmpi-dev openmpi-bin                       # distributed benchmark campaigns (mpirun)
   librsvg2-bin                                     # campaign figures: SVG to PNG
   libcgal-dev libcgal-demo                         # CGAL, and its real meshes (data.tar.gz)

@@ -77,6 +77,16 @@ IdReading read_id(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
   return out;
 }
 
+std::vector<double> mark_strengths(const std::optional<Key>& key, int nb, bool coded,
+                                   double strength, double spread) {
+  if (!key && !coded) return {};
+  const std::vector<double> per_bit = keyed_strengths(id_key(key), nb, strength, spread);
+  const BitLayout layout = mark_layout(key, nb, coded);
+  std::vector<double> out(per_bit.size(), strength);
+  for (int j = 0; j < layout.size(); ++j) out[layout.bin_of[j]] = per_bit[j];
+  return out;
+}
+
 WrittenCheck write_marked_mesh(const std::string& path, const Mesh& mesh,
                                const WriteOptions& options, const ReadOptions& read_options,
                                const Payload& bins, const ExtractOptions& extract_options,

@@ -63,6 +63,12 @@ struct IdReading {
 IdReading read_id(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                   const ExtractOptions& options, const IdCode& code, const std::optional<Key>& key);
 
+/// The per-bin strengths (bin order, as EmbedOptions::strengths takes them) of a mark: keyed
+/// ones (keyed_strengths under id_key(key), laid out like the bits) for keyed or coded marks,
+/// none (the uniform strength) for a raw payload without a key.
+std::vector<double> mark_strengths(const std::optional<Key>& key, int nb, bool coded,
+                                   double strength, double spread);
+
 /// What write_marked_mesh found in the bytes it was about to write.
 struct WrittenCheck {
   bool carried = false;   ///< every bit decodes right with at least the required margin

@@ -1,0 +1,159 @@
+// meshmark registry list|show|export DB, and the registry records embed writes.
+
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "cli.h"
+#include "meshmark/error.h"
+
+namespace meshmark::cli {
+
+IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::uint64_t id,
+                       int id_bits, int bits, const std::string& variant,
+                       const EmbedOptions& options, double strength_spread, const Key& key) {
+  IssuedCopy c;
+  try {
+    c.original_hash = content_hash(read_file(input));
+  } catch (const IOError& e) {
+    throw InputFailure(e.what());
+  }
+  std::error_code ec;
+  const std::filesystem::path absolute = std::filesystem::absolute(input, ec);
+  c.original_path = ec ? input : absolute.lexically_normal().string();
+  c.buyer = buyer;
+  c.id = id;
+  c.id_bits = id_bits;
+  c.bits = bits;
+  c.variant = variant;
+  c.strength = options.strength;
+  c.strength_spread = strength_spread;
+  c.bin_offset = options.bin_offset;
+  c.key_fingerprint = key_fingerprint(key);
+  return c;
+}
+
+void record_copies(Registry& registry, std::vector<IssuedCopy> copies,
+                   const std::vector<std::string>& outputs) {
+  try {
+    for (std::size_t k = 0; k < copies.size(); ++k) {
+      std::error_code ec;
+      const std::filesystem::path absolute = std::filesystem::absolute(outputs[k], ec);
+      copies[k].output_path = ec ? outputs[k] : absolute.lexically_normal().string();
+      copies[k].output_hash = content_hash(read_file(outputs[k]));
+    }
+    registry.record(std::move(copies));
+  } catch (...) {
+    for (const std::string& out : outputs) std::remove(out.c_str());
+    throw;
+  }
+}
+
+namespace {
+
+nlohmann::json to_json(const IssuedCopy& c) {
+  return {{"row", c.row},
+          {"original_hash", c.original_hash},
+          {"original_path", c.original_path},
+          {"buyer", c.buyer},
+          {"id", c.id},
+          {"id_bits", c.id_bits},
+          {"bits", c.bits},
+          {"variant", c.variant},
+          {"strength", c.strength},
+          {"strength_spread", c.strength_spread},
+          {"bin_offset", c.bin_offset},
+          {"key_fingerprint", c.key_fingerprint},
+          {"mark_format", c.mark_format},
+          {"issued_at", c.issued_at},
+          {"output_path", c.output_path},
+          {"output_hash", c.output_hash}};
+}
+
+// A CSV field: quoted when it holds a comma, a quote or a line break.
+std::string csv(const std::string& s) {
+  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
+  std::string out = "\"";
+  for (const char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+struct RegistryArgs {
+  std::string db, original, buyer, id, format = "table";
+};
+
+RegistryQuery query_of(const RegistryArgs& a) {
+  RegistryQuery q;
+  if (!a.buyer.empty()) q.buyer = a.buyer;
+  if (!a.id.empty()) q.id = parse_id(a.id);
+  if (!a.original.empty()) {
+    try {
+      q.original_hash = content_hash(read_file(a.original));
+    } catch (const IOError& e) {
+      throw InputFailure(e.what());
+    }
+  }
+  return q;
+}
+
+int run_list(const RegistryArgs& a) {
+  if (!std::filesystem::exists(a.db)) throw InputFailure(fmt::format("{}: no such registry", a.db));
+  const Registry registry(a.db);
+  const std::vector<IssuedCopy> copies = registry.list(query_of(a));
+  if (a.format == "json" || a.format == "jsonl") {
+    nlohmann::json all = nlohmann::json::array();
+    for (const IssuedCopy& c : copies) {
+      if (a.format == "jsonl")
+        fmt::print("{}\n", to_json(c).dump());
+      else
+        all.push_back(to_json(c));
+    }
+    if (a.format == "json") fmt::print("{}\n", all.dump(2));
+  } else if (a.format == "csv") {
+    fmt::print(
+        "row,original_hash,original_path,buyer,id,id_bits,bits,variant,strength,"
+        "strength_spread,bin_offset,key_fingerprint,mark_format,issued_at,output_path,"
+        "output_hash\n");
+    for (const IssuedCopy& c : copies)
+      fmt::print("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.row, c.original_hash,
+                 csv(c.original_path), csv(c.buyer), c.id, c.id_bits, c.bits, c.variant, c.strength,
+                 c.strength_spread, c.bin_offset, c.key_fingerprint, c.mark_format, c.issued_at,
+                 csv(c.output_path), c.output_hash);
+  } else {
+    fmt::print("{:>6}  {:>10}  {:<20}  {:<20}  {:<7}  {:<8}  {}\n", "row", "id", "buyer",
+               "issued (UTC)", "variant", "key", "copy");
+    for (const IssuedCopy& c : copies)
+      fmt::print("{:>6}  {:>10}  {:<20}  {:<20}  {:<7}  {:<8}  {}\n", c.row, c.id,
+                 printable(c.buyer), c.issued_at, c.variant, c.key_fingerprint.substr(0, 8),
+                 printable(c.output_path));
+    fmt::print("{} cop{}\n", copies.size(), copies.size() == 1 ? "y" : "ies");
+  }
+  return kOk;
+}
+
+}  // namespace
+
+void register_registry(CLI::App& app, int& exit_code) {
+  CLI::App* sub = app.add_subcommand("registry", "The registry of issued copies (SQLite)");
+  sub->require_subcommand(1);
+  auto add = [&](const char* name, const char* help, const char* default_format) {
+    auto args = std::make_shared<RegistryArgs>();
+    args->format = default_format;
+    CLI::App* cmd = sub->add_subcommand(name, help);
+    cmd->add_option("DB", args->db, "the registry file")->required();
+    cmd->add_option("--buyer", args->buyer, "only copies issued to this buyer");
+    cmd->add_option("--id", args->id, "only copies carrying this ID");
+    cmd->add_option("--original", args->original, "only copies of this original (its file)");
+    cmd->add_option("--format", args->format, "table, csv, json or jsonl")
+        ->check(CLI::IsMember({"table", "csv", "json", "jsonl"}));
+    cmd->callback([args, &exit_code] { exit_code = run_list(*args); });
+  };
+  add("list", "List the issued copies", "table");
+  add("show", "Every field of the matching copies (give --id or --buyer)", "json");
+  add("export", "The matching copies as CSV (or --format jsonl)", "csv");
+}
+
+}  // namespace meshmark::cli

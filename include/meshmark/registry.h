@@ -1,0 +1,94 @@
+#pragma once
+/// \file registry.h
+/// The registry of issued copies: which buyer received which coded ID, from which original,
+/// under which key (a fingerprint of it, never the key) and with which settings, so that a
+/// leak can later be traced back to the copies a shop issued.
+///
+/// Stored in an SQLite file (write-ahead log, a busy timeout and write transactions taken
+/// immediately, so several processes on one machine can record at once). record() writes a
+/// whole batch in one transaction: all of it or nothing. The schema carries a version
+/// (SQLite's user_version); an older registry is migrated when opened, a newer one refused.
+/// An ID is recorded at most once per original and key: two buyers with the same ID could not
+/// be told apart, so record() refuses the whole batch if any of its IDs is taken.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "meshmark/key.h"
+
+namespace meshmark {
+
+/// The schema version this build writes and reads.
+inline constexpr int kRegistrySchemaVersion = 1;
+
+/// One issued copy.
+struct IssuedCopy {
+  std::int64_t row = 0;                  ///< registry row (0 before recording)
+  std::string original_hash;             ///< content_hash of the original file's bytes
+  std::string original_path;             ///< the original's path as given when issuing
+  std::string buyer;                     ///< the buyer's label (free text)
+  std::uint64_t id = 0;                  ///< the coded ID
+  int id_bits = 32;                      ///< ID length
+  int bits = 64;                         ///< payload length nb
+  std::string variant = "DRS";           ///< embedding variant
+  double strength = 0.05;                ///< alpha
+  double strength_spread = 0;            ///< keyed per-bit strength spread
+  double bin_offset = 0.05;              ///< G
+  std::string key_fingerprint;           ///< key_fingerprint of the key (never the key)
+  int mark_format = kMarkFormatVersion;  ///< mark format version
+  std::string issued_at;                 ///< UTC, ISO 8601 (filled by record() when empty)
+  std::string output_path;               ///< where the copy was written
+  std::string output_hash;               ///< content_hash of the copy's bytes
+};
+
+/// What list() selects (every given field must match).
+struct RegistryQuery {
+  std::optional<std::string> original_hash;    ///< copies of this original
+  std::optional<std::string> buyer;            ///< copies issued to this buyer
+  std::optional<std::string> key_fingerprint;  ///< copies issued under this key
+  std::optional<std::uint64_t> id;             ///< copies carrying this ID
+};
+
+/// A fingerprint of a key that reveals nothing of it: the first 16 bytes of
+/// derive_key(key, "fingerprint"), in hexadecimal (32 characters).
+std::string key_fingerprint(const Key& key);
+
+/// BLAKE2b-256 of bytes, in hexadecimal (64 characters).
+std::string content_hash(const std::string& bytes);
+
+/// An open registry.
+class Registry {
+ public:
+  /// Opens the SQLite registry at path, creating it (and its schema) if it does not exist.
+  /// \throw IOError when it cannot be opened or created, is not a registry, or was written by
+  ///        a newer schema.
+  explicit Registry(const std::string& path);
+  ~Registry();
+  Registry(const Registry&) = delete;
+  Registry& operator=(const Registry&) = delete;
+
+  /// The copies among `copies` whose (original_hash, key_fingerprint, bits, id_bits, id) is
+  /// already recorded (as recorded), and those repeated within `copies` itself (the later
+  /// ones, row 0).
+  std::vector<IssuedCopy> conflicts(const std::vector<IssuedCopy>& copies) const;
+
+  /// Records copies in one transaction and returns them with their rows (and issued_at when
+  /// it was empty). \throw InvalidArgumentError listing the conflicts (nothing recorded);
+  /// IOError when the database fails (nothing recorded).
+  std::vector<IssuedCopy> record(std::vector<IssuedCopy> copies);
+
+  /// The copies that match query, in the order they were recorded.
+  std::vector<IssuedCopy> list(const RegistryQuery& query = {}) const;
+
+  /// The schema version of the open registry.
+  int schema_version() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace meshmark
