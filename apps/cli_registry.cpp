@@ -100,7 +100,9 @@ RegistryQuery query_of(const RegistryArgs& a) {
 }
 
 int run_list(const RegistryArgs& a) {
-  if (!std::filesystem::exists(a.db)) throw InputFailure(fmt::format("{}: no such registry", a.db));
+  const bool uri = a.db.find("://") != std::string::npos;
+  if (!uri && !std::filesystem::exists(a.db))
+    throw InputFailure(fmt::format("{}: no such registry", a.db));
   const Registry registry(a.db);
   const std::vector<IssuedCopy> copies = registry.list(query_of(a));
   if (a.format == "json" || a.format == "jsonl") {

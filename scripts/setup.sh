@@ -11,7 +11,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev       # tests and benchmarks
   coinor-libipopt-dev                              # independent QP solver for the optimality tests
   libsodium-dev                                    # BLAKE2b and ChaCha20 for secret keys
-  libsqlite3-dev                                   # the registry of issued copies
+  libsqlite3-dev libpq-dev                         # the registry of issued copies
+  postgresql                                       # a real server for the registry's tests
   libopenmpi-dev openmpi-bin                       # distributed benchmark campaigns (mpirun)
   librsvg2-bin                                     # campaign figures: SVG to PNG
   libcgal-dev libcgal-demo                         # CGAL, and its real meshes (data.tar.gz)

@@ -6,9 +6,13 @@
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
+#include <unistd.h>
+
+#include <atomic>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <thread>
 
 #include "meshmark/error.h"
@@ -207,6 +211,160 @@ TEST(Registry, CommandLineIssuesRecordsAndSurvivesAKilledBatch) {
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("107"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("1 copy"), std::string::npos) << r.out;
+}
+
+// A PostgreSQL server of this test process's own: initdb and pg_ctl from Debian's postgresql
+// package, listening only on a Unix socket in a scratch folder (no TCP), run as the postgres
+// user when the tests run as root; stopped when the process ends. `why` says why not when it
+// cannot start.
+struct PostgresServer {
+  std::string uri, why, dir, bin, as;
+  bool ok = false;
+
+  static PostgresServer& get() {
+    static PostgresServer server;
+    return server;
+  }
+  PostgresServer() {
+    for (const auto& entry : std::filesystem::directory_iterator("/usr/lib/postgresql", ec_))
+      if (std::filesystem::exists(entry.path() / "bin/initdb"))
+        bin = (entry.path() / "bin").string();
+    if (bin.empty()) {
+      why = "no PostgreSQL server installed (Debian package postgresql)";
+      return;
+    }
+    dir = "/tmp/meshmark-pg-" + std::to_string(::getpid());
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir + "/sock");
+    if (::geteuid() == 0) {
+      as = "runuser -u postgres -- ";
+      if (std::system(("chown -R postgres " + dir).c_str()) != 0) {
+        why = "cannot give the scratch folder to the postgres user";
+        return;
+      }
+    }
+    const std::string init =
+        as + bin + "/initdb -D " + dir + "/data -A trust -U postgres > " + dir + "/initdb.log 2>&1";
+    const std::string start = as + bin + "/pg_ctl -D " + dir + "/data -o \"-k " + dir +
+                              "/sock -c listen_addresses=''\" -w -t 60 -l " + dir +
+                              "/server.log start > /dev/null 2>&1";
+    if (std::system(init.c_str()) != 0 || std::system(start.c_str()) != 0) {
+      why = "the server did not start (see " + dir + ")";
+      return;
+    }
+    uri = "postgresql:///postgres?host=" + dir + "/sock&user=postgres";
+    ok = true;
+  }
+  ~PostgresServer() {
+    if (ok)
+      std::system(
+          (as + bin + "/pg_ctl -D " + dir + "/data -m immediate stop > /dev/null 2>&1").c_str());
+    if (!dir.empty()) std::filesystem::remove_all(dir, ec_);
+  }
+  // A fresh database on the server for one test.
+  std::string fresh_database(const std::string& name) {
+    std::system((as + bin + "/psql -q -h " + dir +
+                 "/sock -U postgres -d postgres -c 'DROP "
+                 "DATABASE IF EXISTS " +
+                 name + "' -c 'CREATE DATABASE " + name + "' > /dev/null 2>&1")
+                    .c_str());
+    return "postgresql:///" + name + "?host=" + dir + "/sock&user=postgres";
+  }
+
+ private:
+  std::error_code ec_;
+};
+
+#define MESHMARK_REQUIRE_POSTGRES() \
+  if (!PostgresServer::get().ok)    \
+  GTEST_SKIP() << "skipped: no PostgreSQL server for the test: " << PostgresServer::get().why
+
+TEST(RegistryPostgres, GivesWhatSqliteGivesAndRefusesTheSameIds) {
+  MESHMARK_REQUIRE_POSTGRES();
+  const std::string pg = PostgresServer::get().fresh_database("same");
+  const std::string lite = test::scratch_dir() + "/r.db";
+  std::filesystem::remove(lite);
+  std::vector<std::vector<IssuedCopy>> lists;
+  for (const std::string& where : {pg, lite}) {
+    Registry r(where);
+    EXPECT_EQ(r.schema_version(), kRegistrySchemaVersion);
+    IssuedCopy odd = copy_of(4294967295ull, "O'Brien; DROP TABLE copies; --");
+    odd.strength = 0.1 + 0.2;  // not exactly representable in short decimal
+    odd.issued_at = "2026-12-01T00:00:00Z";
+    r.record({copy_of(1, "a"), odd});
+    EXPECT_THROW(r.record({copy_of(5, "b"), copy_of(1, "c")}), InvalidArgumentError);
+    lists.push_back(Registry(where).list());
+  }
+  ASSERT_EQ(lists[0].size(), 2u);
+  ASSERT_EQ(lists[1].size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const IssuedCopy &a = lists[0][i], &b = lists[1][i];
+    EXPECT_EQ(a.row, b.row);
+    EXPECT_EQ(a.id, b.id);
+    EXPECT_EQ(a.buyer, b.buyer);
+    EXPECT_EQ(a.strength, b.strength);  // bit for bit
+    EXPECT_EQ(a.strength_spread, b.strength_spread);
+    EXPECT_EQ(a.bin_offset, b.bin_offset);
+    EXPECT_EQ(a.original_hash, b.original_hash);
+    EXPECT_EQ(a.key_fingerprint, b.key_fingerprint);
+    EXPECT_EQ(a.output_path, b.output_path);
+    EXPECT_EQ(a.output_hash, b.output_hash);
+    EXPECT_EQ(a.mark_format, b.mark_format);
+  }
+  EXPECT_EQ(lists[0][1].strength, 0.1 + 0.2);
+  EXPECT_EQ(lists[0][1].issued_at, "2026-12-01T00:00:00Z");
+}
+
+TEST(RegistryPostgres, ConcurrentWritersLoseNothingAndNeverShareAnId) {
+  MESHMARK_REQUIRE_POSTGRES();
+  const std::string pg = PostgresServer::get().fresh_database("concurrent");
+  Registry(pg).schema_version();
+  // Four writers, each its own connection (as machines would have); they all try the same
+  // 50 IDs in batches of 5, plus 50 IDs of their own: every shared ID goes to exactly one.
+  const int writers = 4;
+  std::vector<std::thread> threads;
+  std::atomic<int> refused{0};
+  for (int w = 0; w < writers; ++w)
+    threads.emplace_back([&, w] {
+      Registry r(pg);
+      for (int b = 0; b < 10; ++b) {
+        std::vector<IssuedCopy> shared, own;
+        for (int i = 0; i < 5; ++i) {
+          shared.push_back(copy_of(5 * b + i, "w" + std::to_string(w)));
+          own.push_back(copy_of(1000 * (w + 1) + 5 * b + i, "w" + std::to_string(w)));
+        }
+        try {
+          r.record(shared);
+        } catch (const InvalidArgumentError&) {
+          ++refused;
+        }
+        r.record(own);
+      }
+    });
+  for (auto& t : threads) t.join();
+  const std::vector<IssuedCopy> all = Registry(pg).list();
+  std::set<std::uint64_t> ids;
+  for (const IssuedCopy& c : all) EXPECT_TRUE(ids.insert(c.id).second) << "ID " << c.id << " twice";
+  EXPECT_EQ(all.size(), 50u + writers * 50u);
+  EXPECT_EQ(refused, writers * 10 - 10);  // each shared batch recorded exactly once
+}
+
+TEST(RegistryPostgres, CommandLineIssuesToPostgres) {
+  MESHMARK_REQUIRE_POSTGRES();
+  const std::string spot = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string pg = PostgresServer::get().fresh_database("cli");
+  const std::string dir = test::scratch_dir();
+  test::CliRun r = test::run_cli("embed " + spot + " " + dir +
+                                 "/a.obj --id 3 --key k --registry '" + pg + "' --buyer Zoe");
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = test::run_cli("registry list '" + pg + "'");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("Zoe"), std::string::npos) << r.out;
+  r = test::run_cli("embed " + spot + " " + dir + "/b.obj --id 3 --key k --registry '" + pg +
+                    "' --buyer Yann");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/b.obj"));
 }
 
 }  // namespace

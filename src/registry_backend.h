@@ -1,0 +1,75 @@
+#pragma once
+// The storage behind Registry (registry.h): SQLite or PostgreSQL. Each backend keeps the same
+// table, copies, with the same columns and the same unique key; the rules (conflicts, one
+// transaction per batch) are Registry's.
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "meshmark/registry.h"
+
+namespace meshmark::detail {
+
+class RegistryBackend {
+ public:
+  virtual ~RegistryBackend() = default;
+  /// The schema version of the open store.
+  virtual int schema_version() = 0;
+  /// Runs body in one write transaction that excludes other writers until it ends; commits
+  /// when body returns, rolls back and rethrows when it throws.
+  virtual void transaction(const std::function<void()>& body) = 0;
+  /// The recorded copy with c's identity (original, key, bits, id_bits, id), if any.
+  virtual bool find(const IssuedCopy& c, IssuedCopy& recorded) = 0;
+  /// Inserts c (inside transaction()); returns its row.
+  virtual std::int64_t insert(const IssuedCopy& c) = 0;
+  /// The copies matching query, by row.
+  virtual std::vector<IssuedCopy> list(const RegistryQuery& query) = 0;
+};
+
+/// Opens (creating its schema) the SQLite registry file at path.
+std::unique_ptr<RegistryBackend> open_sqlite_registry(const std::string& path);
+
+/// Connects to the PostgreSQL registry at uri (postgresql://...), creating its schema.
+std::unique_ptr<RegistryBackend> open_postgres_registry(const std::string& uri);
+
+/// The columns after row, in the order every backend lists them.
+inline constexpr const char* kRegistryColumns =
+    "original_hash, original_path, buyer, id, id_bits, bits, variant, strength, "
+    "strength_spread, bin_offset, key_fingerprint, mark_format, issued_at, output_path, "
+    "output_hash";
+
+/// The statements that create schema version 1's table and index, in SQLite's or
+/// PostgreSQL's types.
+inline std::string registry_schema_v1(bool postgres) {
+  struct Column {
+    const char *name, *sqlite, *postgres;
+  };
+  static const Column columns[] = {
+      {"row", "INTEGER PRIMARY KEY", "BIGSERIAL PRIMARY KEY"},
+      {"original_hash", "TEXT NOT NULL", "TEXT NOT NULL"},
+      {"original_path", "TEXT NOT NULL", "TEXT NOT NULL"},
+      {"buyer", "TEXT NOT NULL", "TEXT NOT NULL"},
+      {"id", "INTEGER NOT NULL", "BIGINT NOT NULL"},
+      {"id_bits", "INTEGER NOT NULL", "INTEGER NOT NULL"},
+      {"bits", "INTEGER NOT NULL", "INTEGER NOT NULL"},
+      {"variant", "TEXT NOT NULL", "TEXT NOT NULL"},
+      {"strength", "REAL NOT NULL", "DOUBLE PRECISION NOT NULL"},
+      {"strength_spread", "REAL NOT NULL", "DOUBLE PRECISION NOT NULL"},
+      {"bin_offset", "REAL NOT NULL", "DOUBLE PRECISION NOT NULL"},
+      {"key_fingerprint", "TEXT NOT NULL", "TEXT NOT NULL"},
+      {"mark_format", "INTEGER NOT NULL", "INTEGER NOT NULL"},
+      {"issued_at", "TEXT NOT NULL", "TEXT NOT NULL"},
+      {"output_path", "TEXT NOT NULL", "TEXT NOT NULL"},
+      {"output_hash", "TEXT NOT NULL", "TEXT NOT NULL"},
+  };
+  std::string sql = "CREATE TABLE copies (\n";
+  for (const Column& c : columns)
+    sql += std::string("  ") + c.name + " " + (postgres ? c.postgres : c.sqlite) + ",\n";
+  sql += "  UNIQUE (original_hash, key_fingerprint, bits, id_bits, id)\n);\n";
+  sql += "CREATE INDEX copies_by_buyer ON copies (buyer);\n";
+  return sql;
+}
+
+}  // namespace meshmark::detail
