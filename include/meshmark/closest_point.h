@@ -4,6 +4,7 @@
 /// distances (MRMS, Hausdorff) and MSDM2's matching of vertices to the other surface need.
 
 #include <Eigen/Core>
+#include <memory>
 #include <vector>
 
 namespace meshmark {
@@ -15,6 +16,23 @@ struct ClosestPoints {
   std::vector<int> face;         ///< #Q, row of F
   Eigen::MatrixX3d barycentric;  ///< #Q x 3, weights of F(face, 0..2)
   Eigen::VectorXd distance;      ///< #Q
+};
+
+/// An AABB tree over the triangles F of V (degenerate triangles skipped), built once and
+/// queried many times (registration queries one surface at every step).
+class SurfaceIndex {
+ public:
+  /// \throw InvalidArgumentError when F has no usable triangle. V and F must outlive it.
+  SurfaceIndex(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F);
+  ~SurfaceIndex();
+  SurfaceIndex(const SurfaceIndex&) = delete;
+  SurfaceIndex& operator=(const SurfaceIndex&) = delete;
+  /// The closest points to every row of Q (queries on all cores).
+  ClosestPoints query(const Eigen::MatrixX3d& Q) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
 };
 
 /// Closest points on the triangles F of V (degenerate triangles skipped) to every row of Q.

@@ -1,0 +1,61 @@
+#pragma once
+/// \file registration.h
+/// Registration of a leaked mesh onto its original: the similarity transform (rotation,
+/// uniform scale, translation) that brings the leak back into the original's frame, found by
+/// trimmed iterative closest points (point to surface, on CGAL's AABB tree) from several
+/// starts: the identity (tools that decimate, remesh, smooth or crop keep the frame) and the
+/// four proper alignments of the principal axes. The leak may be decimated, remeshed, noisy or
+/// cropped: only the closest `trim` fraction of its samples drives each step.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+
+namespace meshmark {
+
+/// x -> scale * R x + t.
+struct Similarity {
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< R, a rotation (det +1)
+  double scale = 1;                                         ///< s > 0
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();    ///< t (model units)
+  /// Every row of V transformed.
+  Eigen::MatrixX3d apply(const Eigen::MatrixX3d& V) const;
+  /// The inverse transform.
+  Similarity inverse() const;
+};
+
+/// Options of register_similarity.
+struct RegistrationOptions {
+  int samples = 4000;          ///< leak vertices used (a seeded random subset when more)
+  int iterations = 80;         ///< ICP steps per start at most
+  double trim = 0.8;           ///< fraction of the closest samples each step fits
+  double max_residual = 0.01;  ///< success: trimmed RMS below this fraction of the diagonal
+  /// A leak whose trimmed RMS distance to the original, as it is, is below this fraction of the
+  /// diagonal is taken as in the original's frame and not moved (the identity).
+  double in_frame = 1e-3;
+  std::uint64_t seed = 1;      ///< sample selection
+};
+
+/// Whether registration succeeded.
+enum class RegistrationStatus {
+  Registered,  ///< residual within max_residual
+  Failed,      ///< no start converged to a residual within max_residual
+};
+
+/// What register_similarity found.
+struct RegistrationResult {
+  RegistrationStatus status = RegistrationStatus::Failed;
+  Similarity transform;  ///< leak -> original frame
+  double residual = 0;   ///< trimmed RMS distance, fraction of the original's diagonal
+  double overlap = 0;    ///< fraction of the samples within 3 residuals (at least 1e-3 D)
+  int iterations = 0;    ///< ICP steps of the best start
+  std::string message;   ///< one line for a person
+};
+
+/// Registers the leak (VL, FL) onto the original (VO, FO). \throw InvalidArgumentError when
+/// either mesh has no usable triangle.
+RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
+                                       const Eigen::MatrixX3d& VO, const Eigen::MatrixX3i& FO,
+                                       const RegistrationOptions& options = {});
+
+}  // namespace meshmark

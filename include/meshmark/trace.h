@@ -1,0 +1,76 @@
+#pragma once
+/// \file trace.h
+/// Informed tracing of a leak: with the original mesh and the copies issued from it (registry.h),
+/// which buyers' marks are present in the leaked mesh?
+///
+/// Steps: the leak is registered onto the original (registration.h) and measured at every
+/// original vertex (the closest point of the registered leak's surface; vertices with no
+/// surface within `erase_distance` are erased: cropped away or in holes). The histogram is the
+/// original's (its carrier, center, range and bins: the embedding kept them), so resampling,
+/// cropping and decimation do not desynchronize it. Each bin's mean position is compared with
+/// the original's: a mark moves it from the original's mean m0 to 1/2 +- alpha_j, and attacks
+/// attenuate that shift by a common factor gamma (smoothing shrinks it), which is fitted; each
+/// bit is the hypothesis nearer to what was measured. These bits do not depend on any
+/// candidate. Each candidate copy's codeword is then compared with them, and its p-value is the
+/// exact probability (detect.h, CodewordNull) that an innocent codeword matches as well,
+/// corrected for the number of candidates (Bonferroni). Buyers below the threshold are named;
+/// two or more are reported together (collusion).
+
+#include <string>
+#include <vector>
+
+#include "meshmark/key.h"
+#include "meshmark/mesh.h"
+#include "meshmark/registration.h"
+#include "meshmark/registry.h"
+
+namespace meshmark {
+
+/// Options of trace.
+struct TraceOptions {
+  double threshold = 1e-6;        ///< family-wise false-alarm probability for naming a buyer
+  double erase_distance = 0.005;  ///< no surface within this fraction of the diagonal: erased
+  bool register_leak = true;      ///< false: the leak is already in the original's frame
+  RegistrationOptions registration;
+};
+
+/// One candidate's evidence.
+struct CandidateScore {
+  IssuedCopy copy;           ///< the issued copy
+  int matches = 0;           ///< bits read equal to its codeword's
+  int compared = 0;          ///< payload bits
+  double p_value = 1;        ///< exact, for this candidate alone
+  double corrected_p = 1;    ///< min(1, p_value x candidates)
+};
+
+/// What trace concluded.
+enum class TraceStatus {
+  Named,               ///< at least one buyer passes the threshold
+  NoBuyer,             ///< none does
+  RegistrationFailed,  ///< the leak could not be brought onto the original
+  NoCandidates,        ///< no copy of this original under this key in the list
+};
+
+/// "named", "no-buyer", "registration-failed", "no-candidates".
+const char* trace_status_name(TraceStatus status);
+
+/// What trace found.
+struct TraceResult {
+  TraceStatus status = TraceStatus::NoBuyer;
+  RegistrationResult registration;       ///< leak -> original
+  double measured_fraction = 0;          ///< original carrier vertices measured (not erased)
+  double attenuation = 0;                ///< fitted gamma of the first group of candidates
+  std::vector<CandidateScore> named;     ///< candidates below the threshold, best first
+  std::vector<CandidateScore> ranking;   ///< every candidate, best first
+  std::string message;                   ///< one line for a person
+};
+
+/// Traces leaked against the copies issued from original under key (candidates: every copy
+/// whose key fingerprint is key's; others are ignored). Candidates may differ in variant,
+/// bits, ID length, strength and spread: each group is read with its own settings.
+/// \throw InvalidArgumentError when a mesh has no usable triangle.
+TraceResult trace(const Mesh& leaked, const Mesh& original,
+                  const std::vector<IssuedCopy>& candidates, const Key& key,
+                  const TraceOptions& options = {});
+
+}  // namespace meshmark
