@@ -65,13 +65,13 @@ void AdmmQpSolver::apply_k(const Eigen::VectorXd& x, Eigen::VectorXd& Kx) const 
 // the diagonal of K as preconditioner: K = 2 H + rho I is well conditioned (H's spectrum lies
 // in [lambda min w, lambda max w + 4 (1 - lambda)], and rho shifts it away from 0), so a few
 // iterations suffice and no factorization is needed. Works in the solver's scratch vectors.
-Eigen::VectorXd AdmmQpSolver::solve_x(const Eigen::VectorXd& rhs, const Eigen::VectorXd& guess,
-                                      double looser_target) const {
+bool AdmmQpSolver::solve_x(const Eigen::VectorXd& rhs, Eigen::VectorXd& x,
+                           double looser_target) const {
   if (settings_.x_step == AdmmXStep::Cholesky) {
     if (!factored_k_) throw Error("ADMM: Cholesky x-steps need an assembled Hessian");
-    return ldlt_.solve(rhs);
+    x = ldlt_.solve(rhs);
+    return x.allFinite();
   }
-  Eigen::VectorXd x = guess;
   // The guess is the previous x-step's answer, whose residual against the previous right-hand
   // side CG has kept: K x = last_rhs - r, so the new residual costs no product with K. The
   // caller asks for the true residual now and then, so that rounding cannot build up.
@@ -85,28 +85,48 @@ Eigen::VectorXd AdmmQpSolver::solve_x(const Eigen::VectorXd& rhs, const Eigen::V
   residual_known_ = true;
   const double target =
       std::max(settings_.cg_tolerance * std::max(rhs.norm(), 1e-300), looser_target);
-  if (r_.norm() <= target) return x;
+  if (r_.norm() <= target) return true;
   z_ = r_.cwiseProduct(inv_diagonal_);
   p_ = z_;
   double rz = r_.dot(z_);
-  for (int k = 0; k < 1000; ++k) {
+  for (int k = 0; k < settings_.max_cg_iterations; ++k) {
     ++cg_iterations_;
     apply_k(p_, Kp_);
     const double step = rz / p_.dot(Kp_);
+    if (!std::isfinite(step) || step <= 0) break;  // K is not positive definite
     x += step * p_;
     r_ -= step * Kp_;
-    if (r_.norm() <= target) return x;
+    if (r_.norm() <= target) return true;
     z_ = r_.cwiseProduct(inv_diagonal_);
     const double rz_next = r_.dot(z_);
     p_ = z_ + (rz_next / rz) * p_;
     rz = rz_next;
   }
-  throw Error("ADMM: the x-step's conjugate gradients did not converge");
+  residual_known_ = false;
+  return false;
+}
+
+const char* admm_stop_name(AdmmStop stop) {
+  switch (stop) {
+    case AdmmStop::Converged:
+      return "converged";
+    case AdmmStop::Infeasible:
+      return "infeasible";
+    case AdmmStop::IterationLimit:
+      return "iteration limit";
+    case AdmmStop::Stalled:
+      return "stalled";
+    case AdmmStop::ProjectionFailed:
+      return "projection not converged";
+    case AdmmStop::XStepFailed:
+      return "x-step not converged";
+  }
+  return "?";
 }
 
 QpResult AdmmQpSolver::solve(const SeparableQp& qp, const Eigen::VectorXd* warm_z,
                              const Eigen::VectorXd* warm_u) {
-  const Eigen::Index n = qp.lo.size(), m = qp.b.size();
+  const Eigen::Index n = qp.lo.size();
   QpResult result;
   Eigen::VectorXd z = warm_z && warm_z->size() == n ? *warm_z : qp.lo.cwiseMax(0.0).cwiseMin(qp.hi);
   u_ = warm_u && warm_u->size() == n ? *warm_u : Eigen::VectorXd::Zero(n);
@@ -116,6 +136,18 @@ QpResult AdmmQpSolver::solve(const SeparableQp& qp, const Eigen::VectorXd* warm_
   Eigen::VectorXd y;  // projection multipliers, for warm starts
   Eigen::VectorXd x = z, z_prev(n), v(n);
   cg_iterations_ = 0;
+  auto stop = [&](AdmmStop why) {
+    stop_ = why;
+    result.status = why == AdmmStop::Converged    ? QpStatus::Solved
+                    : why == AdmmStop::Infeasible ? QpStatus::Infeasible
+                                                  : QpStatus::IterationLimit;
+    result.x = z;
+    result.y = y;
+    Eigen::VectorXd Hz;
+    H_.apply(z, Hz);
+    result.objective = z.dot(Hz);
+    return result;
+  };
   const double alpha = settings_.relaxation;
   // Inexact x-steps: far from the answer, an x-step need not be more accurate than the ADMM
   // residuals show the iterate to be. Its error is at most |r|_2 / lambda_min(K) <= |r|_2 / rho,
@@ -123,9 +155,13 @@ QpResult AdmmQpSolver::solve(const SeparableQp& qp, const Eigen::VectorXd* warm_
   // (0.1 to 1 measured alike); near the answer the relative cg_tolerance takes over. The errors
   // shrink as fast as the residuals do, which keeps ADMM convergent.
   double progress = std::numeric_limits<double>::infinity();
+  // Stall watch: the best residual so far, and the iteration that last halved it.
+  double best = std::numeric_limits<double>::infinity();
+  int best_at = 0;
   for (int it = 0; it < settings_.max_iterations; ++it) {
     if (it % 16 == 0) residual_known_ = false;  // a fresh K x now and then
-    x = solve_x(rho_ * (z - u_), x, std::isfinite(progress) ? 0.3 * rho_ * progress : 0.0);
+    if (!solve_x(rho_ * (z - u_), x, std::isfinite(progress) ? 0.3 * rho_ * progress : 0.0))
+      return stop(AdmmStop::XStepFailed);
     const Eigen::VectorXd xr = alpha * x + (1 - alpha) * z;
     v = xr + u_;
     // Shift the constraints to the unknown d = z - v.
@@ -139,11 +175,13 @@ QpResult AdmmQpSolver::solve(const SeparableQp& qp, const Eigen::VectorXd* warm_
     }
     const QpResult p = solve_separable_qp(proj, {}, y.size() ? &y : nullptr);
     if (p.status == QpStatus::Infeasible) {
-      result.status = QpStatus::Infeasible;
       result.infeasible_rows = p.infeasible_rows;
-      result.x = z;
-      return result;
+      return stop(AdmmStop::Infeasible);
     }
+    // z must lie in the constraint set: a projection that did not converge ends the solve,
+    // unless only rounding kept it from its tolerance (constraints within 1 % of ADMM's).
+    if (p.status != QpStatus::Solved && !(p.primal_residual <= 0.01 * settings_.tolerance))
+      return stop(AdmmStop::ProjectionFailed);
     y = p.y;
     z_prev = z;
     z = v + p.x;
@@ -153,19 +191,13 @@ QpResult AdmmQpSolver::solve(const SeparableQp& qp, const Eigen::VectorXd* warm_
     result.complementarity = rho_ * (z - z_prev).cwiseAbs().maxCoeff();
     progress = std::min(result.primal_residual, result.complementarity / rho_);
     if (result.primal_residual <= settings_.tolerance &&
-        result.complementarity <= settings_.tolerance) {
-      result.status = QpStatus::Solved;
-      break;
-    }
+        result.complementarity <= settings_.tolerance)
+      return stop(AdmmStop::Converged);
+    const double residual = std::max(result.primal_residual, result.complementarity / rho_);
+    if (residual <= 0.5 * best || !std::isfinite(best)) best = residual, best_at = it;
+    if (it - best_at >= settings_.stall_iterations) return stop(AdmmStop::Stalled);
   }
-  if (result.status != QpStatus::Solved) result.status = QpStatus::IterationLimit;
-  result.x = z;
-  result.y = y;
-  Eigen::VectorXd Hz;
-  H_.apply(z, Hz);
-  result.objective = z.dot(Hz);
-  (void)m;
-  return result;
+  return stop(AdmmStop::IterationLimit);
 }
 
 }  // namespace meshmark

@@ -145,6 +145,30 @@ std::vector<int> unreachable_rows(const SeparableQp& qp, const PackedQp& pq, dou
   return rows;
 }
 
+// Farkas certificate of infeasibility from multipliers y (rows >= 0): every feasible x has
+// (M^T y) . x >= b . y_rows + c . y_eq, while over the box (M^T y) . x is at most
+// sum_i max(z_i lo_i, z_i hi_i), z = M^T y. When the right side exceeds that bound beyond
+// rounding, no x is feasible. A concave dual that grows without bound (y running off to
+// infinity, as it does when the rows and the center equality cannot hold together although
+// each row alone can) points along such a y, so its iterates certify the infeasibility.
+bool certifies_infeasibility(const SeparableQp& qp, const PackedQp& pq, const Eigen::VectorXd& y) {
+  const Eigen::Index m = qp.b.size();
+  const double scale = y.cwiseAbs().maxCoeff();
+  if (!(scale > 0) || !std::isfinite(scale)) return false;
+  const Eigen::VectorXd w = y / scale;  // the direction; rows already >= 0
+  double demand = qp.b.dot(w.head(m)) + qp.c.dot(w.tail<3>());
+  double supply = 0, magnitude = std::abs(demand);
+  for (Eigen::Index seg = 0; seg <= m; ++seg) {
+    const double wj = seg > 0 ? w(seg - 1) : 0.0;
+    for (int k = pq.offsets[seg]; k < pq.offsets[seg + 1]; ++k) {
+      const double z = pq.a[k] * wj + pq.ex[k] * w(m) + pq.ey[k] * w(m + 1) + pq.ez[k] * w(m + 2);
+      supply += std::max(z * pq.lo[k], z * pq.hi[k]);
+      magnitude += std::abs(z) * std::max(std::abs(pq.lo[k]), std::abs(pq.hi[k]));
+    }
+  }
+  return demand - supply > 1e-9 * magnitude;
+}
+
 }  // namespace
 
 const char* qp_status_name(QpStatus status) {
@@ -215,10 +239,15 @@ QpResult solve_separable_qp(const SeparableQp& qp, const QpSettings& settings,
     std::swap(p, trial);  // the trial point, Hessian included, becomes the iterate
     if (!std::isfinite(p.value) || p.y.cwiseAbs().maxCoeff() > 1e30)
       return finish(QpStatus::Infeasible);
+    // A solve that takes long may be one whose dual is unbounded: look for the certificate
+    // now and then (an O(n) pass; feasible solves end in a few iterations).
+    if ((it + 1) % 8 == 0 && certifies_infeasibility(qp, pq, p.y))
+      return finish(QpStatus::Infeasible);
   }
   double primal = 0, comp = 0;
-  return finish(kkt_residual(p, m, primal, comp) <= settings.tolerance ? QpStatus::Solved
-                                                                       : QpStatus::IterationLimit);
+  if (kkt_residual(p, m, primal, comp) <= settings.tolerance) return finish(QpStatus::Solved);
+  return finish(certifies_infeasibility(qp, pq, p.y) ? QpStatus::Infeasible
+                                                     : QpStatus::IterationLimit);
 }
 
 }  // namespace meshmark

@@ -1,8 +1,14 @@
 // Each attack's defining property, on real meshes, checked from scratch.
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 
+#include <Eigen/Geometry>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <functional>
+#include <map>
 #include <set>
 
 #include "meshmark/attack.h"
@@ -247,4 +253,146 @@ TEST(Attack, ChainsParseAndApplyInOrder) {
   EXPECT_THROW(parse_attack_chain("noise:abc"), InvalidArgumentError);
   EXPECT_THROW(attack_simplify(m, 1.5), InvalidArgumentError);
   EXPECT_THROW(attack_quantize(m, 0), InvalidArgumentError);
+}
+
+// Simplification and subdivision on meshes with degenerate faces (issue 13, item 7): a face
+// with a repeated corner, corners at one position or collinear corners is no surface, so the
+// attack must give what it gives without that face. Each case runs in a child process whose
+// address space is capped, so that a regression (CGAL looping around an edge from a vertex to
+// itself until memory runs out, or crashing) fails the test instead of exhausting the machine.
+
+namespace {
+
+// A mesh plus one degenerate face of a given kind, made around its first face (a, b, c).
+using Degenerate = std::function<Mesh(const Mesh&)>;
+
+// m with extra vertices appended and one more face (no file image).
+Mesh with(const Mesh& m, const std::vector<Eigen::RowVector3d>& extra_vertices,
+          const Eigen::RowVector3i& face) {
+  Eigen::MatrixX3d V(m.V.rows() + static_cast<Eigen::Index>(extra_vertices.size()), 3);
+  V.topRows(m.V.rows()) = m.V;
+  for (std::size_t k = 0; k < extra_vertices.size(); ++k)
+    V.row(m.V.rows() + static_cast<Eigen::Index>(k)) = extra_vertices[k];
+  Eigen::MatrixX3i F(m.F.rows() + 1, 3);
+  F.topRows(m.F.rows()) = m.F;
+  F.row(m.F.rows()) = face;
+  return make_mesh(std::move(V), std::move(F));
+}
+
+const std::vector<std::pair<std::string, Degenerate>>& degenerate_cases() {
+  static const std::vector<std::pair<std::string, Degenerate>> cases = {
+      {"face (0, 0, 1)",
+       [](const Mesh& m) {
+         return with(m, {}, {0, 0, 1});
+       }},
+      {"face (0, 0, 0)",
+       [](const Mesh& m) {
+         return with(m, {}, {0, 0, 0});
+       }},
+      {"face (a, b, a)",
+       [](const Mesh& m) {
+         return with(m, {}, {m.F(0, 0), m.F(0, 1), m.F(0, 0)});
+       }},
+      {"three new corners at one position",
+       [](const Mesh& m) {
+         const int n = static_cast<int>(m.V.rows());
+         const Eigen::RowVector3d p = m.V.row(m.F(0, 0));
+         return with(m, {p, p, p}, {n, n + 1, n + 2});
+       }},
+      {"a new corner at an existing corner's position",
+       [](const Mesh& m) {
+         const int n = static_cast<int>(m.V.rows());
+         return with(m, {m.V.row(m.F(0, 0))}, {n, m.F(0, 0), m.F(0, 1)});
+       }},
+      {"collinear corners (zero area)",
+       [](const Mesh& m) {
+         // On a line parallel to the x axis: y and z equal, so exactly collinear.
+         const int n = static_cast<int>(m.V.rows()), a = m.F(0, 0);
+         const Eigen::RowVector3d p = m.V.row(a);
+         return with(m, {p + Eigen::RowVector3d(1, 0, 0), p + Eigen::RowVector3d(3, 0, 0)},
+                     {a, n + 1, n});
+       }},
+  };
+  return cases;
+}
+
+// Every face has three distinct corners at distinct, non-collinear positions.
+bool all_faces_proper(const Mesh& m) {
+  for (Eigen::Index t = 0; t < m.F.rows(); ++t) {
+    const Eigen::Vector3d a = m.V.row(m.F(t, 0)), b = m.V.row(m.F(t, 1)), c = m.V.row(m.F(t, 2));
+    if ((b - a).cross(c - a).norm() == 0) return false;
+  }
+  return m.V.allFinite();
+}
+
+// What must hold for one attack of a closed mesh m and of m plus a degenerate face d: the
+// same result, with the counts the attack gives a closed triangle mesh (V, E, F of m). Returns
+// "" or what failed.
+std::string check(const std::string& attack, const Mesh& m, const Mesh& d) {
+  const auto nv = static_cast<std::size_t>(m.V.rows()), nf = static_cast<std::size_t>(m.F.rows());
+  const std::size_t ne = undirected_edges(m.F);
+  auto run = [&](const Mesh& x) {
+    if (attack == "loop") return attack_subdivide(x, Subdivision::Loop, 1);
+    if (attack == "sqrt3") return attack_subdivide(x, Subdivision::Sqrt3, 1);
+    return attack_simplify(x, 0.5);
+  };
+  const Mesh a = run(m), b = run(d);
+  const auto av = static_cast<std::size_t>(a.V.rows()), af = static_cast<std::size_t>(a.F.rows());
+  if (attack == "loop" && (av != nv + ne || af != 4 * nf)) return "Loop counts";
+  if (attack == "sqrt3" && (av != nv + nf || af != 3 * nf)) return "sqrt(3) counts";
+  if (attack == "simplify" && std::abs(static_cast<double>(af) - 0.5 * static_cast<double>(nf)) >
+                                  0.01 * static_cast<double>(nf))
+    return "simplification face count";
+  if (!all_faces_proper(b)) return "a degenerate face or a non-finite position in the output";
+  if (a.V != b.V || a.F != b.F) return "the degenerate face changed the result";
+  return "";
+}
+
+// The child's body: caps the address space at 3 GB, checks, exits 0 when the check holds.
+[[noreturn]] void check_capped(const std::string& attack, const Mesh& m, const Mesh& d) {
+  const rlim_t cap = rlim_t{3} << 30;
+  const rlimit limit{cap, cap};
+  setrlimit(RLIMIT_AS, &limit);
+  const std::string failed = check(attack, m, d);
+  if (!failed.empty()) std::fprintf(stderr, "%s\n", failed.c_str());
+  std::exit(failed.empty() ? 0 : 1);
+}
+
+// Runs check in a child process, so that a runaway allocation or a crash fails only it.
+void expect_in_capped_child(const std::string& attack, const Mesh& m, const Mesh& d) {
+  EXPECT_EXIT(check_capped(attack, m, d), ::testing::ExitedWithCode(0), "") << attack;
+}
+
+}  // namespace
+
+TEST(AttackDegenerate, DegenerateFacesChangeNothingOnAGeneratedClosedMesh) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  const Mesh m = bumpy_sphere(16, 20, 3);
+  ASSERT_TRUE(closed_two_manifold_edges(m.F));
+  for (const auto& [name, add] : degenerate_cases()) {
+    SCOPED_TRACE(name);
+    const Mesh d = add(m);
+    for (const char* attack : {"loop", "sqrt3", "simplify"}) expect_in_capped_child(attack, m, d);
+  }
+}
+
+TEST(AttackDegenerate, HorsePlusFace001AsReported) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  const std::string path = shared_mesh("horse.ply");
+  MESHMARK_REQUIRE(path, "horse.ply");
+  const Mesh m = read_mesh(path);
+  ASSERT_TRUE(closed_two_manifold_edges(m.F));
+  const Mesh d = with(m, {}, {0, 0, 1});
+  for (const char* attack : {"loop", "sqrt3", "simplify"}) expect_in_capped_child(attack, m, d);
+}
+
+TEST(AttackDegenerate, NoFaceOfNonZeroAreaIsANamedError) {
+  Eigen::MatrixX3d V(3, 3);
+  V << 0, 0, 0, 1, 0, 0, 2, 0, 0;
+  Eigen::MatrixX3i F(2, 3);
+  F << 0, 1, 2, 0, 0, 1;
+  const Mesh m = make_mesh(V, F);
+  EXPECT_THROW(attack_simplify(m, 0.5), InvalidInputError);
+  EXPECT_THROW(attack_subdivide(m, Subdivision::Loop, 1), InvalidInputError);
+  EXPECT_THROW(attack_subdivide(m, Subdivision::Sqrt3, 1), InvalidInputError);
 }

@@ -37,8 +37,27 @@ struct AdmmSettings {
   double relaxation = 1.8;  ///< over-relaxation alpha in (0, 2)
   double tolerance = 1e-7;  ///< on |x - z|_inf and rho |z - z_prev|_inf
   int max_iterations = 5000;
+  /// Stalled: this many ADMM iterations without halving the best residual so far
+  /// (max(|x - z|_inf, |z - z_prev|_inf)) end the solve.
+  int stall_iterations = 500;
   double cg_tolerance = 1e-8;  ///< relative residual of each x-step (ADMM tolerates inexact steps)
+  int max_cg_iterations = 1000;  ///< per x-step; an x-step that needs more ends the solve
 };
+
+/// Why the last AdmmQpSolver::solve ended.
+enum class AdmmStop {
+  Converged,         ///< both residuals within tolerance: QpStatus::Solved
+  Infeasible,        ///< the constraint set is empty (a projection proved it): Infeasible
+  IterationLimit,    ///< max_iterations reached: QpStatus::IterationLimit
+  Stalled,           ///< stall_iterations without progress: QpStatus::IterationLimit
+  ProjectionFailed,  ///< a z-step's projection did not converge: QpStatus::IterationLimit
+  XStepFailed,       ///< an x-step's conjugate gradients did not converge (H not positive
+                     ///< semidefinite, or max_cg_iterations too few): QpStatus::IterationLimit
+};
+
+/// "converged", "infeasible", "iteration limit", "stalled", "projection not converged",
+/// "x-step not converged".
+const char* admm_stop_name(AdmmStop stop);
 
 /// A symmetric positive semidefinite n x n Hessian given by its action, so that structured
 /// costs need not be assembled (the Laplacian cost's B^T B is applied as two one-ring passes).
@@ -63,19 +82,24 @@ class AdmmQpSolver {
   /// Solves over the constraints of qp (qp.h is ignored). warm_z and warm_u (size n) start the
   /// iteration where a previous solve ended. QpResult::x is z; primal_residual is |x - z|_inf;
   /// complementarity holds the dual residual rho |z - z_prev|_inf; iterations counts ADMM steps.
-  /// \throw Error when the x-step's conjugate gradients fail (H not positive semidefinite).
+  /// Every outcome is a status (stop_reason() says which way it ended), never an exception,
+  /// and the work is bounded: at most max_iterations steps, each of at most max_cg_iterations
+  /// operator products and one separable solve (itself bounded, QpSettings).
+  /// \throw Error only for Cholesky x-steps without an assembled Hessian (a programming error).
   QpResult solve(const SeparableQp& qp, const Eigen::VectorXd* warm_z = nullptr,
                  const Eigen::VectorXd* warm_u = nullptr);
   /// The scaled dual u of the last solve (for warm starts).
   const Eigen::VectorXd& scaled_dual() const { return u_; }
   double rho() const { return rho_; }
+  /// How the last solve ended.
+  AdmmStop stop_reason() const { return stop_; }
   /// Conjugate-gradient iterations of the last solve, over all its ADMM steps.
   int cg_iterations() const { return cg_iterations_; }
 
  private:
-  // CG on K x = rhs to max(cg_tolerance |rhs|, looser_target) in |residual|_2.
-  Eigen::VectorXd solve_x(const Eigen::VectorXd& rhs, const Eigen::VectorXd& guess,
-                          double looser_target) const;
+  // CG on K x = rhs from x (the guess) to max(cg_tolerance |rhs|, looser_target) in
+  // |residual|_2; false when max_cg_iterations do not get there.
+  bool solve_x(const Eigen::VectorXd& rhs, Eigen::VectorXd& x, double looser_target) const;
 
   void apply_k(const Eigen::VectorXd& x, Eigen::VectorXd& Kx) const;  // K = 2 H + rho I
 
@@ -89,6 +113,7 @@ class AdmmQpSolver {
   double rho_ = 1;
   AdmmSettings settings_;
   Eigen::VectorXd u_;
+  AdmmStop stop_ = AdmmStop::Converged;
   mutable int cg_iterations_ = 0;
   mutable Eigen::VectorXd r_, z_, p_, Kp_;  // conjugate-gradient scratch
   mutable Eigen::VectorXd last_rhs_;        // r_ = last_rhs_ - K x (x: the last x-step)

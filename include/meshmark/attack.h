@@ -69,16 +69,20 @@ Mesh attack_format(const Mesh& mesh, const std::string& format, bool single_prec
 
 /// Edge-collapse simplification to `ratio` of the faces (0 < ratio <= 1), Lindstrom-Turk cost
 /// and placement (CGAL Surface_mesh_simplification). The input is first turned into a
-/// manifold CGAL can collapse: duplicate points merged, degenerate faces removed, the soup
+/// manifold CGAL can collapse: bit-identical positions merged, degenerate triangles (a
+/// repeated corner, corners at one position, zero area) and duplicate ones removed, the soup
 /// oriented (which splits non-manifold edges and vertices; CGAL's orient_polygon_soup).
+/// `ratio` counts the triangles that remain.
 /// \throw InvalidArgumentError for a ratio outside (0, 1].
+/// \throw InvalidInputError when no triangle of non-zero area remains.
 Mesh attack_simplify(const Mesh& mesh, double ratio);
 
 /// Subdivision schemes.
 enum class Subdivision { Loop, Midpoint, Sqrt3 };
 
 /// `iterations` steps of Loop, midpoint (linear 1-to-4) or sqrt(3) subdivision (CGAL
-/// Subdivision_method_3), after the same repair as attack_simplify.
+/// Subdivision_method_3), after the same repair as attack_simplify (Loop and sqrt(3) only).
+/// \throw InvalidInputError (Loop, sqrt(3)) when no triangle of non-zero area remains.
 Mesh attack_subdivide(const Mesh& mesh, Subdivision scheme, int iterations);
 
 /// One step of an attack chain: a kind and its strength.

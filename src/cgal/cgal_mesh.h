@@ -13,10 +13,13 @@ namespace meshmark::detail {
 using CgalKernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using SurfaceMesh = CGAL::Surface_mesh<CgalKernel::Point_3>;
 
-/// The referenced triangles of mesh as a CGAL surface mesh: the triangles are taken as a
-/// polygon soup, duplicate points merged and degenerate or duplicate triangles removed
-/// (repair_polygon_soup), the soup oriented, which duplicates the vertices along non-manifold
-/// edges and at non-manifold vertices (orient_polygon_soup), then turned into a mesh.
+/// The referenced triangles of mesh as a CGAL surface mesh. Bit-identical positions are merged
+/// and the degenerate triangles dropped first (a repeated corner, corners at one position, or
+/// three collinear corners: zero area), which CGAL's soup repair does not do for triangles;
+/// then duplicate triangles are removed (repair_polygon_soup) and the soup oriented, which
+/// duplicates the vertices along non-manifold edges and at non-manifold vertices
+/// (orient_polygon_soup), and turned into a mesh. Isolated vertices are left out.
+/// \throw InvalidInputError when no triangle of non-zero area is left.
 SurfaceMesh to_surface_mesh(const Mesh& mesh);
 
 /// Back to V and F (garbage collected), with the format of `like` and no file image.

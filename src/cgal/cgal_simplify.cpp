@@ -30,10 +30,11 @@ struct FaceCountStop {
 Mesh attack_simplify(const Mesh& mesh, double ratio) {
   if (!(ratio > 0 && ratio <= 1))
     throw InvalidArgumentError(fmt::format("simplification ratio {} is outside (0, 1]", ratio));
-  // The target counts the input's triangles (the repair may drop a few degenerate ones).
-  const auto target =
-      static_cast<std::size_t>(std::llround(ratio * static_cast<double>(mesh.F.rows())));
   detail::SurfaceMesh sm = detail::to_surface_mesh(mesh);
+  // The target counts the triangles CGAL was given: degenerate and duplicate ones, which the
+  // conversion drops, are no surface to simplify.
+  const auto target =
+      static_cast<std::size_t>(std::llround(ratio * static_cast<double>(sm.number_of_faces())));
   SMS::edge_collapse(sm, FaceCountStop{&sm, target},
                      CGAL::parameters::get_cost(SMS::LindstromTurk_cost<detail::SurfaceMesh>())
                          .get_placement(SMS::LindstromTurk_placement<detail::SurfaceMesh>()));
