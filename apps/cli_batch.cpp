@@ -73,8 +73,10 @@ std::vector<Job> read_manifest(const std::string& path) {
 // The same file for two names (an existing file by identity, a new one by its absolute path).
 std::string file_identity(const std::string& path) {
   std::error_code ec;
-  const auto canonical = std::filesystem::weakly_canonical(path, ec);
-  return ec ? path : canonical.string();
+  const auto absolute = std::filesystem::absolute(path, ec);
+  if (ec) return path;
+  const auto canonical = std::filesystem::weakly_canonical(absolute, ec);
+  return ec ? absolute.lexically_normal().string() : canonical.lexically_normal().string();
 }
 
 // Before anything is embedded: no two lines write the same file, and no line writes a file
@@ -151,6 +153,21 @@ int run_batch(const std::string& manifest, const BatchSettings& settings) {
                                       taken.id, taken.buyer, taken.issued_at)
                         : fmt::format("ID {} is given twice for this original", taken.id);
         }
+  }
+  if (registry) {
+    std::vector<IssuedCopy> wanted;
+    std::vector<std::size_t> index;
+    for (std::size_t k = 0; k < jobs.size(); ++k)
+      if (!jobs[k].refused && jobs[k].coded) wanted.push_back(records[k]), index.push_back(k);
+    for (const CloseCodeword& c : close_codewords(*registry, wanted, id_key(settings.key)))
+      for (const std::size_t k : index)
+        if (!jobs[k].refused && records[k].id == c.copy.id &&
+            records[k].original_hash == c.copy.original_hash)
+          jobs[k].refused = true,
+          jobs[k].outcome = fmt::format(
+              "ID {}'s codeword is {} bits from that of ID {} ('{}'), closer than {}: choose "
+              "another ID",
+              c.copy.id, c.distance, c.near.id, c.near.buyer, kIssuedSpacing);
   }
   std::optional<IdCode> code;
   for (const Job& job : jobs)

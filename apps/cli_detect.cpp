@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <memory>
 #include <nlohmann/json.hpp>
 
@@ -30,7 +31,16 @@ int run(const DetectArgs& a) {
   const bool coded = !a.expect_id.empty();
   const std::optional<Key> key = resolve_key(a.keys);
   std::optional<IdCode> code;
-  if (coded) code.emplace(id_code(a.keys, a.bits));
+  if (coded) {
+    code.emplace(id_code(a.keys, a.bits));
+    // One codeword among 2^k: no match can be rarer than 2^-k.
+    if (std::exp2(-code->message_bits()) >= a.threshold)
+      throw InvalidArgumentError(fmt::format(
+          "a code of {} message bits ({} payload bits, {}-bit IDs) can never give a p-value below "
+          "2^-{} = {:.2g}, above the threshold {:g}: use more payload bits or a larger threshold",
+          code->message_bits(), a.bits, a.keys.id_bits, code->message_bits(),
+          std::exp2(-code->message_bits()), a.threshold));
+  }
   const Payload expected = coded ? code->encode(parse_id(a.expect_id), id_key(key))
                                  : payload_from_hex(a.expect_payload, a.bits);
   const BitLayout layout = mark_layout(key, a.bits, coded);
@@ -42,9 +52,11 @@ int run(const DetectArgs& a) {
   const Mesh mesh = read_input(a.input, a.in);
   const ExtractResult r = extract(mesh.V, mesh.F, eo);
   const std::vector<std::uint8_t> bits = layout.from_bins(r.bits);
-  const DetectResult d =
-      coded ? detect_id(bits, expected, CodewordNull(*code, bits, id_key(key)), options)
-            : detect(bits, expected, options);
+  IdDecodeResult decoded;
+  if (coded) decoded = code->decode(bits, layout.values_from_bins(r.margins), id_key(key));
+  const DetectResult d = coded ? detect_id(bits, expected, CodewordNull(*code, bits, id_key(key)),
+                                           options, &decoded, parse_id(a.expect_id))
+                               : detect(bits, expected, options);
   if (a.json) {
     nlohmann::json j = {
         {"input", a.input},
@@ -56,6 +68,7 @@ int run(const DetectArgs& a) {
         {"erasures", d.erasures},
         {"p_value", d.p_value},
         {"null_model", null_model_name(d.model)},
+        {"decodes_to", d.decodes_to_other ? nlohmann::json(d.other_id) : nlohmann::json(nullptr)},
         {"threshold", a.threshold},
         {"detected", d.detected}};
     fmt::print("{}\n", j.dump(2));
@@ -72,6 +85,9 @@ int run(const DetectArgs& a) {
           "probability that a mesh without this payload matches as well (fair independent "
           "bits{}): {:.3g}\n",
           key ? "" : "; without a key only indicative", d.p_value);
+    if (d.decodes_to_other)
+      fmt::print("the mark decodes to another ID, {}: ID {} is not the one present\n", d.other_id,
+                 a.expect_id);
     fmt::print("{} (threshold {:g})\n", d.detected ? "DETECTED" : "not detected", a.threshold);
   }
   return d.detected ? kOk : kNoId;

@@ -58,6 +58,10 @@ int run(const EmbedArgs& a) {
         "embed needs IN, OUT and one of --payload or --id (or --batch MANIFEST)");
   const std::optional<Key> key = resolve_key(a.keys);
   const bool coded = !a.id.empty();
+  if (coded && !key)
+    fmt::print(stderr,
+               "meshmark: warning: --id without --key-file or --key codes the ID under the public "
+               "key: anyone can read it, remove it, or write any other buyer's ID\n");
   const Payload payload = coded ? id_code(a.keys, a.bits).encode(parse_id(a.id), id_key(key))
                                 : payload_from_hex(a.payload, a.bits);
   const Payload bins = mark_layout(key, a.bits, coded).to_bins(payload);
@@ -77,6 +81,12 @@ int run(const EmbedArgs& a) {
           fmt::format("ID {} was already issued from {} under this key, to '{}' on {} ({}): choose "
                       "another ID",
                       copy.id, a.input, taken[0].buyer, taken[0].issued_at, taken[0].output_path));
+    const std::vector<CloseCodeword> close = close_codewords(*registry, {copy}, id_key(key));
+    if (!close.empty())
+      throw InvalidArgumentError(fmt::format(
+          "ID {}'s codeword is {} bits from that of ID {} (issued to '{}'), closer than {}: a "
+          "copy of one could be taken for the other; choose another ID",
+          copy.id, close[0].distance, close[0].near.id, close[0].near.buyer, kIssuedSpacing));
   } else if (!a.buyer.empty()) {
     throw InvalidArgumentError("--buyer is recorded in a registry: give --registry DB");
   }

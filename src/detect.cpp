@@ -200,11 +200,14 @@ DetectResult detect(const std::vector<std::uint8_t>& bits, const Payload& expect
 }
 
 DetectResult detect_id(const std::vector<std::uint8_t>& bits, const Payload& codeword,
-                       const CodewordNull& null, const DetectOptions& options) {
+                       const CodewordNull& null, const DetectOptions& options,
+                       const IdDecodeResult* decoded, std::uint64_t expected_id) {
   check_threshold(options);
   DetectResult r = count_matches(bits, codeword);
   r.p_value = null.p_value(r.matches);
-  r.detected = r.p_value < options.threshold;
+  r.decodes_to_other = decoded && decoded->valid && decoded->id != expected_id;
+  if (r.decodes_to_other) r.other_id = decoded->id;
+  r.detected = r.p_value < options.threshold && !r.decodes_to_other;
   r.model = null.model();
   return r;
 }

@@ -186,9 +186,9 @@ EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Pa
     res.status = EmbedStatus::NotConverged;
     bool margins_held = true;
     for (int j = 0; j < payload.size(); ++j)
-      margins_held &= res.margins[j] >= bit_strength(options, j) -
-                                            std::min(options.margin_tolerance,
-                                                     0.5 * bit_strength(options, j));
+      margins_held &=
+          res.margins[j] >= bit_strength(options, j) -
+                                std::min(options.margin_tolerance, 0.5 * bit_strength(options, j));
     if (sol.status == QpStatus::Solved && margins_held &&
         res.center_drift <= options.center_tolerance) {
       res.status = EmbedStatus::Embedded;

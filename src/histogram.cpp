@@ -1,5 +1,6 @@
 #include "meshmark/histogram.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -13,7 +14,12 @@ std::vector<std::uint8_t> carrier_vertices(const Eigen::MatrixX3d& V, const Eige
     const int a = F(f, 0), b = F(f, 1), c = F(f, 2);
     if (a < 0 || b < 0 || c < 0 || a >= nv || b >= nv || c >= nv) continue;
     const Eigen::RowVector3d pa = V.row(a), pb = V.row(b), pc = V.row(c);
-    if (pa != pb && pb != pc && pc != pa) used[a] = used[b] = used[c] = 1;
+    if (pa == pb || pb == pc || pc == pa) continue;  // collapsed
+    // Flat: the sine of the angle at a below 1e-9 (three collinear corners, or a sliver an
+    // attacker hides a vertex in).
+    const Eigen::RowVector3d u = pb - pa, v = pc - pa;
+    if (u.cross(v).squaredNorm() <= 1e-18 * u.squaredNorm() * v.squaredNorm()) continue;
+    used[a] = used[b] = used[c] = 1;
   }
   // Vertices only collapsed faces use (orphans): one at the position of a carrier vertex (a
   // seam's twin) joins it, since they move together and its faces stay collapsed.

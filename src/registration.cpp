@@ -51,8 +51,9 @@ Similarity icp(const Eigen::MatrixX3d& S, const SurfaceIndex& original, Similari
   for (steps = 0; steps < o.iterations; ++steps) {
     const ClosestPoints cp = original.query(T.apply(S));
     std::iota(order.begin(), order.end(), 0);
-    std::nth_element(order.begin(), order.begin() + (keep - 1), order.end(),
-                     [&](Eigen::Index a, Eigen::Index b) { return cp.distance(a) < cp.distance(b); });
+    std::nth_element(
+        order.begin(), order.begin() + (keep - 1), order.end(),
+        [&](Eigen::Index a, Eigen::Index b) { return cp.distance(a) < cp.distance(b); });
     Eigen::Matrix3Xd src(3, keep), dst(3, keep);
     double sum = 0;
     for (Eigen::Index k = 0; k < keep; ++k) {
@@ -87,15 +88,15 @@ Similarity icp(const Eigen::MatrixX3d& S, const SurfaceIndex& original, Similari
 RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
                                        const Eigen::MatrixX3d& VO, const Eigen::MatrixX3i& FO,
                                        const RegistrationOptions& o) {
-  if (!(o.trim > 0 && o.trim <= 1) || o.samples < 3 || o.iterations < 1 ||
-      !(o.max_residual > 0))
+  if (!(o.trim > 0 && o.trim <= 1) || o.samples < 3 || o.iterations < 1 || !(o.max_residual > 0))
     throw InvalidArgumentError("registration options out of range");
   const std::vector<std::uint8_t> used_l = carrier_vertices(VL, FL);
   const std::vector<std::uint8_t> used_o = carrier_vertices(VO, FO);
   std::vector<Eigen::Index> rows;
   for (Eigen::Index i = 0; i < VL.rows(); ++i)
     if (used_l[i]) rows.push_back(i);
-  if (rows.size() < 3) throw InvalidArgumentError("the leaked mesh has fewer than 3 usable vertices");
+  if (rows.size() < 3)
+    throw InvalidArgumentError("the leaked mesh has fewer than 3 usable vertices");
   Random rng(o.seed);
   if (static_cast<int>(rows.size()) > o.samples) {
     for (int k = 0; k < o.samples; ++k)
@@ -121,7 +122,7 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> el(cov_l), eo(cov_o);
   const double scale = std::sqrt(cov_o.trace() / std::max(cov_l.trace(), 1e-300));
   for (const Eigen::Vector3d& signs : {Eigen::Vector3d(1, 1, 1), Eigen::Vector3d(1, -1, -1),
-                                      Eigen::Vector3d(-1, 1, -1), Eigen::Vector3d(-1, -1, 1)}) {
+                                       Eigen::Vector3d(-1, 1, -1), Eigen::Vector3d(-1, -1, 1)}) {
     Eigen::Matrix3d R = eo.eigenvectors() * signs.asDiagonal() * el.eigenvectors().transpose();
     if (R.determinant() < 0) R = -R;  // eigenvector bases may be left-handed
     Similarity s;
@@ -167,13 +168,14 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
   const ClosestPoints cp = index.query(best.transform.apply(S));
   const double near = std::max(3 * best.residual, 1e-3) * diagonal;
   best.overlap = static_cast<double>((cp.distance.array() <= near).count()) / S.rows();
-  best.status = best.residual <= o.max_residual ? RegistrationStatus::Registered
-                                                : RegistrationStatus::Failed;
-  best.message = fmt::format("{}{}: residual {:.3g} of the diagonal, {:.0f} % of the leak near the "
-                             "original, scale {:.6f}",
-                             best.status == RegistrationStatus::Registered ? "registered" : "FAILED",
-                             best.iterations == 0 ? " (in the original's frame)" : "",
-                             best.residual, 100 * best.overlap, best.transform.scale);
+  best.status =
+      best.residual <= o.max_residual ? RegistrationStatus::Registered : RegistrationStatus::Failed;
+  best.message = fmt::format(
+      "{}{}: residual {:.3g} of the diagonal, {:.0f} % of the leak near the "
+      "original, scale {:.6f}",
+      best.status == RegistrationStatus::Registered ? "registered" : "FAILED",
+      best.iterations == 0 ? " (in the original's frame)" : "", best.residual, 100 * best.overlap,
+      best.transform.scale);
   return best;
 }
 

@@ -43,9 +43,9 @@ struct Measured {
   double fraction = 0;              // of the carrier
 };
 
-Measured measure(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
-                 const Eigen::MatrixX3d& VO, const std::vector<std::uint8_t>& carrier,
-                 const Eigen::Vector3d& center, double erase) {
+Measured measure(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL, const Eigen::MatrixX3d& VO,
+                 const std::vector<std::uint8_t>& carrier, const Eigen::Vector3d& center,
+                 double erase) {
   std::vector<Eigen::Index> rows;
   for (Eigen::Index i = 0; i < VO.rows(); ++i)
     if (carrier[i]) rows.push_back(i);
@@ -127,8 +127,7 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
                   const TraceOptions& o) {
   if (!(o.threshold > 0 && o.threshold < 1))
     throw InvalidArgumentError(fmt::format("the threshold {} is out of (0, 1)", o.threshold));
-  if (!(o.erase_distance > 0))
-    throw InvalidArgumentError("the erase distance must be positive");
+  if (!(o.erase_distance > 0)) throw InvalidArgumentError("the erase distance must be positive");
   TraceResult r;
   const std::string fingerprint = key_fingerprint(key);
   std::vector<IssuedCopy> mine;
@@ -140,7 +139,8 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     return r;
   }
   if (o.register_leak) {
-    r.registration = register_similarity(leaked.V, leaked.F, original.V, original.F, o.registration);
+    r.registration =
+        register_similarity(leaked.V, leaked.F, original.V, original.F, o.registration);
     if (r.registration.status != RegistrationStatus::Registered) {
       r.status = TraceStatus::RegistrationFailed;
       r.message = r.registration.message;
@@ -191,10 +191,9 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     }
     if (first) r.measured_fraction = m.fraction, r.attenuation = gamma, first = false;
   }
-  std::stable_sort(r.ranking.begin(), r.ranking.end(),
-                   [](const CandidateScore& a, const CandidateScore& b) {
-                     return a.p_value < b.p_value;
-                   });
+  std::stable_sort(
+      r.ranking.begin(), r.ranking.end(),
+      [](const CandidateScore& a, const CandidateScore& b) { return a.p_value < b.p_value; });
   for (const CandidateScore& s : r.ranking)
     if (s.corrected_p < o.threshold) r.named.push_back(s);
   r.status = r.named.empty() ? TraceStatus::NoBuyer : TraceStatus::Named;
@@ -202,10 +201,11 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
       r.named.empty()
           ? fmt::format("no buyer: the best of {} candidates has p = {:.3g} after correction",
                         r.ranking.size(), r.ranking.front().corrected_p)
-          : fmt::format("{} named: '{}' (ID {}), p = {:.3g} after correction for {} candidates",
-                        r.named.size() == 1 ? "one buyer" : fmt::format("{} buyers", r.named.size()),
-                        r.named[0].copy.buyer, r.named[0].copy.id, r.named[0].corrected_p,
-                        r.ranking.size());
+          : fmt::format(
+                "{} named: '{}' (ID {}), p = {:.3g} after correction for {} candidates",
+                r.named.size() == 1 ? "one buyer" : fmt::format("{} buyers", r.named.size()),
+                r.named[0].copy.buyer, r.named[0].copy.id, r.named[0].corrected_p,
+                r.ranking.size());
   return r;
 }
 

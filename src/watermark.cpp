@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <map>
+#include <tuple>
 
 #include "meshmark/error.h"
 
@@ -73,6 +75,47 @@ IdReading read_id(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
     found->id.message += fmt::format(" (after leaving out {} nearest and {} farthest vertices)",
                                      found->skip_nearest, found->skip_farthest);
     return *found;
+  }
+  return out;
+}
+
+std::vector<CloseCodeword> close_codewords(const Registry& registry,
+                                           const std::vector<IssuedCopy>& copies, const Key& key,
+                                           int spacing) {
+  std::vector<CloseCodeword> out;
+  // Codewords per (original, bits, id_bits), recorded ones first.
+  using Group = std::tuple<std::string, int, int>;
+  std::map<Group, std::vector<std::pair<IssuedCopy, Payload>>> seen;
+  const std::string fingerprint = key_fingerprint(key);
+  for (const IssuedCopy& c : copies) {
+    const Group g{c.original_hash, c.bits, c.id_bits};
+    IdCodeOptions o;
+    o.bits = c.bits;
+    o.id_bits = c.id_bits;
+    const IdCode code(o);
+    auto it = seen.find(g);
+    if (it == seen.end()) {
+      it = seen.emplace(g, std::vector<std::pair<IssuedCopy, Payload>>{}).first;
+      RegistryQuery q;
+      q.original_hash = c.original_hash;
+      q.key_fingerprint = fingerprint;
+      for (const IssuedCopy& r : registry.list(q))
+        if (r.bits == c.bits && r.id_bits == c.id_bits)
+          it->second.emplace_back(r, code.encode(r.id, key));
+    }
+    const Payload word = code.encode(c.id, key);
+    bool close = false;
+    for (const auto& [other, codeword] : it->second) {
+      if (other.id == c.id) continue;  // the same ID: conflicts() reports it
+      int d = 0;
+      for (int j = 0; j < c.bits; ++j) d += word.bits[j] != codeword.bits[j];
+      if (d < spacing) {
+        out.push_back({c, other, d});
+        close = true;
+        break;
+      }
+    }
+    if (!close) it->second.emplace_back(c, word);
   }
   return out;
 }

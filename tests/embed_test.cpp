@@ -47,7 +47,8 @@ struct Radii {
   Eigen::Vector3d center;
   double lo = 0, hi = 0;
 };
-// The carrier from scratch: the corners of faces with three pairwise different positions.
+// The carrier from scratch: the corners of faces with three pairwise different positions, not
+// on one line.
 Radii radii(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
   std::vector<char> used(V.rows(), 0);
   for (Eigen::Index f = 0; f < F.rows(); ++f) {
@@ -56,6 +57,13 @@ Radii radii(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
       const int i = F(f, a), j = F(f, (a + 1) % 3);
       distinct &= V(i, 0) != V(j, 0) || V(i, 1) != V(j, 1) || V(i, 2) != V(j, 2);
     }
+    // Not flat: |u x v| > 1e-9 |u| |v|, written out.
+    const double ux = V(F(f, 1), 0) - V(F(f, 0), 0), uy = V(F(f, 1), 1) - V(F(f, 0), 1),
+                 uz = V(F(f, 1), 2) - V(F(f, 0), 2), vx = V(F(f, 2), 0) - V(F(f, 0), 0),
+                 vy = V(F(f, 2), 1) - V(F(f, 0), 1), vz = V(F(f, 2), 2) - V(F(f, 0), 2);
+    const double cx = uy * vz - uz * vy, cy = uz * vx - ux * vz, cz = ux * vy - uy * vx;
+    distinct &= cx * cx + cy * cy + cz * cz >
+                1e-18 * (ux * ux + uy * uy + uz * uz) * (vx * vx + vy * vy + vz * vz);
     if (distinct) used[F(f, 0)] = used[F(f, 1)] = used[F(f, 2)] = 1;
   }
   // Used vertices at the position of a carrier vertex join it (quadratic, small meshes only).

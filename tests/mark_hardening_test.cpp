@@ -10,6 +10,7 @@
 
 #include "meshmark/coding.h"
 #include "meshmark/decode.h"
+#include "meshmark/detect.h"
 #include "meshmark/embed.h"
 #include "meshmark/io.h"
 #include "meshmark/key.h"
@@ -71,6 +72,30 @@ TEST(MarkHardening, AVertexOnlyACollapsedFaceUsesDoesNotCount) {
   EXPECT_EQ(r.id.id, m.id);
   EXPECT_EQ(r.id.corrected, 0);
   EXPECT_EQ(r.skip_nearest + r.skip_farthest, 0);  // the normal reading already works
+}
+
+TEST(MarkHardening, FlatInvisibleTrianglesDoNotCount) {
+  MESHMARK_REQUIRE(test::shared_mesh("spot.obj"), "spot.obj");
+  const IdCode code;
+  const Key key = key_from_passphrase("hardening");
+  Marked m = marked_spot(code, key, 31337);
+  // Two triangles of three distinct collinear corners near the center: zero area, invisible.
+  const Eigen::Vector3d c = m.mesh.V.colwise().mean().transpose();
+  const Eigen::Vector3d d(1e-3, 2e-3, -1e-3);
+  for (int t = 0; t < 2; ++t) {
+    const Eigen::Index n = m.mesh.V.rows();
+    m.mesh.V.conservativeResize(n + 3, 3);
+    for (int k = 0; k < 3; ++k) m.mesh.V.row(n + k) = (c + (t + 1) * k * d).transpose();
+    m.mesh.F.conservativeResize(m.mesh.F.rows() + 1, 3);
+    m.mesh.F.row(m.mesh.F.rows() - 1) << static_cast<int>(n), static_cast<int>(n + 1),
+        static_cast<int>(n + 2);
+  }
+  const std::vector<std::uint8_t> carrier = carrier_vertices(m.mesh.V, m.mesh.F);
+  EXPECT_EQ(std::count(carrier.end() - 6, carrier.end(), 1), 0);
+  const IdReading r = read_id(m.mesh.V, m.mesh.F, volume_center(), code, key);
+  ASSERT_TRUE(r.id.valid) << r.id.message;
+  EXPECT_EQ(r.id.id, m.id);
+  EXPECT_EQ(r.readings, 1);
 }
 
 TEST(MarkHardening, UpToThreeOutliersAtEachEndAreLeftOutAndFourAreNot) {
@@ -220,6 +245,64 @@ TEST(MarkHardening, CommandLineRefusesAmbiguousKeysAndPayloads) {
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_LT(r.out.size(), 2000u);
   EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+}  // namespace
+}  // namespace meshmark
+
+namespace meshmark {
+namespace {
+
+// Two IDs whose codewords under key are exactly min_distance apart (searched from 0).
+std::pair<std::uint64_t, std::uint64_t> closest_pair(const IdCode& code, const Key& key) {
+  std::vector<Payload> words;
+  for (std::uint64_t id = 0; id < 3000; ++id) {
+    words.push_back(code.encode(id, key));
+    for (std::uint64_t other = 0; other < id; ++other) {
+      int d = 0;
+      for (int j = 0; j < code.bits(); ++j) d += words[id].bits[j] != words[other].bits[j];
+      if (d == code.min_distance()) return {other, id};
+    }
+  }
+  return {0, 0};
+}
+
+TEST(MarkHardening, ACleanCopyNeverConfirmsTheBuyerWhoseCodewordIsNearest) {
+  MESHMARK_REQUIRE(test::shared_mesh("spot.obj"), "spot.obj");
+  const IdCode code;
+  const Key key = key_from_passphrase("neighbours");
+  const auto [a, b] = closest_pair(code, key);
+  ASSERT_NE(a, b) << "no pair at the minimum distance among 3,000 IDs";
+  const Marked m = marked_spot(code, key, a);
+  ExtractOptions xo = volume_center();
+  const MarkReading reading = read_mark(m.mesh.V, m.mesh.F, xo, mark_layout(key, 64, true));
+  const CodewordNull null(code, reading.bits, key);
+  // The innocent b matches in 64 - 12 = 52 bits: its p-value alone is below 1e-6 (the exact
+  // probability that a random codeword is that close), which is why the decoder's answer
+  // is consulted.
+  const DetectResult alone = detect_id(reading.bits, code.encode(b, key), null);
+  EXPECT_EQ(alone.matches, 52);
+  const IdDecodeResult decoded = code.decode(reading.bits, reading.margins, key);
+  ASSERT_TRUE(decoded.valid);
+  EXPECT_EQ(decoded.id, a);
+  const DetectResult guarded = detect_id(reading.bits, code.encode(b, key), null, {}, &decoded, b);
+  EXPECT_FALSE(guarded.detected);
+  EXPECT_TRUE(guarded.decodes_to_other);
+  EXPECT_EQ(guarded.other_id, a);
+  const DetectResult present = detect_id(reading.bits, code.encode(a, key), null, {}, &decoded, a);
+  EXPECT_TRUE(present.detected);
+  // And a registry never issues b once a is issued from the same original under that key.
+  const std::string dir = test::scratch_dir();
+  const std::string db = dir + "/r.db", spot = test::shared_mesh("spot.obj");
+  std::filesystem::remove(db);
+  test::CliRun r = test::run_cli("embed " + spot + " " + dir + "/a.obj --id " + std::to_string(a) +
+                                 " --key neighbours --registry " + db);
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = test::run_cli("embed " + spot + " " + dir + "/b.obj --id " + std::to_string(b) +
+                    " --key neighbours --registry " + db);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("12 bits from that of ID " + std::to_string(a)), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/b.obj"));
 }
 
 }  // namespace

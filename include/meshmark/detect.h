@@ -56,6 +56,11 @@ struct DetectResult {
   double p_value = 1;     ///< false-alarm probability of at least this many matches
   bool detected = false;  ///< p_value < threshold
   NullModel model = NullModel::Binomial;  ///< how p_value was computed
+  /// The mark decodes (coding.h, uniquely by construction) to another valid ID: the expected
+  /// one is then not detected whatever its p-value (a clean copy of a buyer whose codeword is
+  /// near the expected one's would otherwise confirm it).
+  bool decodes_to_other = false;
+  std::uint64_t other_id = 0;  ///< that ID, when decodes_to_other
 };
 
 /// The null distribution of the matches between the bits read and an innocent ID's codeword:
@@ -83,9 +88,12 @@ DetectResult detect(const std::vector<std::uint8_t>& bits, const Payload& expect
                     const DetectOptions& options = {});
 
 /// Compares bits read with the codeword of an expected ID (code.encode(id, key)), under the
-/// codeword null (the class comment). null must have been built from the same bits.
+/// codeword null (the class comment). null must have been built from the same bits. When
+/// `decoded` (the decoder's result on the same reading) holds a valid ID other than the
+/// expected one, the result is not detected (decodes_to_other).
 /// \throw InvalidArgumentError when the sizes differ or the threshold is not in (0, 1).
 DetectResult detect_id(const std::vector<std::uint8_t>& bits, const Payload& codeword,
-                       const CodewordNull& null, const DetectOptions& options = {});
+                       const CodewordNull& null, const DetectOptions& options = {},
+                       const IdDecodeResult* decoded = nullptr, std::uint64_t expected_id = 0);
 
 }  // namespace meshmark

@@ -27,13 +27,15 @@ struct Histogram {
 };
 
 /// The carrier: vertices used by at least one face whose three corners are at three different
-/// positions, and the vertices some face uses at the same position as one of those. A vertex
-/// that only collapsed faces use, away from the carrier, (a repeated index or two corners at the
+/// positions and not on one line (the sine of its angle at the first corner above 1e-9), and
+/// the vertices some face uses at the same position as one of those. A vertex that only
+/// collapsed or flat faces use, away from the carrier, (a repeated index or two corners at the
 /// same point: an invisible vertex an attacker added, or debris a tool left) never counts in
 /// the histogram or the discrete center, and never moves. Embedding moves vertices at one
-/// position together, so the set is the same before and after embedding, and a decoder finds
-/// the one the embedder used. (Faces whose distinct corners are collinear count: embedding
-/// can unfold them, which would change the set.)
+/// position together, so collapsed faces stay collapsed. A flat face whose corners move can
+/// unfold, which adds its private vertex to the decoder's carrier: one vertex inside the range
+/// (embed's check of the written file reads the mark as a decoder would, so it is caught if it
+/// ever matters).
 std::vector<std::uint8_t> carrier_vertices(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F);
 
 /// Builds the histogram of the referenced vertices around center for nbits bits.

@@ -16,8 +16,8 @@ namespace meshmark {
 /// x -> scale * R x + t.
 struct Similarity {
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< R, a rotation (det +1)
-  double scale = 1;                                         ///< s > 0
-  Eigen::Vector3d translation = Eigen::Vector3d::Zero();    ///< t (model units)
+  double scale = 1;                                        ///< s > 0
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();   ///< t (model units)
   /// Every row of V transformed.
   Eigen::MatrixX3d apply(const Eigen::MatrixX3d& V) const;
   /// The inverse transform.
@@ -33,7 +33,7 @@ struct RegistrationOptions {
   /// A leak whose trimmed RMS distance to the original, as it is, is below this fraction of the
   /// diagonal is taken as in the original's frame and not moved (the identity).
   double in_frame = 1e-3;
-  std::uint64_t seed = 1;      ///< sample selection
+  std::uint64_t seed = 1;  ///< sample selection
 };
 
 /// Whether registration succeeded.

@@ -36,11 +36,11 @@ struct TraceOptions {
 
 /// One candidate's evidence.
 struct CandidateScore {
-  IssuedCopy copy;           ///< the issued copy
-  int matches = 0;           ///< bits read equal to its codeword's
-  int compared = 0;          ///< payload bits
-  double p_value = 1;        ///< exact, for this candidate alone
-  double corrected_p = 1;    ///< min(1, p_value x candidates)
+  IssuedCopy copy;         ///< the issued copy
+  int matches = 0;         ///< bits read equal to its codeword's
+  int compared = 0;        ///< payload bits
+  double p_value = 1;      ///< exact, for this candidate alone
+  double corrected_p = 1;  ///< min(1, p_value x candidates)
 };
 
 /// What trace concluded.
@@ -57,12 +57,12 @@ const char* trace_status_name(TraceStatus status);
 /// What trace found.
 struct TraceResult {
   TraceStatus status = TraceStatus::NoBuyer;
-  RegistrationResult registration;       ///< leak -> original
-  double measured_fraction = 0;          ///< original carrier vertices measured (not erased)
-  double attenuation = 0;                ///< fitted gamma of the first group of candidates
-  std::vector<CandidateScore> named;     ///< candidates below the threshold, best first
-  std::vector<CandidateScore> ranking;   ///< every candidate, best first
-  std::string message;                   ///< one line for a person
+  RegistrationResult registration;      ///< leak -> original
+  double measured_fraction = 0;         ///< original carrier vertices measured (not erased)
+  double attenuation = 0;               ///< fitted gamma of the first group of candidates
+  std::vector<CandidateScore> named;    ///< candidates below the threshold, best first
+  std::vector<CandidateScore> ranking;  ///< every candidate, best first
+  std::string message;                  ///< one line for a person
 };
 
 /// Traces leaked against the copies issued from original under key (candidates: every copy
