@@ -108,6 +108,7 @@ void record_copies(Registry& registry, std::vector<IssuedCopy> copies,
 
 void register_embed(CLI::App& app, int& exit_code);
 void register_registry(CLI::App& app, int& exit_code);
+void register_trace(CLI::App& app, int& exit_code);
 
 /// What embed --batch applies to every line.
 struct BatchSettings {

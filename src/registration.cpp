@@ -71,7 +71,7 @@ Similarity icp(const Eigen::MatrixX3d& S, const SurfaceIndex& original, Similari
     const double previous = rms;
     T = next;
     rms = now;
-    if (std::abs(previous - now) <= 1e-7 * now) break;  // converged
+    if (std::abs(previous - now) <= 1e-10 * now) break;  // converged
   }
   // The residual of the final transform.
   const ClosestPoints cp = original.query(T.apply(S));
@@ -134,9 +134,11 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
   const SurfaceIndex index(VO, FO);
   RegistrationResult best;
   best.residual = std::numeric_limits<double>::infinity();
-  // A leak already in the original's frame (what decimation, remeshing, smoothing, cropping
-  // and compression tools give) is not moved: fitting a transform would absorb part of the
+  // A leak near the original's frame (what decimation, remeshing, smoothing, noise, cropping
+  // and compression tools give) is refined from the identity only, and kept as it is unless
+  // that halves its residual: fitting a transform to an unmoved leak would absorb part of the
   // mark (a scale that shrinks or grows the bins' radii).
+  double at_identity = 0;
   {
     const ClosestPoints cp = index.query(S);
     std::vector<double> d(cp.distance.data(), cp.distance.data() + S.rows());
@@ -144,11 +146,12 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
     std::nth_element(d.begin(), d.begin() + (keep - 1), d.end());
     double sum = 0;
     for (std::size_t k = 0; k < keep; ++k) sum += d[k] * d[k];
-    const double at_identity = std::sqrt(sum / keep) / diagonal;
-    if (at_identity <= o.in_frame) {
-      best.residual = at_identity;
-      starts.clear();
-    }
+    at_identity = std::sqrt(sum / keep) / diagonal;
+  }
+  const bool near_frame = at_identity <= o.in_frame;
+  if (near_frame) {
+    starts.resize(1);  // the identity
+    best.residual = at_identity;
   }
   for (const Similarity& start : starts) {
     // Rigid steps first at the start's scale (a free scale from a poor start collapses the leak
@@ -158,12 +161,12 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
     const Similarity rigid = icp(S, index, start, o, false, rms, steps);
     const Similarity T = icp(S, index, rigid, o, true, rms, more);
     steps += more;
-    if (rms / diagonal < best.residual) {
+    if (rms / diagonal < (near_frame ? 0.5 : 1.0) * best.residual) {
       best.transform = T;
       best.residual = rms / diagonal;
       best.iterations = steps;
     }
-    if (best.residual <= o.in_frame) break;  // as good as a leak in the frame can be
+    if (best.residual <= 1e-3) break;  // registered well enough: the other starts cannot matter
   }
   const ClosestPoints cp = index.query(best.transform.apply(S));
   const double near = std::max(3 * best.residual, 1e-3) * diagonal;

@@ -34,27 +34,18 @@ const char* trace_status_name(TraceStatus status) {
 
 namespace {
 
-// The leak measured at the original's carrier vertices: the point of the registered leak's
-// surface on the ray from the center through each vertex (the plane of the nearest face,
-// crossed by that ray), or the nearest point itself where the ray runs along the plane.
-struct Measured {
-  Eigen::MatrixX3d point;           // #VO x 3 (rows of non-carrier vertices unused)
-  std::vector<std::uint8_t> valid;  // 1 where a surface was found within the erase distance
-  double fraction = 0;              // of the carrier
-};
-
-Measured measure(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL, const Eigen::MatrixX3d& VO,
-                 const std::vector<std::uint8_t>& carrier, const Eigen::Vector3d& center,
-                 double erase) {
+Resampled measure(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
+                  const Eigen::MatrixX3d& VO, const std::vector<std::uint8_t>& carrier,
+                  const Eigen::Vector3d& center, double erase) {
   std::vector<Eigen::Index> rows;
   for (Eigen::Index i = 0; i < VO.rows(); ++i)
     if (carrier[i]) rows.push_back(i);
   Eigen::MatrixX3d Q(static_cast<Eigen::Index>(rows.size()), 3);
   for (std::size_t k = 0; k < rows.size(); ++k) Q.row(k) = VO.row(rows[k]);
   const ClosestPoints cp = closest_points(VL, FL, Q);
-  Measured m;
+  Resampled m;
   m.point = VO;
-  m.valid.assign(static_cast<std::size_t>(VO.rows()), 0);
+  m.measured.assign(static_cast<std::size_t>(VO.rows()), 0);
   std::size_t found = 0;
   for (std::size_t k = 0; k < rows.size(); ++k) {
     if (!(cp.distance(k) <= erase)) continue;
@@ -70,7 +61,7 @@ Measured measure(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL, const E
       if ((hit - q).norm() <= erase) p = hit;
     }
     m.point.row(rows[k]) = p.transpose();
-    m.valid[rows[k]] = 1;
+    m.measured[rows[k]] = 1;
     ++found;
   }
   m.fraction = rows.empty() ? 0 : static_cast<double>(found) / rows.size();
@@ -81,13 +72,13 @@ Measured measure(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL, const E
 // best, and the fitted attenuation.
 std::vector<std::uint8_t> read_bits(const Eigen::MatrixX3d& VO,
                                     const std::vector<std::uint8_t>& carrier, const Histogram& h,
-                                    const Measured& m, const std::vector<double>& alpha,
+                                    const Resampled& m, const std::vector<double>& alpha,
                                     double& gamma) {
   const int nb = h.bins - 2;
   std::vector<double> sum0(nb, 0), sum(nb, 0);
   std::vector<int> count(nb, 0);
   for (Eigen::Index i = 0; i < VO.rows(); ++i) {
-    if (!carrier[i] || !m.valid[i]) continue;
+    if (!carrier[i] || !m.measured[i]) continue;
     const int j = h.bin[i] - 1;
     if (j < 0 || j >= nb) continue;
     const double rho = (m.point.row(i).transpose() - h.center).norm();
@@ -121,6 +112,28 @@ std::vector<std::uint8_t> read_bits(const Eigen::MatrixX3d& VO,
 }
 
 }  // namespace
+
+Resampled resample_at_original(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
+                               const Eigen::MatrixX3d& VO, const Eigen::MatrixX3i& FO,
+                               const Eigen::Vector3d& center, double erase_distance) {
+  const std::vector<std::uint8_t> carrier = carrier_vertices(VO, FO);
+  if (VL.rows() == VO.rows() && FL.rows() == FO.rows() && FL == FO) {
+    // The same connectivity (noise, quantization, smoothing, a similarity): vertex i is
+    // vertex i, measured where it is, unless it moved beyond the erase distance.
+    Resampled m;
+    m.point = VL;
+    m.measured.assign(static_cast<std::size_t>(VO.rows()), 0);
+    std::size_t used = 0, found = 0;
+    for (Eigen::Index i = 0; i < VO.rows(); ++i) {
+      if (!carrier[i]) continue;
+      ++used;
+      if ((VL.row(i) - VO.row(i)).norm() <= erase_distance) m.measured[i] = 1, ++found;
+    }
+    m.fraction = used ? static_cast<double>(found) / used : 0;
+    return m;
+  }
+  return measure(VL, FL, VO, carrier, center, erase_distance);
+}
 
 TraceResult trace(const Mesh& leaked, const Mesh& original,
                   const std::vector<IssuedCopy>& candidates, const Key& key,
@@ -168,8 +181,8 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     const Center center = center_of_mass(original.V, original.F, carrier, kind);
     const Histogram h = build_histogram(original.V, carrier, center.point, bits);
     if (!h.valid()) throw InvalidArgumentError("the original has no histogram");
-    const Measured m =
-        measure(VL, leaked.F, original.V, carrier, center.point, o.erase_distance * diagonal);
+    const Resampled m = resample_at_original(VL, leaked.F, original.V, original.F, center.point,
+                                             o.erase_distance * diagonal);
     double gamma = 1;
     const std::vector<double> alpha = mark_strengths(key, bits, true, strength, spread);
     const std::vector<std::uint8_t> bin_bits = read_bits(original.V, carrier, h, m, alpha, gamma);

@@ -26,13 +26,14 @@ struct Similarity {
 
 /// Options of register_similarity.
 struct RegistrationOptions {
-  int samples = 4000;          ///< leak vertices used (a seeded random subset when more)
-  int iterations = 80;         ///< ICP steps per start at most
+  int samples = 2000;          ///< leak vertices used (a seeded random subset when more)
+  int iterations = 150;        ///< ICP steps per start and phase (rigid, then scaled) at most
   double trim = 0.8;           ///< fraction of the closest samples each step fits
   double max_residual = 0.01;  ///< success: trimmed RMS below this fraction of the diagonal
   /// A leak whose trimmed RMS distance to the original, as it is, is below this fraction of the
-  /// diagonal is taken as in the original's frame and not moved (the identity).
-  double in_frame = 1e-3;
+  /// diagonal is near the original's frame: refined from the identity only, and moved only if
+  /// that halves the distance.
+  double in_frame = 5e-3;
   std::uint64_t seed = 1;  ///< sample selection
 };
 

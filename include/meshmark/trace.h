@@ -26,6 +26,23 @@
 
 namespace meshmark {
 
+/// The leak measured at the original's carrier vertices: for each, the point of the leak's
+/// surface on the ray from center through the vertex (where the plane of the nearest leaked
+/// triangle crosses that ray), or the nearest point itself where the ray runs along that plane.
+/// An unattacked copy of a radially marked mesh gives back its own vertices.
+struct Resampled {
+  Eigen::MatrixX3d point;              ///< #VO x 3 (rows of unmeasured vertices: the original's)
+  std::vector<std::uint8_t> measured;  ///< 1 where a surface lies within erase_distance
+  double fraction = 0;                 ///< measured share of the carrier
+};
+
+/// Resamples the leak (VL, FL, already in the original's frame) at the carrier vertices of
+/// (VO, FO); erase_distance in model units. A leak with the original's faces (noise,
+/// quantization, smoothing, a similarity) is measured vertex for vertex.
+Resampled resample_at_original(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
+                               const Eigen::MatrixX3d& VO, const Eigen::MatrixX3i& FO,
+                               const Eigen::Vector3d& center, double erase_distance);
+
 /// Options of trace.
 struct TraceOptions {
   double threshold = 1e-6;        ///< family-wise false-alarm probability for naming a buyer
