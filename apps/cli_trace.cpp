@@ -59,13 +59,16 @@ int run(const TraceArgs& a) {
                               {"overlap", r.registration.overlap},
                               {"scale", r.registration.transform.scale},
                               {"measured_fraction", r.measured_fraction},
-                              {"attenuation", r.attenuation}};
+                              {"attenuation", r.attenuation},
+                              {"processing", r.processing}};
     fmt::print("{}\n", j.dump(2));
   } else {
     fmt::print("{}\n", printable(r.message));
     fmt::print("  registration     {}\n", r.registration.message);
-    fmt::print("  measured         {:.1f} % of the original's vertices (attenuation {:.3f})\n",
-               100 * r.measured_fraction, r.attenuation);
+    fmt::print(
+        "  measured         {:.1f} % of the original's vertices (attenuation {:.3f}; "
+        "reference: {})\n",
+        100 * r.measured_fraction, r.attenuation, r.processing);
     fmt::print("  candidates       {} issued copies of this original under this key\n",
                r.ranking.size());
     for (std::size_t i = 0; i < r.ranking.size() && i < 3; ++i) {

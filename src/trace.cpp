@@ -8,6 +8,7 @@
 #include <map>
 #include <tuple>
 
+#include "meshmark/attack.h"
 #include "meshmark/closest_point.h"
 #include "meshmark/coding.h"
 #include "meshmark/detect.h"
@@ -70,7 +71,7 @@ Resampled measure(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
 
 // The bits (bin order, kErasure for a bin with nothing measured) a group's mark would explain
 // best, and the fitted attenuation.
-std::vector<std::uint8_t> read_bits(const Eigen::MatrixX3d& VO,
+std::vector<std::uint8_t> read_bits(const Eigen::MatrixX3d& VO, const Eigen::MatrixX3d& reference,
                                     const std::vector<std::uint8_t>& carrier, const Histogram& h,
                                     const Resampled& m, const std::vector<double>& alpha,
                                     double& gamma) {
@@ -82,7 +83,8 @@ std::vector<std::uint8_t> read_bits(const Eigen::MatrixX3d& VO,
     const int j = h.bin[i] - 1;
     if (j < 0 || j >= nb) continue;
     const double rho = (m.point.row(i).transpose() - h.center).norm();
-    sum0[j] += h.t(i);
+    // The reference: the original, or the original processed as the leak seems to have been.
+    sum0[j] += ((reference.row(i).transpose() - h.center).norm() - h.rho_min) / h.step - h.bin[i];
     sum[j] += (rho - h.rho_min) / h.step - h.bin[i];
     ++count[j];
   }
@@ -174,6 +176,31 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     groups[{mine[k].variant.empty() ? 'D' : mine[k].variant[0], mine[k].bits, mine[k].id_bits,
             mine[k].strength, mine[k].strength_spread}]
         .push_back(k);
+  // A leak with the original's faces may have been smoothed: the processing of the original
+  // that the leak resembles best (Laplacian smoothing with lambda 0.3, or Taubin, 1 to 40
+  // iterations) becomes the reference the shifts are measured from, when it at least halves
+  // the RMS distance; its shrinking is then not taken for the mark.
+  Eigen::MatrixX3d reference = original.V;
+  r.processing = "none";
+  if (leaked.V.rows() == original.V.rows() && leaked.F.rows() == original.F.rows() &&
+      leaked.F == original.F) {
+    auto rms = [&](const Eigen::MatrixX3d& P) { return std::sqrt((VL - P).squaredNorm()); };
+    const double unprocessed = rms(original.V);
+    double best = unprocessed;
+    for (const bool taubin : {false, true}) {
+      Mesh current = original;
+      for (int k = 1; k <= 40; ++k) {
+        current = taubin ? attack_smooth_taubin(current, 1) : attack_smooth_laplacian(current, 1);
+        const double e = rms(current.V);
+        if (e < best) {
+          best = e;
+          reference = current.V;
+          r.processing = fmt::format("{} smoothing x {}", taubin ? "Taubin" : "Laplacian", k);
+        }
+      }
+    }
+    if (!(best < 0.5 * unprocessed)) reference = original.V, r.processing = "none";
+  }
   bool first = true;
   for (const auto& [group, members] : groups) {
     const auto& [letter, bits, id_bits, strength, spread] = group;
@@ -185,7 +212,8 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
                                              o.erase_distance * diagonal);
     double gamma = 1;
     const std::vector<double> alpha = mark_strengths(key, bits, true, strength, spread);
-    const std::vector<std::uint8_t> bin_bits = read_bits(original.V, carrier, h, m, alpha, gamma);
+    const std::vector<std::uint8_t> bin_bits =
+        read_bits(original.V, reference, carrier, h, m, alpha, gamma);
     const std::vector<std::uint8_t> read = mark_layout(key, bits, true).from_bins(bin_bits);
     IdCodeOptions co;
     co.bits = bits;

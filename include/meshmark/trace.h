@@ -77,6 +77,7 @@ struct TraceResult {
   RegistrationResult registration;      ///< leak -> original
   double measured_fraction = 0;         ///< original carrier vertices measured (not erased)
   double attenuation = 0;               ///< fitted gamma of the first group of candidates
+  std::string processing;               ///< the smoothing the leak was read against, or "none"
   std::vector<CandidateScore> named;    ///< candidates below the threshold, best first
   std::vector<CandidateScore> ranking;  ///< every candidate, best first
   std::string message;                  ///< one line for a person
