@@ -84,7 +84,10 @@ std::vector<int> weld(const std::vector<double>& xyz, double tolerance,
   if (tolerance > 0) {
     struct CellHash {
       std::size_t operator()(const std::array<std::int64_t, 3>& c) const {
-        return static_cast<std::size_t>(c[0] * 73856093 ^ c[1] * 19349663 ^ c[2] * 83492791);
+        // Unsigned arithmetic: wraps instead of overflowing on huge cell indices.
+        return static_cast<std::size_t>(static_cast<std::uint64_t>(c[0]) * 73856093u ^
+                                        static_cast<std::uint64_t>(c[1]) * 19349663u ^
+                                        static_cast<std::uint64_t>(c[2]) * 83492791u);
       }
     };
     std::unordered_map<std::array<std::int64_t, 3>, std::vector<int>, CellHash> grid;
