@@ -48,6 +48,13 @@ int run(const TraceArgs& a) {
     nlohmann::json named = nlohmann::json::array(), top = nlohmann::json::array();
     for (const CandidateScore& s : r.named) named.push_back(score(s));
     for (std::size_t i = 0; i < r.ranking.size() && i < 5; ++i) top.push_back(score(r.ranking[i]));
+    nlohmann::json evidence = nlohmann::json::array();
+    for (const BitEvidence& e : r.bits)
+      evidence.push_back({{"bit", e.bit > 1 ? nlohmann::json(nullptr) : nlohmann::json(e.bit)},
+                          {"shift", e.shift},
+                          {"if_one", e.if_one},
+                          {"if_zero", e.if_zero},
+                          {"vertices", e.vertices}});
     const nlohmann::json j = {{"status", trace_status_name(r.status)},
                               {"message", r.message},
                               {"candidates", r.ranking.size()},
@@ -60,7 +67,8 @@ int run(const TraceArgs& a) {
                               {"scale", r.registration.transform.scale},
                               {"measured_fraction", r.measured_fraction},
                               {"attenuation", r.attenuation},
-                              {"processing", r.processing}};
+                              {"processing", r.processing},
+                              {"bit_evidence", evidence}};
     fmt::print("{}\n", j.dump(2));
   } else {
     fmt::print("{}\n", printable(r.message));

@@ -70,11 +70,11 @@ Resampled measure(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
 }
 
 // The bits (bin order, kErasure for a bin with nothing measured) a group's mark would explain
-// best, and the fitted attenuation.
+// best, the fitted attenuation, and each bin's evidence (bin order, a 1 meaning bin bit 1).
 std::vector<std::uint8_t> read_bits(const Eigen::MatrixX3d& VO, const Eigen::MatrixX3d& reference,
                                     const std::vector<std::uint8_t>& carrier, const Histogram& h,
                                     const Resampled& m, const std::vector<double>& alpha,
-                                    double& gamma) {
+                                    double& gamma, std::vector<BitEvidence>& evidence) {
   const int nb = h.bins - 2;
   std::vector<double> sum0(nb, 0), sum(nb, 0);
   std::vector<int> count(nb, 0);
@@ -110,6 +110,9 @@ std::vector<std::uint8_t> read_bits(const Eigen::MatrixX3d& VO, const Eigen::Mat
     if (std::abs(next - gamma) < 1e-12) break;
     gamma = next;
   }
+  evidence.assign(nb, BitEvidence{});
+  for (int j = 0; j < nb; ++j)
+    evidence[j] = {shift[j], gamma * up[j], gamma * down[j], count[j], bits[j]};
   return bits;
 }
 
@@ -212,9 +215,11 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
                                              o.erase_distance * diagonal);
     double gamma = 1;
     const std::vector<double> alpha = mark_strengths(key, bits, true, strength, spread);
+    std::vector<BitEvidence> evidence;
     const std::vector<std::uint8_t> bin_bits =
-        read_bits(original.V, reference, carrier, h, m, alpha, gamma);
-    const std::vector<std::uint8_t> read = mark_layout(key, bits, true).from_bins(bin_bits);
+        read_bits(original.V, reference, carrier, h, m, alpha, gamma, evidence);
+    const BitLayout layout = mark_layout(key, bits, true);
+    const std::vector<std::uint8_t> read = layout.from_bins(bin_bits);
     IdCodeOptions co;
     co.bits = bits;
     co.id_bits = id_bits;
@@ -230,7 +235,15 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
       s.corrected_p = std::min(1.0, s.p_value * static_cast<double>(mine.size()));
       r.ranking.push_back(s);
     }
-    if (first) r.measured_fraction = m.fraction, r.attenuation = gamma, first = false;
+    if (first) {
+      r.measured_fraction = m.fraction, r.attenuation = gamma, first = false;
+      for (int j = 0; j < bits; ++j) {
+        BitEvidence e = evidence[layout.bin_of[j]];
+        if (layout.whitening[j]) std::swap(e.if_one, e.if_zero);
+        e.bit = read[j];
+        r.bits.push_back(e);
+      }
+    }
   }
   std::stable_sort(
       r.ranking.begin(), r.ranking.end(),

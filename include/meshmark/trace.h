@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "meshmark/decode.h"
 #include "meshmark/key.h"
 #include "meshmark/mesh.h"
 #include "meshmark/registration.h"
@@ -71,6 +72,17 @@ enum class TraceStatus {
 /// "named", "no-buyer", "registration-failed", "no-candidates".
 const char* trace_status_name(TraceStatus status);
 
+/// The soft evidence of one payload bit (first group of candidates), in bin units: what the
+/// bin's mean moved by from the reference, and what a 0 or a 1 would have moved it by after
+/// the fitted attenuation.
+struct BitEvidence {
+  double shift = 0;             ///< measured shift of the bin's mean (bin widths)
+  double if_one = 0;            ///< expected shift for a 1 (bin widths, attenuated)
+  double if_zero = 0;           ///< expected shift for a 0 (bin widths, attenuated)
+  int vertices = 0;             ///< measured vertices in the bin (0: the bit is erased)
+  std::uint8_t bit = kErasure;  ///< the hypothesis nearer to the shift, or kErasure
+};
+
 /// What trace found.
 struct TraceResult {
   TraceStatus status = TraceStatus::NoBuyer;
@@ -78,6 +90,7 @@ struct TraceResult {
   double measured_fraction = 0;         ///< original carrier vertices measured (not erased)
   double attenuation = 0;               ///< fitted gamma of the first group of candidates
   std::string processing;               ///< the smoothing the leak was read against, or "none"
+  std::vector<BitEvidence> bits;        ///< per payload bit, first group of candidates
   std::vector<CandidateScore> named;    ///< candidates below the threshold, best first
   std::vector<CandidateScore> ranking;  ///< every candidate, best first
   std::string message;                  ///< one line for a person
