@@ -4,6 +4,8 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
+#include <chrono>
 #include <cmath>
 #include <map>
 #include <tuple>
@@ -34,6 +36,11 @@ const char* trace_status_name(TraceStatus status) {
 }
 
 namespace {
+
+// The readings trace scores every candidate on: bits whose shift lies within this distance of
+// the middle between the hypotheses (position 0.5, see position()) are erased. A candidate's
+// p-value is its smallest over the readings times their number (Bonferroni).
+constexpr std::array<double, 3> kBands = {0.0, 0.2, 0.35};
 
 Resampled measure(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
                   const Eigen::MatrixX3d& VO, const std::vector<std::uint8_t>& carrier,
@@ -69,12 +76,22 @@ Resampled measure(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
   return m;
 }
 
-// The bits (bin order, kErasure for a bin with nothing measured) a group's mark would explain
-// best, the fitted attenuation, and each bin's evidence (bin order, a 1 meaning bin bit 1).
-std::vector<std::uint8_t> read_bits(const Eigen::MatrixX3d& VO, const Eigen::MatrixX3d& reference,
-                                    const std::vector<std::uint8_t>& carrier, const Histogram& h,
-                                    const Resampled& m, const std::vector<double>& alpha,
-                                    double& gamma, std::vector<BitEvidence>& evidence) {
+// Where a bin's shift lies between the attenuated hypotheses: 0 at a 0, 1 at a 1.
+double position(const BitEvidence& e) {
+  const double span = e.if_one - e.if_zero;
+  return span != 0 ? (e.shift - e.if_zero) / span : 0.5;
+}
+
+// Each bin's evidence (bin order; shift detrended; bit: the nearer hypothesis, kErasure for a
+// bin with nothing measured) and the fitted attenuation gamma. gamma and a linear trend are
+// first the least-squares fit of the shifts to the hypotheses they are nearer to, then refitted
+// on the confident bins only (those outside the middle band of kBands' widest width), so that
+// bins a mark does not explain (an average of two copies moves the bins where they differ to
+// the middle) do not pull gamma down.
+std::vector<BitEvidence> read_bins(const Eigen::MatrixX3d& VO, const Eigen::MatrixX3d& reference,
+                                   const std::vector<std::uint8_t>& carrier, const Histogram& h,
+                                   const Resampled& m, const std::vector<double>& alpha,
+                                   double& gamma) {
   const int nb = h.bins - 2;
   std::vector<double> sum0(nb, 0), sum(nb, 0);
   std::vector<int> count(nb, 0);
@@ -96,23 +113,55 @@ std::vector<std::uint8_t> read_bits(const Eigen::MatrixX3d& VO, const Eigen::Mat
     up[j] = 0.5 + alpha[j] - m0;  // the shift a 1 asks for
     down[j] = 0.5 - alpha[j] - m0;
   }
-  std::vector<std::uint8_t> bits(nb, kErasure);
-  gamma = 1;
-  for (int round = 0; round < 20; ++round) {
-    double num = 0, den = 0;
+  // shift_j = gamma e_j + a + b x_j: the mark's attenuated shift plus a trend linear in the
+  // bin's radius x_j (a residue of scale from registration, or a shrinkage, moves every bin by
+  // about a + b x_j; the mark's signs are keyed, so they do not follow it).
+  std::vector<double> x(nb);
+  for (int j = 0; j < nb; ++j) x[j] = (j + 0.5) / nb - 0.5;
+  std::vector<BitEvidence> ev(nb);
+  double a = 0, b = 0;
+  auto classify = [&](double g) {
     for (int j = 0; j < nb; ++j) {
-      if (!count[j]) continue;
-      bits[j] = std::abs(shift[j] - gamma * up[j]) < std::abs(shift[j] - gamma * down[j]);
-      const double e = bits[j] ? up[j] : down[j];
-      num += shift[j] * e, den += e * e;
+      const double s = shift[j] - a - b * x[j];
+      ev[j] = {s, g * up[j], g * down[j], count[j], kErasure};
+      if (count[j]) ev[j].bit = std::abs(s - ev[j].if_one) < std::abs(s - ev[j].if_zero);
     }
-    const double next = den > 0 ? std::clamp(num / den, 0.02, 2.0) : 1.0;
-    if (std::abs(next - gamma) < 1e-12) break;
-    gamma = next;
-  }
-  evidence.assign(nb, BitEvidence{});
-  for (int j = 0; j < nb; ++j)
-    evidence[j] = {shift[j], gamma * up[j], gamma * down[j], count[j], bits[j]};
+  };
+  // Least squares for (gamma, a, b) over the measured bins (or the confident ones), each bin
+  // against the hypothesis it is nearer to, until the bits stop changing.
+  auto fit = [&](double g, bool confident_only) {
+    for (int round = 0; round < 20; ++round) {
+      classify(g);
+      Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+      int used = 0;
+      for (int j = 0; j < nb; ++j) {
+        if (!count[j]) continue;
+        if (confident_only && std::abs(position(ev[j]) - 0.5) < kBands.back()) continue;
+        const Eigen::Vector3d row(ev[j].bit ? up[j] : down[j], 1.0, x[j]);
+        A += row * row.transpose(), rhs += row * shift[j], ++used;
+      }
+      if (used < 8) break;  // too few bins to fit a trend besides the mark
+      const Eigen::Vector3d solution = A.ldlt().solve(rhs);
+      if (!solution.allFinite()) break;
+      const double next = std::clamp(solution(0), 0.02, 2.0);
+      const bool settled = std::abs(next - g) < 1e-12 && std::abs(solution(1) - a) < 1e-12 &&
+                           std::abs(solution(2) - b) < 1e-12;
+      g = next, a = solution(1), b = solution(2);
+      if (settled) break;
+    }
+    return g;
+  };
+  gamma = fit(fit(1.0, false), true);
+  classify(gamma);
+  return ev;
+}
+
+// The bits (bin order) with those whose position lies within `band` of the middle erased.
+std::vector<std::uint8_t> banded_bits(const std::vector<BitEvidence>& ev, double band) {
+  std::vector<std::uint8_t> bits(ev.size(), kErasure);
+  for (std::size_t j = 0; j < ev.size(); ++j)
+    if (ev[j].vertices && !(std::abs(position(ev[j]) - 0.5) < band)) bits[j] = ev[j].bit;
   return bits;
 }
 
@@ -156,6 +205,11 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     r.message = "no copy was issued under this key";
     return r;
   }
+  using Clock = std::chrono::steady_clock;
+  auto since = [](Clock::time_point t) {
+    return std::chrono::duration<double>(Clock::now() - t).count();
+  };
+  Clock::time_point t = Clock::now();
   if (o.register_leak) {
     r.registration =
         register_similarity(leaked.V, leaked.F, original.V, original.F, o.registration);
@@ -183,6 +237,8 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
   // that the leak resembles best (Laplacian smoothing with lambda 0.3, or Taubin, 1 to 40
   // iterations) becomes the reference the shifts are measured from, when it at least halves
   // the RMS distance; its shrinking is then not taken for the mark.
+  r.seconds.registration = since(t);
+  t = Clock::now();
   Eigen::MatrixX3d reference = original.V;
   r.processing = "none";
   if (leaked.V.rows() == original.V.rows() && leaked.F.rows() == original.F.rows() &&
@@ -204,6 +260,7 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     }
     if (!(best < 0.5 * unprocessed)) reference = original.V, r.processing = "none";
   }
+  r.seconds.reference = since(t);
   bool first = true;
   for (const auto& [group, members] : groups) {
     const auto& [letter, bits, id_bits, strength, spread] = group;
@@ -211,30 +268,47 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     const Center center = center_of_mass(original.V, original.F, carrier, kind);
     const Histogram h = build_histogram(original.V, carrier, center.point, bits);
     if (!h.valid()) throw InvalidArgumentError("the original has no histogram");
+    t = Clock::now();
     const Resampled m = resample_at_original(VL, leaked.F, original.V, original.F, center.point,
                                              o.erase_distance * diagonal);
+    r.seconds.resampling += since(t);
+    t = Clock::now();
     double gamma = 1;
     const std::vector<double> alpha = mark_strengths(key, bits, true, strength, spread);
-    std::vector<BitEvidence> evidence;
-    const std::vector<std::uint8_t> bin_bits =
-        read_bits(original.V, reference, carrier, h, m, alpha, gamma, evidence);
+    const std::vector<BitEvidence> evidence =
+        read_bins(original.V, reference, carrier, h, m, alpha, gamma);
     const BitLayout layout = mark_layout(key, bits, true);
-    const std::vector<std::uint8_t> read = layout.from_bins(bin_bits);
     IdCodeOptions co;
     co.bits = bits;
     co.id_bits = id_bits;
     const IdCode code(co);
-    const CodewordNull null(code, read, key);
-    for (const std::size_t k : members) {
-      CandidateScore s;
-      s.copy = mine[k];
-      s.compared = bits;
-      const Payload c = code.encode(mine[k].id, key);
-      for (int j = 0; j < bits; ++j) s.matches += read[j] <= 1 && read[j] == c.bits[j];
-      s.p_value = null.p_value(s.matches);
+    std::vector<Payload> codewords;
+    for (const std::size_t k : members) codewords.push_back(code.encode(mine[k].id, key));
+    std::vector<CandidateScore> scores(members.size());
+    std::vector<std::uint8_t> previous;
+    for (const double band : kBands) {
+      const std::vector<std::uint8_t> read = layout.from_bins(banded_bits(evidence, band));
+      if (read == previous) continue;  // the same reading: the same p-values
+      previous = read;
+      const CodewordNull null(code, read, key);
+      for (std::size_t c = 0; c < members.size(); ++c) {
+        CandidateScore s;
+        s.copy = mine[members[c]];
+        s.compared = 0;
+        for (int j = 0; j < bits; ++j) {
+          s.compared += read[j] <= 1;
+          s.matches += read[j] <= 1 && read[j] == codewords[c].bits[j];
+        }
+        s.p_value = std::min(1.0, null.p_value(s.matches) * static_cast<double>(kBands.size()));
+        if (band == kBands.front() || s.p_value < scores[c].p_value) scores[c] = s;
+      }
+    }
+    for (CandidateScore& s : scores) {
       s.corrected_p = std::min(1.0, s.p_value * static_cast<double>(mine.size()));
       r.ranking.push_back(s);
     }
+    const std::vector<std::uint8_t> read = layout.from_bins(banded_bits(evidence, 0.0));
+    r.seconds.scoring += since(t);
     if (first) {
       r.measured_fraction = m.fraction, r.attenuation = gamma, first = false;
       for (int j = 0; j < bits; ++j) {

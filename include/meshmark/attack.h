@@ -77,6 +77,14 @@ Mesh attack_format(const Mesh& mesh, const std::string& format, bool single_prec
 /// \throw InvalidInputError when no triangle of non-zero area remains.
 Mesh attack_simplify(const Mesh& mesh, double ratio);
 
+/// Isotropic remeshing (CGAL Polygon_mesh_processing::isotropic_remeshing, `iterations`
+/// rounds of splits, collapses, flips and tangential relaxation) to edges of `edge_factor`
+/// times the mean edge length, after the same repair as attack_simplify. Every vertex moves:
+/// the new ones lie on the old surface, not at the old vertices.
+/// \throw InvalidArgumentError for edge_factor outside [0.05, 20] or iterations outside [1, 20].
+/// \throw InvalidInputError when no triangle of non-zero area remains.
+Mesh attack_remesh(const Mesh& mesh, double edge_factor, int iterations = 3);
+
 /// Subdivision schemes.
 enum class Subdivision { Loop, Midpoint, Sqrt3 };
 

@@ -10,11 +10,16 @@
 /// cropping and decimation do not desynchronize it. Each bin's mean position is compared with
 /// the original's: a mark moves it from the original's mean m0 to 1/2 +- alpha_j, and attacks
 /// attenuate that shift by a common factor gamma (smoothing shrinks it), which is fitted; each
-/// bit is the hypothesis nearer to what was measured. These bits do not depend on any
-/// candidate. Each candidate copy's codeword is then compared with them, and its p-value is the
-/// exact probability (detect.h, CodewordNull) that an innocent codeword matches as well,
-/// corrected for the number of candidates (Bonferroni). Buyers below the threshold are named;
-/// two or more are reported together (collusion).
+/// bit is the hypothesis nearer to what was measured. Three readings are made: every bit, and
+/// the bits outside a middle band of two widths (bits whose shift lies near the middle between
+/// the hypotheses are erased: attacks leave the weakest bits there, and an average of two
+/// copies leaves there every bit on which the two differ). gamma is fitted on the bits outside
+/// the widest band. These readings do not depend on any candidate. Each candidate copy's
+/// codeword is then compared with each, and its p-value is the smallest exact probability
+/// (detect.h, CodewordNull) that an innocent codeword matches as well, times the number of
+/// readings, then times the number of candidates (Bonferroni). Buyers below the threshold are
+/// named; two or more are reported together (collusion: both colluders of an average of two
+/// copies match every bit outside the band).
 
 #include <string>
 #include <vector>
@@ -55,9 +60,10 @@ struct TraceOptions {
 /// One candidate's evidence.
 struct CandidateScore {
   IssuedCopy copy;         ///< the issued copy
-  int matches = 0;         ///< bits read equal to its codeword's
-  int compared = 0;        ///< payload bits
-  double p_value = 1;      ///< exact, for this candidate alone
+  int matches = 0;         ///< bits read equal to its codeword's (best reading)
+  int compared = 0;        ///< bits compared (not erased) in that reading
+  double p_value = 1;      ///< this candidate alone: the smallest exact p over the readings
+                           ///< times their number
   double corrected_p = 1;  ///< min(1, p_value x candidates)
 };
 
@@ -83,6 +89,14 @@ struct BitEvidence {
   std::uint8_t bit = kErasure;  ///< the hypothesis nearer to the shift, or kErasure
 };
 
+/// Where trace spent its time (seconds, wall clock).
+struct TraceTimings {
+  double registration = 0;  ///< register_similarity
+  double reference = 0;     ///< the search for the smoothing the leak resembles
+  double resampling = 0;    ///< the leak measured at the original's vertices (every group)
+  double scoring = 0;       ///< readings, null distributions and candidates' p-values
+};
+
 /// What trace found.
 struct TraceResult {
   TraceStatus status = TraceStatus::NoBuyer;
@@ -94,6 +108,7 @@ struct TraceResult {
   std::vector<CandidateScore> named;    ///< candidates below the threshold, best first
   std::vector<CandidateScore> ranking;  ///< every candidate, best first
   std::string message;                  ///< one line for a person
+  TraceTimings seconds;                 ///< where the time went
 };
 
 /// Traces leaked against the copies issued from original under key (candidates: every copy
