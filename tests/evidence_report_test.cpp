@@ -1,6 +1,6 @@
 // The HTML evidence report of a trace: well formed, hostile labels escaped, what it states is
-// what it was given, the drawing bounded on a large mesh, and headless Chromium renders it to
-// a picture that is not blank.
+// what it was given, the drawing bounded on a large mesh, the command it prints reproduces it
+// byte for byte, and headless Chromium renders it to a picture that is not blank.
 
 #include <gtest/gtest.h>
 #include <png.h>
@@ -157,9 +157,81 @@ TEST(EvidenceReport, StaysSmallOnAMeshOfMoreThan200kFaces) {
   RecordProperty("report_seconds", std::to_string(seconds));
 }
 
+// ------------------------------------------------------------------ the command line
+
 std::string read_text(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+std::string unescape(std::string s) {
+  for (const auto& [entity, c] : {std::pair<std::string, std::string>{"&lt;", "<"},
+                                  {"&gt;", ">"},
+                                  {"&quot;", "\""},
+                                  {"&#39;", "'"},
+                                  {"&amp;", "&"}})
+    for (std::size_t at = s.find(entity); at != std::string::npos; at = s.find(entity, at))
+      s.replace(at, entity.size(), c), at += c.size();
+  return s;
+}
+
+TEST(EvidenceReport, CommandLineWritesAReportWhoseCommandReproducesIt) {
+  const std::string spot = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir();
+  const std::string db = dir + "/shop.db", key = dir + "/shop.key";
+  std::ofstream(key) << "the shop's key bytes\n";
+  std::ofstream manifest(dir + "/m.txt");
+  for (int i = 0; i < 6; ++i)
+    manifest << spot << " " << dir << "/c" << i << ".obj id:" << 40 + 37 * i << " buyer" << i
+             << "\n";
+  manifest.close();
+  test::CliRun r = test::run_cli("embed --batch " + dir + "/m.txt --key-file " + key +
+                                 " --registry " + db + " --variant VRS");
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = test::run_cli("attack simplify:0.7 " + dir + "/c3.obj " + dir + "/leak.obj");
+  ASSERT_EQ(r.code, 0) << r.out;
+  // A folder whose name needs quoting.
+  const std::string out = dir + "/it's a report";
+  std::filesystem::create_directories(out);
+  const std::string report = out + "/evidence.html";
+  const std::string args = " --original " + spot + " --registry " + db + " --key-file " + key +
+                           " --report \"" + report + "\"";
+  r = test::run_cli("trace " + dir + "/leak.obj" + args);
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string html = read_text(report);
+  EXPECT_NE(html.find("buyer3"), std::string::npos);
+  EXPECT_NE(html.find(content_hash(read_text(dir + "/leak.obj"))), std::string::npos);
+  EXPECT_NE(html.find(content_hash(read_text(spot))), std::string::npos);
+  // The command in the report, run by a shell from elsewhere, writes the same bytes.
+  const std::size_t a = html.find("<pre>") + 5, b = html.find("</pre>");
+  ASSERT_LT(a, b);
+  std::filesystem::rename(report, report + ".first");
+  const std::string command = unescape(html.substr(a, b - a));
+  ASSERT_EQ(std::system(("cd / && " + command + " > /dev/null").c_str()), 0) << command;
+  EXPECT_EQ(read_text(report), html) << command;
+  // No buyer, and no candidates (another key, a passphrase): reports too, exit 6; the
+  // passphrase is never written into one.
+  r = test::run_cli("trace " + spot + " --original " + spot + " --registry " + db + " --key-file " +
+                    key + " --report " + dir + "/none.html");
+  EXPECT_EQ(r.code, 6) << r.out;
+  EXPECT_NE(read_text(dir + "/none.html").find("<b>no-buyer</b>"), std::string::npos);
+  r = test::run_cli("trace " + dir + "/leak.obj --original " + spot + " --registry " + db +
+                    " --key studio --report " + dir + "/other-key.html");
+  EXPECT_EQ(r.code, 6) << r.out;
+  const std::string other = read_text(dir + "/other-key.html");
+  EXPECT_NE(other.find("<b>no-candidates</b>"), std::string::npos);
+  EXPECT_EQ(other.find("studio"), std::string::npos);
+  EXPECT_NE(other.find("--key &quot;$MESHMARK_KEY&quot;"), std::string::npos);
+  // Unreadable input: no report.
+  r = test::run_cli("trace " + dir + "/missing.obj" + " --original " + spot + " --registry " + db +
+                    " --key-file " + key + " --report " + dir + "/missing.html");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/missing.html"));
+  // Nor over an input.
+  r = test::run_cli("trace " + dir + "/leak.obj --original " + spot + " --registry " + db +
+                    " --key-file " + key + " --report " + dir + "/leak.obj");
+  EXPECT_EQ(r.code, 1) << r.out;
 }
 
 // ------------------------------------------------------------------ rendering
