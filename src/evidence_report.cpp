@@ -64,7 +64,7 @@ Mesh cluster_once(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, int g) {
 
 // ---------------------------------------------------------------- mesh views
 
-const char* kStyle = R"(
+constexpr char kStyle[] = R"(
 body{font-family:"DejaVu Sans",Helvetica,Arial,sans-serif;margin:24px;color:#222;max-width:1200px}
 h1{font-size:22px;margin:0 0 4px}h2{font-size:17px;margin:26px 0 8px;border-bottom:1px solid #ccc}
 .status{font-size:16px;padding:8px 12px;border-radius:4px;margin:10px 0}
@@ -86,13 +86,14 @@ std::string shade_classes() {
   std::string s;
   for (int k = 0; k < kShades; ++k) {
     const double t = (k + 0.5) / kShades;
+    const int grey = static_cast<int>(70 + 150 * t);
     s += fmt::format(
-        ".o{}{{fill:#{:02x}{:02x}{:02x};stroke:#{:02x}{:02x}{:02x};stroke-width:.6;"
+        ".o{0}{{fill:#{1:02x}{1:02x}{2:02x};stroke:#{1:02x}{1:02x}{2:02x};stroke-width:.6;"
         "stroke-linejoin:round}}\n",
-        k, int(70 + 150 * t), int(70 + 150 * t), int(74 + 150 * t), int(70 + 150 * t),
-        int(70 + 150 * t), int(74 + 150 * t));
-    s += fmt::format(".l{}{{fill:#{:02x}{:02x}{:02x};fill-opacity:.6}}\n", k, int(110 + 145 * t),
-                     int(40 + 110 * t), int(10 + 40 * t));
+        k, grey, grey + 4);
+    s += fmt::format(".l{}{{fill:#{:02x}{:02x}{:02x};fill-opacity:.6}}\n", k,
+                     static_cast<int>(110 + 145 * t), static_cast<int>(40 + 110 * t),
+                     static_cast<int>(10 + 40 * t));
   }
   return s;
 }
@@ -128,8 +129,8 @@ void add_triangles(const Mesh& m, const Eigen::Matrix3d& R, bool leak, double bi
     t.leak = leak;
     t.shade = std::min(kShades - 1, static_cast<int>((0.25 + 0.75 * lambert) * kShades));
     out.push_back(t);
+    points.insert(points.end(), {a, b, c});  // the view frames what is drawn
   }
-  for (Eigen::Index i = 0; i < C.rows(); ++i) points.push_back(C.row(i).transpose());
 }
 
 // One view: both meshes rotated, fitted into a size x size square, painted far to near.
