@@ -5,6 +5,7 @@
 #include <initializer_list>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <optional>
 
@@ -108,7 +109,8 @@ void record_copies(Registry& registry, std::vector<IssuedCopy> copies,
 
 void register_embed(CLI::App& app, int& exit_code);
 void register_registry(CLI::App& app, int& exit_code);
-void register_trace(CLI::App& app, int& exit_code);
+/// trace; argv: the command line as run (its --report writes it, quoted, in the report).
+void register_trace(CLI::App& app, int& exit_code, std::vector<std::string> argv);
 
 /// What embed --batch applies to every line.
 struct BatchSettings {

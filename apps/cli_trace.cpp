@@ -1,12 +1,14 @@
-// meshmark trace LEAKED --original ORIG --registry DB --key-file K
+// meshmark trace LEAKED --original ORIG --registry DB --key-file K [--report FILE.html]
 
 #include <fmt/format.h>
 
+#include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
 #include "meshmark/error.h"
+#include "meshmark/evidence_report.h"
 #include "meshmark/trace.h"
 
 namespace meshmark::cli {
@@ -14,21 +16,85 @@ namespace meshmark::cli {
 namespace {
 
 struct TraceArgs {
-  std::string leaked, original, registry;
+  std::string leaked, original, registry, report;
   KeyArgs keys;
   InputOptions in;
   TraceOptions options;
   bool json = false, no_register = false;
+  std::vector<std::string> argv;  // the command line as run, for the report
 };
+
+// A word for a POSIX shell: as it is when every character is plain, else single-quoted (a
+// quote inside written '\'').
+std::string shell_quote(const std::string& word) {
+  const bool plain = !word.empty() && word.find_first_not_of(
+                                          "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                          "0123456789_-+=/.,:@%") == std::string::npos;
+  if (plain) return word;
+  std::string q = "'";
+  for (const char c : word) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+// The command that reproduces the report: cd to this directory, then the arguments as run,
+// quoted; a passphrase given with --key is replaced by "$MESHMARK_KEY" (never written).
+std::string reproducing_command(const std::vector<std::string>& argv, bool& redacted) {
+  std::error_code ec;
+  std::string cmd = "cd " + shell_quote(std::filesystem::current_path(ec).string()) + " &&";
+  redacted = false;
+  for (std::size_t i = 0; i < argv.size(); ++i) {
+    cmd += ' ';
+    if (i > 0 && argv[i - 1] == "--key") {
+      cmd += "\"$MESHMARK_KEY\"", redacted = true;
+    } else if (argv[i].starts_with("--key=")) {
+      cmd += "--key=\"$MESHMARK_KEY\"", redacted = true;
+    } else {
+      cmd += shell_quote(argv[i]);
+    }
+  }
+  return cmd;
+}
+
+// The file's content hash, or "" when it cannot be read (a PostgreSQL registry).
+std::string hash_of(const std::string& path) {
+  try {
+    return content_hash(read_file(path));
+  } catch (const IOError&) {
+    return {};
+  }
+}
+
+void write_report(const TraceArgs& a, const TraceOptions& options, const Mesh& leaked,
+                  const Mesh& original, const std::string& original_hash, const TraceResult& r,
+                  const Key& key) {
+  EvidenceContext c;
+  c.threshold = options.threshold;
+  c.leaked = {a.leaked, hash_of(a.leaked)};
+  c.original = {a.original, original_hash};
+  c.registry = {a.registry, hash_of(a.registry)};
+  c.key_fingerprint = key_fingerprint(key);
+  bool redacted = false;
+  c.command = reproducing_command(a.argv, redacted);
+  if (redacted)
+    c.command_note = "The passphrase given with --key is not written: set MESHMARK_KEY to it.";
+  c.version = "meshmark " MESHMARK_VERSION;
+  c.settings = {
+      {"erase distance", fmt::format("{:g} of the diagonal", options.erase_distance)},
+      {"registration", options.register_leak ? "similarity (ICP)" : "none (--no-register)"},
+      {"weld tolerance", fmt::format("{:g}", a.in.weld_tolerance)}};
+  write_evidence_report(a.report, leaked, original, r, c);
+}
 
 int run(const TraceArgs& a) {
   const std::optional<Key> key = resolve_key(a.keys);
   if (!key) throw InvalidArgumentError("trace needs the key the copies were issued under");
+  if (!a.report.empty())
+    refuse_overwrite(a.report, {a.leaked, a.original, a.registry, a.keys.file.value_or("")});
   const Mesh leaked = read_input(a.leaked, a.in);
   const Mesh original = read_input(a.original, a.in);
   RegistryQuery q;
   try {
-    q.original_hash = content_hash(read_file(a.original));
+    q.original_hash = content_hash(read_file(a.original));  // what the copies were made from
   } catch (const IOError& e) {
     throw InputFailure(e.what());
   }
@@ -38,6 +104,7 @@ int run(const TraceArgs& a) {
   TraceOptions options = a.options;
   options.register_leak = !a.no_register;
   const TraceResult r = trace(leaked, original, candidates, *key, options);
+  if (!a.report.empty()) write_report(a, options, leaked, original, *q.original_hash, r, *key);
   auto score = [](const CandidateScore& s) {
     return nlohmann::json{{"buyer", s.copy.buyer},     {"id", s.copy.id},
                           {"matches", s.matches},      {"bits", s.compared},
@@ -55,20 +122,21 @@ int run(const TraceArgs& a) {
                           {"if_one", e.if_one},
                           {"if_zero", e.if_zero},
                           {"vertices", e.vertices}});
-    const nlohmann::json j = {{"status", trace_status_name(r.status)},
-                              {"message", r.message},
-                              {"candidates", r.ranking.size()},
-                              {"threshold", options.threshold},
-                              {"named", named},
-                              {"best", top},
-                              {"registration", r.registration.message},
-                              {"registration_residual", r.registration.residual},
-                              {"overlap", r.registration.overlap},
-                              {"scale", r.registration.transform.scale},
-                              {"measured_fraction", r.measured_fraction},
-                              {"attenuation", r.attenuation},
-                              {"processing", r.processing},
-                              {"bit_evidence", evidence}};
+    nlohmann::json j = {{"status", trace_status_name(r.status)},
+                        {"message", r.message},
+                        {"candidates", r.ranking.size()},
+                        {"threshold", options.threshold},
+                        {"named", named},
+                        {"best", top},
+                        {"registration", r.registration.message},
+                        {"registration_residual", r.registration.residual},
+                        {"overlap", r.registration.overlap},
+                        {"scale", r.registration.transform.scale},
+                        {"measured_fraction", r.measured_fraction},
+                        {"attenuation", r.attenuation},
+                        {"processing", r.processing},
+                        {"bit_evidence", evidence}};
+    if (!a.report.empty()) j["report"] = a.report;
     fmt::print("{}\n", j.dump(2));
   } else {
     fmt::print("{}\n", printable(r.message));
@@ -86,14 +154,16 @@ int run(const TraceArgs& a) {
                  s.matches, s.compared, s.p_value, s.corrected_p,
                  s.corrected_p < options.threshold ? "  NAMED" : "");
     }
+    if (!a.report.empty()) fmt::print("  report           {}\n", a.report);
   }
   return r.status == TraceStatus::Named ? kOk : kNoId;
 }
 
 }  // namespace
 
-void register_trace(CLI::App& app, int& exit_code) {
+void register_trace(CLI::App& app, int& exit_code, std::vector<std::string> argv) {
   auto args = std::make_shared<TraceArgs>();
+  args->argv = std::move(argv);
   CLI::App* sub = app.add_subcommand(
       "trace", "Name the buyer whose copy leaked, with the original and the registry");
   sub->add_option("LEAKED", args->leaked, "the leaked mesh")->required();
@@ -111,6 +181,9 @@ void register_trace(CLI::App& app, int& exit_code) {
   sub->add_flag("--no-register", args->no_register,
                 "the leak is in the original's frame: do not register it");
   sub->add_flag("--json", args->json, "print a JSON report");
+  sub->add_option("--report", args->report,
+                  "write a self-contained HTML evidence report there (views of the registered "
+                  "leak, the scores, the bits, the settings, hashes and command)");
   add_key_options(*sub, args->keys);
   add_input_options(*sub, args->in);
   sub->callback([args, &exit_code] { exit_code = run(*args); });

@@ -118,7 +118,7 @@ int main(int argc, char** argv) {
       "meshmark: blind, robust watermarking of triangle meshes (Rolland-Neviere et al., TIFS "
       "2014)"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "meshmark 0.1.0");
+  app.set_version_flag("--version", "meshmark " MESHMARK_VERSION);
   int exit_code = cli::kOk;
   cli::register_embed(app, exit_code);
   cli::register_extract(app, exit_code);
@@ -129,7 +129,7 @@ int main(int argc, char** argv) {
   cli::register_calibrate(app, exit_code);
   cli::register_bench(app, exit_code);
   cli::register_registry(app, exit_code);
-  cli::register_trace(app, exit_code);
+  cli::register_trace(app, exit_code, std::vector<std::string>(argv, argv + argc));
   // Every message printed goes through printable() (idempotent: meshmark's errors are escaped
   // already, the others, parse errors included, may quote input).
   app.failure_message([](const CLI::App* a, const CLI::Error& e) {

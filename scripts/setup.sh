@@ -15,6 +15,7 @@ packages=(
   postgresql                                       # a real server for the registry's tests
   libopenmpi-dev openmpi-bin                       # distributed benchmark campaigns (mpirun)
   librsvg2-bin                                     # campaign figures: SVG to PNG
+  chromium libpng-dev                              # the trace report's rendering test
   libcgal-dev libcgal-demo                         # CGAL, and its real meshes (data.tar.gz)
   clang libclang-rt-14-dev                         # libFuzzer and sanitizers (scripts/fuzz.sh)
   python3                                          # small helper scripts

@@ -13,6 +13,7 @@
 #include "meshmark/attack.h"
 #include "meshmark/campaign.h"
 #include "meshmark/io.h"
+#include "svg_markup.h"
 
 namespace meshmark {
 
@@ -28,38 +29,6 @@ struct Curve {
 const char* kColors[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd",
                          "#ff7f0e", "#8c564b", "#e377c2", "#17becf"};
 const char* kDashes[] = {"", "6,3", "2,3", "8,3,2,3", "", "6,3", "2,3", "8,3,2,3"};
-
-std::string escape(const std::string& s) {
-  std::string out;
-  for (const char c : s) {
-    if (c == '<')
-      out += "&lt;";
-    else if (c == '>')
-      out += "&gt;";
-    else if (c == '&')
-      out += "&amp;";
-    else
-      out += c;
-  }
-  return out;
-}
-
-// "Nice" tick values covering [lo, hi].
-std::vector<double> ticks(double lo, double hi) {
-  if (!(hi > lo)) return {lo};
-  const double raw = (hi - lo) / 5;
-  const double mag = std::pow(10, std::floor(std::log10(raw)));
-  double step = mag;
-  for (const double f : {1.0, 2.0, 2.5, 5.0, 10.0})
-    if (f * mag >= raw) {
-      step = f * mag;
-      break;
-    }
-  std::vector<double> t;
-  for (double x = std::ceil(lo / step - 1e-9) * step; x <= hi + 1e-9 * step; x += step)
-    t.push_back(std::abs(x) < 1e-12 * step ? 0.0 : x);
-  return t;
-}
 
 // One panel: median BER in [0, 0.5] against the attack's strength, a curve per variant.
 std::string panel(double x0, double y0, double w, double h, const std::string& title,
@@ -80,23 +49,23 @@ std::string panel(double x0, double y0, double w, double h, const std::string& t
   s += fmt::format(
       "<text x='{:.1f}' y='{:.1f}' font-size='14' text-anchor='middle' "
       "font-weight='bold'>{}</text>\n",
-      x0 + ml + pw / 2, y0 + 18, escape(title));
+      x0 + ml + pw / 2, y0 + 18, detail::xml_escape(title));
   s += fmt::format(
       "<rect x='{:.1f}' y='{:.1f}' width='{:.1f}' height='{:.1f}' fill='none' "
       "stroke='#444'/>\n",
       x0 + ml, y0 + mt, pw, ph);
-  for (const double t : ticks(0, top)) {
+  for (const double t : detail::nice_ticks(0, top)) {
     s += fmt::format("<line x1='{:.1f}' y1='{:.1f}' x2='{:.1f}' y2='{:.1f}' stroke='#ddd'/>\n",
                      x0 + ml, Y(t), x0 + ml + pw, Y(t));
     s += fmt::format("<text x='{:.1f}' y='{:.1f}' font-size='11' text-anchor='end'>{:g}</text>\n",
                      x0 + ml - 4, Y(t) + 4, t);
   }
-  for (const double t : ticks(lo, hi))
+  for (const double t : detail::nice_ticks(lo, hi))
     s +=
         fmt::format("<text x='{:.1f}' y='{:.1f}' font-size='11' text-anchor='middle'>{:g}</text>\n",
                     X(t), y0 + mt + ph + 16, t);
   s += fmt::format("<text x='{:.1f}' y='{:.1f}' font-size='12' text-anchor='middle'>{}</text>\n",
-                   x0 + ml + pw / 2, y0 + h - 8, escape(xlabel));
+                   x0 + ml + pw / 2, y0 + h - 8, detail::xml_escape(xlabel));
   s += fmt::format(
       "<text x='{:.1f}' y='{:.1f}' font-size='12' text-anchor='middle' "
       "transform='rotate(-90 {:.1f} {:.1f})'>median BER</text>\n",
@@ -120,7 +89,7 @@ std::string panel(double x0, double y0, double w, double h, const std::string& t
         "stroke-width='2' stroke-dasharray='{}'/>\n",
         lx, ly - 4, lx + 22, ly - 4, color, kDashes[k % 8]);
     s += fmt::format("<text x='{:.1f}' y='{:.1f}' font-size='11'>{}</text>\n", lx + 26, ly,
-                     escape(c.name));
+                     detail::xml_escape(c.name));
   }
   return s;
 }

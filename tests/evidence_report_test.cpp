@@ -1,0 +1,302 @@
+// The HTML evidence report of a trace: well formed, hostile labels escaped, what it states is
+// what it was given, the drawing bounded on a large mesh, the command it prints reproduces it
+// byte for byte, and headless Chromium renders it to a picture that is not blank.
+
+#include <gtest/gtest.h>
+#include <png.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+
+#include "meshmark/attack.h"
+#include "meshmark/embed.h"
+#include "meshmark/evidence_report.h"
+#include "meshmark/io.h"
+#include "meshmark/variant.h"
+#include "meshmark/watermark.h"
+#include "test_data.h"
+
+namespace meshmark {
+namespace {
+
+const std::string kHostile = "<script>alert(1)</script> & \"friends\"";
+
+// spot, VRS: 20 copies issued (records only); the copy of the hostile label's ID is embedded,
+// simplified to 60 % of its faces and traced.
+struct Case {
+  Mesh original, leak;
+  TraceResult result;
+  EvidenceContext context;
+};
+
+const Case& spot_case() {
+  static const Case c = [] {
+    Case c;
+    c.original = read_mesh(test::shared_mesh("spot.obj"));
+    const Key key = key_from_passphrase("report");
+    EmbedOptions o;
+    o.variant = parse_variant("VRS");
+    o.strengths = mark_strengths(key, 64, true, o.strength, 0.25);
+    std::vector<IssuedCopy> issued;
+    for (std::uint64_t id = 300; id < 320; ++id) {
+      IssuedCopy copy;
+      copy.id = id;
+      copy.buyer = id == 307 ? kHostile : "buyer " + std::to_string(id);
+      copy.variant = "VRS";
+      copy.strength_spread = 0.25;
+      copy.key_fingerprint = key_fingerprint(key);
+      issued.push_back(copy);
+    }
+    const EmbedResult e = embed(c.original.V, c.original.F, id_bins(IdCode(), 307, key), o);
+    Mesh marked = c.original;
+    marked.V = e.V;
+    c.leak = apply_attack_chain(marked, parse_attack_chain("simplify:0.6"), 3);
+    c.result = trace(c.leak, c.original, issued, key);
+    c.context.threshold = 1e-6;
+    c.context.leaked = {"leak & <copy>.obj", std::string(64, 'a')};
+    c.context.original = {"spot.obj", std::string(64, 'b')};
+    c.context.registry = {"shop.db", std::string(64, 'c')};
+    c.context.key_fingerprint = key_fingerprint(key);
+    c.context.command = "cd /x && meshmark trace 'leak & <copy>.obj' --report r.html";
+    c.context.version = "meshmark test";
+    c.context.settings = {{"erase distance", "0.005 <of the diagonal>"}};
+    return c;
+  }();
+  return c;
+}
+
+std::size_t count(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (std::size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+  return n;
+}
+
+// The first element that does not nest (an opening tag closed by another name, or left open),
+// or "" when every element is closed in order. Void elements (meta, br) and <.../> close
+// themselves; <!DOCTYPE> is skipped.
+std::string nesting_error(const std::string& html) {
+  std::vector<std::string> open;
+  for (std::size_t at = html.find('<'); at != std::string::npos; at = html.find('<', at + 1)) {
+    if (html.compare(at, 2, "<!") == 0) continue;
+    const std::size_t end = html.find('>', at);
+    if (end == std::string::npos) return "unterminated tag";
+    const std::string tag = html.substr(at + 1, end - at - 1);
+    const bool closing = tag[0] == '/';
+    const std::string name = tag.substr(closing, tag.find_first_of(" \n/>", 1) - closing);
+    if (closing) {
+      if (open.empty() || open.back() != name) return "</" + name + "> closes nothing open";
+      open.pop_back();
+    } else if (tag.back() != '/' && name != "meta" && name != "br") {
+      open.push_back(name);
+    }
+  }
+  return open.empty() ? "" : "<" + open.back() + "> left open";
+}
+
+TEST(EvidenceReport, WellFormedEscapedAndStatesWhatItWasGiven) {
+  MESHMARK_REQUIRE(test::shared_mesh("spot.obj"), "spot.obj");
+  const Case& c = spot_case();
+  ASSERT_EQ(c.result.status, TraceStatus::Named) << c.result.message;
+  ASSERT_EQ(c.result.named[0].copy.buyer, kHostile);
+  EvidenceReportOptions o;
+  o.max_triangles = 500;
+  const std::string html = evidence_report_html(c.leak, c.original, c.result, c.context, o);
+  EXPECT_EQ(nesting_error(html), "");
+  EXPECT_EQ(count(html, "<svg"), count(html, "</svg>"));
+  EXPECT_EQ(count(html, "<svg"), 4u) << "two views, the scores, the bits";
+  // Nothing from the input is markup.
+  EXPECT_EQ(html.find("<script"), std::string::npos);
+  EXPECT_NE(html.find("&lt;script&gt;alert(1)&lt;/script&gt; &amp; &quot;friends&quot;"),
+            std::string::npos);
+  EXPECT_NE(html.find("leak &amp; &lt;copy&gt;.obj"), std::string::npos);
+  EXPECT_NE(html.find("0.005 &lt;of the diagonal&gt;"), std::string::npos);
+  EXPECT_NE(html.find("<pre>cd /x &amp;&amp; meshmark trace &#39;leak &amp; &lt;copy&gt;.obj&#39; "
+                      "--report r.html</pre>"),
+            std::string::npos);
+  // What it was given.
+  for (const std::string& hash : {std::string(64, 'a'), std::string(64, 'b'), std::string(64, 'c'),
+                                  c.context.key_fingerprint})
+    EXPECT_NE(html.find(hash), std::string::npos) << hash;
+  EXPECT_NE(html.find("threshold 1e-06"), std::string::npos);
+  EXPECT_NE(html.find(">named</b>"), std::string::npos);
+  EXPECT_NE(html.find("<td class='num'>307</td>"), std::string::npos) << "the named ID";
+  EXPECT_EQ(count(html, "<title>bit "), 64u) << "one mark per payload bit";
+  // The views draw each mesh through at most max_triangles triangles, in both views.
+  const std::size_t original = count(html, "<path class='o"), leak = count(html, "<path class='l");
+  EXPECT_LE(original, 2u * o.max_triangles);
+  EXPECT_LE(leak, 2u * o.max_triangles);
+  EXPECT_GE(original, 2u * o.max_triangles / 2) << "clustered far below the budget";
+  EXPECT_GE(leak, 2u * o.max_triangles / 2) << "clustered far below the budget";
+}
+
+TEST(EvidenceReport, StaysSmallOnAMeshOfMoreThan200kFaces) {
+  const std::string path = test::shared_mesh("igea.ply");
+  MESHMARK_REQUIRE(path, "igea.ply");
+  const Mesh igea = read_mesh(path);
+  ASSERT_GT(igea.F.rows(), 200000);
+  const EvidenceReportOptions o;
+  const Mesh drawn = cluster_for_display(igea.V, igea.F, o.max_triangles);
+  EXPECT_LE(drawn.F.rows(), o.max_triangles);
+  EXPECT_GE(drawn.F.rows(), o.max_triangles / 2);
+  // Clustering keeps the shape: the bounding box within 2 % of the diagonal.
+  const double d = bounding_box_diagonal(igea.V);
+  EXPECT_LT((drawn.V.colwise().minCoeff() - igea.V.colwise().minCoeff()).norm(), 0.02 * d);
+  EXPECT_LT((drawn.V.colwise().maxCoeff() - igea.V.colwise().maxCoeff()).norm(), 0.02 * d);
+  TraceResult r;  // the views only: a leak that is the original
+  r.registration.status = RegistrationStatus::Registered;
+  const auto start = std::chrono::steady_clock::now();
+  const std::string html = evidence_report_html(igea, igea, r, EvidenceContext{}, o);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  constexpr std::size_t kMaxBytes = 3u << 20;
+  EXPECT_LT(html.size(), kMaxBytes);
+  RecordProperty("report_bytes", std::to_string(html.size()));
+  RecordProperty("report_seconds", std::to_string(seconds));
+}
+
+// ------------------------------------------------------------------ the command line
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+std::string unescape(std::string s) {
+  for (const auto& [entity, c] : {std::pair<std::string, std::string>{"&lt;", "<"},
+                                  {"&gt;", ">"},
+                                  {"&quot;", "\""},
+                                  {"&#39;", "'"},
+                                  {"&amp;", "&"}})
+    for (std::size_t at = s.find(entity); at != std::string::npos; at = s.find(entity, at))
+      s.replace(at, entity.size(), c), at += c.size();
+  return s;
+}
+
+TEST(EvidenceReport, CommandLineWritesAReportWhoseCommandReproducesIt) {
+  const std::string spot = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir();
+  const std::string db = dir + "/shop.db", key = dir + "/shop.key";
+  std::ofstream(key) << "the shop's key bytes\n";
+  std::ofstream manifest(dir + "/m.txt");
+  for (int i = 0; i < 6; ++i)
+    manifest << spot << " " << dir << "/c" << i << ".obj id:" << 40 + 37 * i << " buyer" << i
+             << "\n";
+  manifest.close();
+  test::CliRun r = test::run_cli("embed --batch " + dir + "/m.txt --key-file " + key +
+                                 " --registry " + db + " --variant VRS");
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = test::run_cli("attack simplify:0.7 " + dir + "/c3.obj " + dir + "/leak.obj");
+  ASSERT_EQ(r.code, 0) << r.out;
+  // A folder whose name needs quoting.
+  const std::string out = dir + "/it's a report";
+  std::filesystem::create_directories(out);
+  const std::string report = out + "/evidence.html";
+  const std::string args = " --original " + spot + " --registry " + db + " --key-file " + key +
+                           " --report \"" + report + "\"";
+  r = test::run_cli("trace " + dir + "/leak.obj" + args);
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string html = read_text(report);
+  EXPECT_NE(html.find("buyer3"), std::string::npos);
+  EXPECT_NE(html.find(content_hash(read_text(dir + "/leak.obj"))), std::string::npos);
+  EXPECT_NE(html.find(content_hash(read_text(spot))), std::string::npos);
+  // The command in the report, run by a shell from elsewhere, writes the same bytes.
+  const std::size_t a = html.find("<pre>") + 5, b = html.find("</pre>");
+  ASSERT_LT(a, b);
+  std::filesystem::rename(report, report + ".first");
+  const std::string command = unescape(html.substr(a, b - a));
+  ASSERT_EQ(std::system(("cd / && " + command + " > /dev/null").c_str()), 0) << command;
+  EXPECT_EQ(read_text(report), html) << command;
+  // No buyer, and no candidates (another key, a passphrase): reports too, exit 6; the
+  // passphrase is never written into one.
+  r = test::run_cli("trace " + spot + " --original " + spot + " --registry " + db + " --key-file " +
+                    key + " --report " + dir + "/none.html");
+  EXPECT_EQ(r.code, 6) << r.out;
+  EXPECT_NE(read_text(dir + "/none.html").find("<b>no-buyer</b>"), std::string::npos);
+  r = test::run_cli("trace " + dir + "/leak.obj --original " + spot + " --registry " + db +
+                    " --key studio --report " + dir + "/other-key.html");
+  EXPECT_EQ(r.code, 6) << r.out;
+  const std::string other = read_text(dir + "/other-key.html");
+  EXPECT_NE(other.find("<b>no-candidates</b>"), std::string::npos);
+  EXPECT_EQ(other.find("studio"), std::string::npos);
+  EXPECT_NE(other.find("--key &quot;$MESHMARK_KEY&quot;"), std::string::npos);
+  // Unreadable input: no report.
+  r = test::run_cli("trace " + dir + "/missing.obj" + " --original " + spot + " --registry " + db +
+                    " --key-file " + key + " --report " + dir + "/missing.html");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/missing.html"));
+  // Nor over an input.
+  r = test::run_cli("trace " + dir + "/leak.obj --original " + spot + " --registry " + db +
+                    " --key-file " + key + " --report " + dir + "/leak.obj");
+  EXPECT_EQ(r.code, 1) << r.out;
+}
+
+// ------------------------------------------------------------------ rendering
+
+struct Picture {
+  int width = 0, height = 0;
+  std::vector<std::uint8_t> rgb;
+};
+
+Picture read_png(const std::string& path) {
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  Picture p;
+  if (!png_image_begin_read_from_file(&image, path.c_str())) return p;
+  image.format = PNG_FORMAT_RGB;
+  p.rgb.resize(PNG_IMAGE_SIZE(image));
+  if (!png_image_finish_read(&image, nullptr, p.rgb.data(), 0, nullptr)) return {};
+  p.width = static_cast<int>(image.width), p.height = static_cast<int>(image.height);
+  return p;
+}
+
+TEST(EvidenceReport, HeadlessChromiumRendersItToAPictureThatIsNotBlank) {
+  MESHMARK_REQUIRE(test::shared_mesh("spot.obj"), "spot.obj");
+  if (std::system("command -v chromium > /dev/null 2>&1") != 0)
+    GTEST_SKIP() << "skipped: chromium is not on PATH (Debian's chromium package)";
+  const Case& c = spot_case();
+  const std::string dir = test::scratch_dir();
+  write_evidence_report(dir + "/evidence.html", c.leak, c.original, c.result, c.context);
+  const std::string png = dir + "/shot.png";
+  const std::string cmd =
+      "timeout 120 chromium --headless --no-sandbox --disable-gpu "
+      "--user-data-dir=" +
+      dir + "/profile --screenshot=" + png + " --window-size=1200,1600 file://" + dir +
+      "/evidence.html "
+      "> " +
+      dir + "/chromium.log 2>&1";
+  const auto start = std::chrono::steady_clock::now();
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << read_text(dir + "/chromium.log");
+  RecordProperty(
+      "chromium_seconds",
+      std::to_string(
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()));
+  const Picture p = read_png(png);
+  ASSERT_EQ(p.width, 1200);
+  ASSERT_EQ(p.height, 1600);
+  // Not blank: many pixels off white, many colours (text, plots, 64 mesh shades), and the
+  // leak's orange over the original's grey (the views rendered).
+  std::size_t ink = 0, orange = 0;
+  std::set<std::uint32_t> colours;
+  for (std::size_t k = 0; k + 2 < p.rgb.size(); k += 3) {
+    const int r = p.rgb[k], g = p.rgb[k + 1], b = p.rgb[k + 2];
+    ink += std::min({r, g, b}) < 235;
+    orange += r > g + 30 && g > b + 30;
+    colours.insert(static_cast<std::uint32_t>(r << 16 | g << 8 | b));
+  }
+  const double pixels = static_cast<double>(p.width) * p.height;
+  constexpr double kMinInk = 0.05, kMinOrange = 0.01;
+  constexpr std::size_t kMinColours = 100;
+  EXPECT_GT(ink / pixels, kMinInk);
+  EXPECT_GT(orange / pixels, kMinOrange);
+  EXPECT_GT(colours.size(), kMinColours);
+  RecordProperty("ink_fraction", std::to_string(ink / pixels));
+  RecordProperty("orange_fraction", std::to_string(orange / pixels));
+  RecordProperty("colours", std::to_string(colours.size()));
+}
+
+}  // namespace
+}  // namespace meshmark
