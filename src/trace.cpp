@@ -165,6 +165,51 @@ std::vector<std::uint8_t> banded_bits(const std::vector<BitEvidence>& ev, double
   return bits;
 }
 
+// The leak may have been smoothed: the processing of the original that the measured leak
+// resembles best (Laplacian smoothing with lambda 0.3, or Taubin, 1 to 40 iterations; RMS
+// difference of the distances to center over the measured carrier vertices, the quantity the
+// bins are made of: smoothing also slides vertices along the surface, which the measured leak
+// does not show) becomes the reference the shifts are measured from, when it at least halves
+// that difference; its shrinking is then not taken for the mark. A series stops 3 iterations
+// past its best. (Smoothing applied after cropping, decimation or remeshing is smoothing of
+// another mesh, which this does not model.)
+Eigen::MatrixX3d processed_reference(const Mesh& original, const std::vector<std::uint8_t>& carrier,
+                                     const Resampled& m, const Eigen::Vector3d& center,
+                                     std::string& processing) {
+  auto rms = [&](const Eigen::MatrixX3d& P) {
+    double sum = 0;
+    for (Eigen::Index i = 0; i < P.rows(); ++i)
+      if (carrier[i] && m.measured[i]) {
+        const double d =
+            (m.point.row(i).transpose() - center).norm() - (P.row(i).transpose() - center).norm();
+        sum += d * d;
+      }
+    return std::sqrt(sum);
+  };
+  const double unprocessed = rms(original.V);
+  double best = unprocessed;
+  Eigen::MatrixX3d reference = original.V;
+  processing = "none";
+  for (const bool taubin : {false, true}) {
+    Mesh current = original;
+    double series_best = unprocessed;
+    int worse = 0;  // iterations since the series' best: it stops after 3
+    for (int k = 1; k <= 40 && worse < 3; ++k) {
+      current = taubin ? attack_smooth_taubin(current, 1) : attack_smooth_laplacian(current, 1);
+      const double e = rms(current.V);
+      worse = e < series_best ? 0 : worse + 1;
+      series_best = std::min(series_best, e);
+      if (e < best) {
+        best = e;
+        reference = current.V;
+        processing = fmt::format("{} smoothing x {}", taubin ? "Taubin" : "Laplacian", k);
+      }
+    }
+  }
+  if (!(best < 0.5 * unprocessed)) reference = original.V, processing = "none";
+  return reference;
+}
+
 }  // namespace
 
 Resampled resample_at_original(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
@@ -233,34 +278,9 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     groups[{mine[k].variant.empty() ? 'D' : mine[k].variant[0], mine[k].bits, mine[k].id_bits,
             mine[k].strength, mine[k].strength_spread}]
         .push_back(k);
-  // A leak with the original's faces may have been smoothed: the processing of the original
-  // that the leak resembles best (Laplacian smoothing with lambda 0.3, or Taubin, 1 to 40
-  // iterations) becomes the reference the shifts are measured from, when it at least halves
-  // the RMS distance; its shrinking is then not taken for the mark.
   r.seconds.registration = since(t);
-  t = Clock::now();
   Eigen::MatrixX3d reference = original.V;
   r.processing = "none";
-  if (leaked.V.rows() == original.V.rows() && leaked.F.rows() == original.F.rows() &&
-      leaked.F == original.F) {
-    auto rms = [&](const Eigen::MatrixX3d& P) { return std::sqrt((VL - P).squaredNorm()); };
-    const double unprocessed = rms(original.V);
-    double best = unprocessed;
-    for (const bool taubin : {false, true}) {
-      Mesh current = original;
-      for (int k = 1; k <= 40; ++k) {
-        current = taubin ? attack_smooth_taubin(current, 1) : attack_smooth_laplacian(current, 1);
-        const double e = rms(current.V);
-        if (e < best) {
-          best = e;
-          reference = current.V;
-          r.processing = fmt::format("{} smoothing x {}", taubin ? "Taubin" : "Laplacian", k);
-        }
-      }
-    }
-    if (!(best < 0.5 * unprocessed)) reference = original.V, r.processing = "none";
-  }
-  r.seconds.reference = since(t);
   bool first = true;
   for (const auto& [group, members] : groups) {
     const auto& [letter, bits, id_bits, strength, spread] = group;
@@ -272,6 +292,11 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     const Resampled m = resample_at_original(VL, leaked.F, original.V, original.F, center.point,
                                              o.erase_distance * diagonal);
     r.seconds.resampling += since(t);
+    if (first) {
+      t = Clock::now();
+      reference = processed_reference(original, carrier, m, center.point, r.processing);
+      r.seconds.reference = since(t);
+    }
     t = Clock::now();
     double gamma = 1;
     const std::vector<double> alpha = mark_strengths(key, bits, true, strength, spread);

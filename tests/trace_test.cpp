@@ -123,8 +123,8 @@ TEST(Trace, NamesTheLeakerAfterRealProcessingAndNeverAnInnocent) {
   const Shop& s = shop();
   // Each of these defeats the blind decoder on the horse (tested below), and trace names the
   // buyer after every one.
-  const std::vector<std::string> named_after = {"simplify:0.3", "loop:1",  "sqrt3:1",
-                                                "taubin:10",    "quant:8", "crop:0.5"};
+  const std::vector<std::string> named_after = {"simplify:0.3", "loop:1",   "sqrt3:1", "taubin:10",
+                                                "quant:8",      "crop:0.5", "remesh:1"};
   int blind_lost = 0;
   for (const std::string& attack : named_after) {
     SCOPED_TRACE(attack);
@@ -140,6 +140,127 @@ TEST(Trace, NamesTheLeakerAfterRealProcessingAndNeverAnInnocent) {
   }
   EXPECT_GE(blind_lost, 4) << "the blind decoder was expected to fail on most of these";
   RecordProperty("blind_decoder_lost", blind_lost);
+}
+
+// A random similarity (rotation, translation, scale up to 2) before or after real processing,
+// and chains of two kinds of processing: the leaker is still named, alone.
+TEST(Trace, NamesTheLeakerAfterASimilarityAndChainsOfTwo) {
+  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  const Shop& s = shop();
+  for (const std::string attack :
+       {"similarity:2,simplify:0.3", "smooth:10,similarity:2", "similarity:2,crop:0.5",
+        "simplify:0.5,noise:0.001", "remesh:1,quant:10", "crop:0.3,noise:0.001"}) {
+    SCOPED_TRACE(attack);
+    const Mesh leak = apply_attack_chain(s.marked, parse_attack_chain(attack), 11);
+    const TraceResult r = trace(leak, s.original, s.issued, s.key);
+    ASSERT_EQ(r.status, TraceStatus::Named) << r.message;
+    ASSERT_EQ(r.named.size(), 1u) << r.message;
+    EXPECT_EQ(r.named[0].copy.id, s.leaker);
+  }
+}
+
+// The per-bit evidence of an unprocessed copy: every bit measured, read as the leaker's
+// codeword bit, and the measured shift nearer to that bit's expected shift.
+TEST(Trace, PerBitEvidenceOfAnUnprocessedCopyIsTheCodeword) {
+  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  const Shop& s = shop();
+  const TraceResult r = trace(s.marked, s.original, s.issued, s.key);
+  const Payload codeword = IdCode().encode(s.leaker, s.key);
+  ASSERT_EQ(r.bits.size(), codeword.bits.size());
+  for (std::size_t j = 0; j < r.bits.size(); ++j) {
+    const BitEvidence& e = r.bits[j];
+    EXPECT_GT(e.vertices, 0) << j;
+    EXPECT_EQ(e.bit, codeword.bits[j]) << j;
+    const double to_one = std::abs(e.shift - e.if_one), to_zero = std::abs(e.shift - e.if_zero);
+    EXPECT_EQ(to_one < to_zero, codeword.bits[j] == 1) << j;
+  }
+}
+
+// Averages of two copies (consecutive IDs, and two far apart): both colluders named, or one,
+// never an innocent, also after processing.
+TEST(Trace, AveragesOfTwoCopiesNameColludersOnly) {
+  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  const Shop& s = shop();
+  const IdCode code;
+  EmbedOptions o;
+  o.variant = parse_variant("VRS");
+  o.strengths = mark_strengths(s.key, 64, true, o.strength, 0.25);
+  int both = 0;
+  for (const std::uint64_t other : {s.leaker + 1, std::uint64_t{1017}}) {
+    const EmbedResult e = embed(s.original.V, s.original.F, id_bins(code, other, s.key), o);
+    ASSERT_EQ(e.status, EmbedStatus::Embedded);
+    Mesh average = s.original;
+    average.V = 0.5 * (s.marked.V + e.V);
+    for (const std::string attack : {"", "simplify:0.5", "noise:0.001"}) {
+      SCOPED_TRACE(std::to_string(other) + " " + attack);
+      const Mesh leak =
+          attack.empty() ? average : apply_attack_chain(average, parse_attack_chain(attack), 5);
+      const TraceResult r = trace(leak, s.original, s.issued, s.key);
+      EXPECT_EQ(r.status, TraceStatus::Named) << r.message;
+      for (const CandidateScore& c : r.named)
+        EXPECT_TRUE(c.copy.id == s.leaker || c.copy.id == other) << c.copy.id;
+      both += r.named.size() == 2;
+    }
+  }
+  RecordProperty("both_colluders_named", both);
+  EXPECT_GE(both, 3) << "of 6 averages";
+}
+
+// The p-value model against 10^5 innocent scores: readings from ten leaks (processed copies of
+// the leaker, an average of two, the unmarked original, a copy under another key), each scored
+// against 10,000 consecutive innocent IDs 0..10,001 around the leaker's (not the leakers'). Given a
+// reading, an innocent's codeword is independent of it, so the share of innocents with
+// p <= x must not exceed x (within 5 binomial standard deviations), and, the three readings'
+// Bonferroni factor and the discreteness aside, should not be far below it (at least x / 10).
+// No innocent is named.
+TEST(Trace, InnocentScoresFollowThePValueModel) {
+  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  const Shop& s = shop();
+  const IdCode code;
+  EmbedOptions o;
+  o.variant = parse_variant("VRS");
+  o.strengths = mark_strengths(s.key, 64, true, o.strength, 0.25);
+  const EmbedResult second =
+      embed(s.original.V, s.original.F, id_bins(code, s.leaker + 1, s.key), o);
+  const EmbedResult foreign =
+      embed(s.original.V, s.original.F, id_bins(code, s.leaker, key_from_passphrase("other")), o);
+  std::vector<Mesh> leaks;
+  for (const std::string attack :
+       {"simplify:0.3", "remesh:1", "smooth:10", "noise:0.003", "crop:0.5", "loop:1", "quant:7"})
+    leaks.push_back(apply_attack_chain(s.marked, parse_attack_chain(attack), 13));
+  leaks.push_back(s.original);
+  leaks.push_back(s.original), leaks.back().V = 0.5 * (s.marked.V + second.V);
+  leaks.push_back(s.original), leaks.back().V = foreign.V;
+  std::vector<IssuedCopy> innocents;
+  for (std::uint64_t id = 0; id < 10002; ++id) {
+    if (id == s.leaker || id == s.leaker + 1) continue;
+    IssuedCopy c = s.issued.front();
+    c.id = id;
+    innocents.push_back(c);
+  }
+  ASSERT_EQ(innocents.size(), 10000u);
+  const std::vector<double> levels = {1e-1, 1e-2, 1e-3, 1e-4};
+  std::vector<std::size_t> below(levels.size(), 0);
+  std::size_t scores = 0;
+  double smallest = 1;
+  for (const Mesh& leak : leaks) {
+    const TraceResult r = trace(leak, s.original, innocents, s.key);
+    EXPECT_EQ(r.status, TraceStatus::NoBuyer) << r.message;
+    for (const CandidateScore& c : r.ranking) {
+      ++scores;
+      smallest = std::min(smallest, c.p_value);
+      for (std::size_t k = 0; k < levels.size(); ++k) below[k] += c.p_value <= levels[k];
+    }
+  }
+  ASSERT_EQ(scores, 100000u);
+  for (std::size_t k = 0; k < levels.size(); ++k) {
+    const double expected = levels[k] * static_cast<double>(scores);
+    SCOPED_TRACE(levels[k]);
+    EXPECT_LE(static_cast<double>(below[k]), expected + 5 * std::sqrt(expected) + 1);
+    if (levels[k] >= 1e-3) EXPECT_GE(static_cast<double>(below[k]), expected / 10);
+    RecordProperty("innocents_below_" + std::to_string(k), static_cast<int>(below[k]));
+  }
+  EXPECT_GT(smallest * 10000, 1e-6) << "an innocent would have been named";
 }
 
 TEST(Trace, NamesNobodyForAnUnmarkedMeshAnotherKeyOrAnotherLeak) {
