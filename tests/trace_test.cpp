@@ -90,19 +90,26 @@ struct Shop {
   std::uint64_t leaker = 1500;
 };
 
+// The copy of `original` carrying `id` under `key`, as the shop issues it (VRS, 64 bits,
+// strength 0.05, spread 0.25).
+Mesh issued_copy(const Mesh& original, std::uint64_t id, const Key& key) {
+  EmbedOptions o;
+  o.variant = parse_variant("VRS");
+  o.strengths = mark_strengths(key, 64, true, o.strength, 0.25);
+  const EmbedResult e = embed(original.V, original.F, id_bins(IdCode(), id, key), o);
+  EXPECT_EQ(e.status, EmbedStatus::Embedded);
+  Mesh copy = original;
+  copy.V = e.V;
+  return copy;
+}
+
 // horse, VRS: 1,000 copies issued to consecutive IDs 1000..1999 (records only; the copy of
 // 1500 is embedded for real).
 const Shop& shop() {
   static const Shop s = [] {
     Shop s;
     s.original = read_mesh(test::shared_mesh("horse.ply"));
-    const IdCode code;
-    EmbedOptions o;
-    o.variant = parse_variant("VRS");
-    o.strengths = mark_strengths(s.key, 64, true, o.strength, 0.25);
-    const EmbedResult e = embed(s.original.V, s.original.F, id_bins(code, s.leaker, s.key), o);
-    s.marked = s.original;
-    s.marked.V = e.V;
+    s.marked = issued_copy(s.original, s.leaker, s.key);
     for (std::uint64_t id = 1000; id < 2000; ++id) {
       IssuedCopy c;
       c.id = id;
@@ -181,16 +188,10 @@ TEST(Trace, PerBitEvidenceOfAnUnprocessedCopyIsTheCodeword) {
 TEST(Trace, AveragesOfTwoCopiesNameColludersOnly) {
   MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
   const Shop& s = shop();
-  const IdCode code;
-  EmbedOptions o;
-  o.variant = parse_variant("VRS");
-  o.strengths = mark_strengths(s.key, 64, true, o.strength, 0.25);
   int both = 0;
   for (const std::uint64_t other : {s.leaker + 1, std::uint64_t{1017}}) {
-    const EmbedResult e = embed(s.original.V, s.original.F, id_bins(code, other, s.key), o);
-    ASSERT_EQ(e.status, EmbedStatus::Embedded);
     Mesh average = s.original;
-    average.V = 0.5 * (s.marked.V + e.V);
+    average.V = 0.5 * (s.marked.V + issued_copy(s.original, other, s.key).V);
     for (const std::string attack : {"", "simplify:0.5", "noise:0.001"}) {
       SCOPED_TRACE(std::to_string(other) + " " + attack);
       const Mesh leak =
@@ -216,14 +217,8 @@ TEST(Trace, AveragesOfTwoCopiesNameColludersOnly) {
 TEST(Trace, InnocentScoresFollowThePValueModel) {
   MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
   const Shop& s = shop();
-  const IdCode code;
-  EmbedOptions o;
-  o.variant = parse_variant("VRS");
-  o.strengths = mark_strengths(s.key, 64, true, o.strength, 0.25);
-  const EmbedResult second =
-      embed(s.original.V, s.original.F, id_bins(code, s.leaker + 1, s.key), o);
-  const EmbedResult foreign =
-      embed(s.original.V, s.original.F, id_bins(code, s.leaker, key_from_passphrase("other")), o);
+  const Mesh second = issued_copy(s.original, s.leaker + 1, s.key);
+  const Mesh foreign = issued_copy(s.original, s.leaker, key_from_passphrase("other"));
   std::vector<Mesh> leaks;
   for (const std::string attack :
        {"simplify:0.3", "remesh:1", "smooth:10", "noise:0.003", "crop:0.5", "loop:1", "quant:7"})
@@ -270,13 +265,7 @@ TEST(Trace, NamesNobodyForAnUnmarkedMeshAnotherKeyOrAnotherLeak) {
   TraceResult r = trace(s.original, s.original, s.issued, s.key);
   EXPECT_EQ(r.status, TraceStatus::NoBuyer) << r.message;
   const Key other = key_from_passphrase("another shop");
-  const IdCode code;
-  EmbedOptions o;
-  o.variant = parse_variant("VRS");
-  const EmbedResult e = embed(s.original.V, s.original.F, id_bins(code, 1500, other), o);
-  Mesh foreign = s.original;
-  foreign.V = e.V;
-  r = trace(foreign, s.original, s.issued, s.key);
+  r = trace(issued_copy(s.original, 1500, other), s.original, s.issued, s.key);
   EXPECT_EQ(r.status, TraceStatus::NoBuyer) << r.message;
   for (const CandidateScore& c : r.ranking) EXPECT_GT(c.corrected_p, 1e-6);
   // Candidates under another key are not candidates.
