@@ -315,6 +315,39 @@ TEST(RegistryPostgres, GivesWhatSqliteGivesAndRefusesTheSameIds) {
   EXPECT_EQ(lists[0][1].issued_at, "2026-12-01T00:00:00Z");
 }
 
+// The same batch issued into SQLite and into PostgreSQL, and a processed leak of one copy traced
+// against each: the two JSON reports are the same, and name that copy's buyer.
+TEST(RegistryPostgres, TraceGivesTheSameResultWithEitherRegistry) {
+  MESHMARK_REQUIRE_POSTGRES();
+  const std::string spot = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string pg = PostgresServer::get().fresh_database("trace");
+  const std::string dir = test::scratch_dir();
+  const std::string lite = dir + "/shop.db";
+  std::filesystem::remove(lite);
+  std::ofstream manifest(dir + "/m.txt");
+  for (int i = 0; i < 8; ++i)
+    manifest << spot << " " << dir << "/c" << i << ".obj id:" << 500 + i << " buyer" << i << "\n";
+  manifest.close();
+  std::vector<std::string> reports;
+  for (const std::string& where : {lite, pg}) {
+    test::CliRun r = test::run_cli("embed --batch " + dir + "/m.txt --key studio --variant VRS " +
+                                   "--registry '" + where + "'");
+    ASSERT_EQ(r.code, 0) << r.out;
+    if (where == lite) {
+      r = test::run_cli("attack similarity:2,simplify:0.6 " + dir + "/c5.obj " + dir +
+                        "/leak.obj");
+      ASSERT_EQ(r.code, 0) << r.out;
+    }
+    r = test::run_cli("trace " + dir + "/leak.obj --original " + spot + " --registry '" + where +
+                      "' --key studio --json");
+    EXPECT_EQ(r.code, 0) << r.out;
+    EXPECT_NE(r.out.find("\"buyer\": \"buyer5\""), std::string::npos) << r.out;
+    reports.push_back(r.out);
+  }
+  EXPECT_EQ(reports[0], reports[1]);
+}
+
 TEST(RegistryPostgres, ConcurrentWritersLoseNothingAndNeverShareAnId) {
   MESHMARK_REQUIRE_POSTGRES();
   const std::string pg = PostgresServer::get().fresh_database("concurrent");
