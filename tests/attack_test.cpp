@@ -4,6 +4,7 @@
 #include <sys/resource.h>
 
 #include <Eigen/Geometry>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -12,6 +13,7 @@
 #include <set>
 
 #include "meshmark/attack.h"
+#include "meshmark/closest_point.h"
 #include "meshmark/error.h"
 #include "meshmark/io.h"
 #include "test_data.h"
@@ -108,6 +110,40 @@ TEST(Attack, SimplificationReachesTheFaceTargetWithinOnePercent) {
       EXPECT_LT(s.V.rows(), m.V.rows());
     }
   }
+}
+
+// Isotropic remeshing: every vertex on the input surface (the distance to it computed by the
+// closest-point index, to 1e-6 of the diagonal), the mean edge length within 20 % of the
+// target, and a new sampling (not the input's vertices).
+TEST(Attack, RemeshingKeepsTheSurfaceAndReachesTheEdgeLength) {
+  for (const std::string& path : {shared_mesh("bunny.ply"), cgal_mesh("fandisk.off")}) {
+    if (path.empty()) continue;
+    SCOPED_TRACE(path);
+    const Mesh m = real(path);
+    auto mean_edge = [](const Mesh& mesh) {
+      double sum = 0;
+      for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+        for (int k = 0; k < 3; ++k)
+          sum += (mesh.V.row(mesh.F(f, k)) - mesh.V.row(mesh.F(f, (k + 1) % 3))).norm();
+      return sum / (3.0 * static_cast<double>(mesh.F.rows()));
+    };
+    const double diagonal = (m.V.colwise().maxCoeff() - m.V.colwise().minCoeff()).norm();
+    for (const double factor : {1.0, 2.0}) {
+      const Mesh r = attack_remesh(m, factor);
+      ASSERT_GT(r.F.rows(), 0);
+      const ClosestPoints cp = closest_points(m.V, m.F, r.V);
+      EXPECT_LT(cp.distance.maxCoeff(), 1e-6 * diagonal) << factor;
+      EXPECT_NEAR(mean_edge(r), factor * mean_edge(m), 0.2 * factor * mean_edge(m)) << factor;
+      std::set<std::array<double, 3>> before;
+      for (Eigen::Index i = 0; i < m.V.rows(); ++i)
+        before.insert({m.V(i, 0), m.V(i, 1), m.V(i, 2)});
+      Eigen::Index kept = 0;
+      for (Eigen::Index i = 0; i < r.V.rows(); ++i)
+        kept += before.count({r.V(i, 0), r.V(i, 1), r.V(i, 2)});
+      EXPECT_LT(kept, r.V.rows() / 2) << "most vertices should be new";
+    }
+  }
+  EXPECT_THROW(attack_remesh(Mesh{}, 0.01), InvalidArgumentError);
 }
 
 TEST(Attack, SubdivisionVertexAndFaceCountsOnAClosedMesh) {
