@@ -88,7 +88,7 @@ double position(const BitEvidence& e) {
 // on the confident bins only (those outside the middle band of kBands' widest width), so that
 // bins a mark does not explain (an average of two copies moves the bins where they differ to
 // the middle) do not pull gamma down.
-std::vector<BitEvidence> read_bins(const Eigen::MatrixX3d& VO, const Eigen::MatrixX3d& reference,
+std::vector<BitEvidence> read_bins(const Eigen::MatrixX3d& VO, const Eigen::VectorXd& reference,
                                    const std::vector<std::uint8_t>& carrier, const Histogram& h,
                                    const Resampled& m, const std::vector<double>& alpha,
                                    double& gamma) {
@@ -101,7 +101,7 @@ std::vector<BitEvidence> read_bins(const Eigen::MatrixX3d& VO, const Eigen::Matr
     if (j < 0 || j >= nb) continue;
     const double rho = (m.point.row(i).transpose() - h.center).norm();
     // The reference: the original, or the original processed as the leak seems to have been.
-    sum0[j] += ((reference.row(i).transpose() - h.center).norm() - h.rho_min) / h.step - h.bin[i];
+    sum0[j] += (reference(i) - h.rho_min) / h.step - h.bin[i];
     sum[j] += (rho - h.rho_min) / h.step - h.bin[i];
     ++count[j];
   }
@@ -165,48 +165,76 @@ std::vector<std::uint8_t> banded_bits(const std::vector<BitEvidence>& ev, double
   return bits;
 }
 
+// The distance from center of a surface through P's vertices, where the leak was measured:
+// for a leak measured along rays, where the tangent plane at P_i (normal N_i) crosses the ray
+// from center through the original's vertex i (as the leak's own surface was, see measure());
+// |P_i - center| for a leak measured vertex for vertex, or where the ray runs nearly along the
+// plane. For P = VO both give |VO_i - center|.
+Eigen::VectorXd radii(const Eigen::MatrixX3d& P, const Eigen::MatrixX3d& VO,
+                      const Eigen::MatrixX3d& N, const Resampled& m,
+                      const Eigen::Vector3d& center) {
+  Eigen::VectorXd r(P.rows());
+  for (Eigen::Index i = 0; i < P.rows(); ++i) {
+    const Eigen::Vector3d p = P.row(i).transpose() - center;
+    r(i) = p.norm();
+    if (m.vertexwise) continue;
+    const Eigen::Vector3d u = (VO.row(i).transpose() - center).normalized();
+    const Eigen::Vector3d n = N.row(i).transpose();
+    const double along = n.dot(u);
+    if (std::abs(along) > 0.1) r(i) = n.dot(p) / along;
+  }
+  return r;
+}
+
 // The leak may have been smoothed: the processing of the original that the measured leak
-// resembles best (Laplacian smoothing with lambda 0.3, or Taubin, 1 to 40 iterations; RMS
-// difference of the distances to center over the measured carrier vertices, the quantity the
-// bins are made of: smoothing also slides vertices along the surface, which the measured leak
-// does not show) becomes the reference the shifts are measured from, when it at least halves
-// that difference; its shrinking is then not taken for the mark. A series stops 3 iterations
-// past its best. (Smoothing applied after cropping, decimation or remeshing is smoothing of
-// another mesh, which this does not model.)
-Eigen::MatrixX3d processed_reference(const Mesh& original, const std::vector<std::uint8_t>& carrier,
-                                     const Resampled& m, const Eigen::Vector3d& center,
-                                     std::string& processing) {
-  auto rms = [&](const Eigen::MatrixX3d& P) {
-    double sum = 0;
-    for (Eigen::Index i = 0; i < P.rows(); ++i)
-      if (carrier[i] && m.measured[i]) {
-        const double d =
-            (m.point.row(i).transpose() - center).norm() - (P.row(i).transpose() - center).norm();
-        sum += d * d;
-      }
-    return std::sqrt(sum);
-  };
-  const double unprocessed = rms(original.V);
+// resembles best becomes the reference the shifts are measured from, when it lowers the RMS
+// difference of the distances to the center over the measured carrier vertices (the quantity
+// the bins are made of) by 5 % at least; its shrinking is then not taken for the mark. It uses
+// no candidate's codeword, so the null of the scores does not depend on it. Processing:
+// Laplacian smoothing with lambda 0.3, or Taubin, k = 1 to 40 iterations (a series stops 5
+// iterations past its best), its displacement scaled by a fitted s in [0, 4] (smoothing
+// another mesh of the same surface, after decimation or remeshing, shrinks it by another
+// amount per iteration). Returns the reference positions.
+Eigen::MatrixX3d processed_reference(const Mesh& original, const Eigen::MatrixX3d& normals,
+                                     const std::vector<std::uint8_t>& carrier, const Resampled& m,
+                                     const Eigen::Vector3d& center, std::string& processing) {
+  std::vector<Eigen::Index> rows;
+  for (Eigen::Index i = 0; i < original.V.rows(); ++i)
+    if (carrier[i] && m.measured[i]) rows.push_back(i);
+  const Eigen::VectorXd base = radii(original.V, original.V, normals, m, center);
+  // d: what the leak's distances to the center differ by from the original's.
+  Eigen::VectorXd d(static_cast<Eigen::Index>(rows.size()));
+  for (std::size_t k = 0; k < rows.size(); ++k)
+    d(static_cast<Eigen::Index>(k)) =
+        (m.point.row(rows[k]).transpose() - center).norm() - base(rows[k]);
+  const double unprocessed = d.norm();
   double best = unprocessed;
   Eigen::MatrixX3d reference = original.V;
   processing = "none";
+  Eigen::VectorXd change(d.size());
   for (const bool taubin : {false, true}) {
     Mesh current = original;
     double series_best = unprocessed;
-    int worse = 0;  // iterations since the series' best: it stops after 3
-    for (int k = 1; k <= 40 && worse < 3; ++k) {
+    int worse = 0;  // iterations since the series' best
+    for (int k = 1; k <= 40 && worse < 5; ++k) {
       current = taubin ? attack_smooth_taubin(current, 1) : attack_smooth_laplacian(current, 1);
-      const double e = rms(current.V);
+      const Eigen::VectorXd now = radii(current.V, original.V, normals, m, center);
+      for (std::size_t j = 0; j < rows.size(); ++j)
+        change(static_cast<Eigen::Index>(j)) = now(rows[j]) - base(rows[j]);
+      const double norm2 = change.squaredNorm();
+      const double scale = norm2 > 0 ? std::clamp(change.dot(d) / norm2, 0.0, 4.0) : 0.0;
+      const double e = (d - scale * change).norm();
       worse = e < series_best ? 0 : worse + 1;
       series_best = std::min(series_best, e);
       if (e < best) {
         best = e;
-        reference = current.V;
-        processing = fmt::format("{} smoothing x {}", taubin ? "Taubin" : "Laplacian", k);
+        reference = original.V + scale * (current.V - original.V);
+        processing = fmt::format("{} smoothing x {} scaled by {:.2f}",
+                                 taubin ? "Taubin" : "Laplacian", k, scale);
       }
     }
   }
-  if (!(best < 0.5 * unprocessed)) reference = original.V, processing = "none";
+  if (!(best < 0.95 * unprocessed)) reference = original.V, processing = "none";
   return reference;
 }
 
@@ -229,6 +257,7 @@ Resampled resample_at_original(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3
       if ((VL.row(i) - VO.row(i)).norm() <= erase_distance) m.measured[i] = 1, ++found;
     }
     m.fraction = used ? static_cast<double>(found) / used : 0;
+    m.vertexwise = true;
     return m;
   }
   return measure(VL, FL, VO, carrier, center, erase_distance);
@@ -280,6 +309,7 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
         .push_back(k);
   r.seconds.registration = since(t);
   Eigen::MatrixX3d reference = original.V;
+  const Eigen::MatrixX3d normals = vertex_normals(original.V, original.F);
   r.processing = "none";
   bool first = true;
   for (const auto& [group, members] : groups) {
@@ -294,14 +324,15 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     r.seconds.resampling += since(t);
     if (first) {
       t = Clock::now();
-      reference = processed_reference(original, carrier, m, center.point, r.processing);
+      reference = processed_reference(original, normals, carrier, m, center.point, r.processing);
       r.seconds.reference = since(t);
     }
     t = Clock::now();
     double gamma = 1;
     const std::vector<double> alpha = mark_strengths(key, bits, true, strength, spread);
     const std::vector<BitEvidence> evidence =
-        read_bins(original.V, reference, carrier, h, m, alpha, gamma);
+        read_bins(original.V, radii(reference, original.V, normals, m, center.point), carrier, h, m,
+                  alpha, gamma);
     const BitLayout layout = mark_layout(key, bits, true);
     IdCodeOptions co;
     co.bits = bits;

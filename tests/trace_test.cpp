@@ -156,7 +156,8 @@ TEST(Trace, NamesTheLeakerAfterASimilarityAndChainsOfTwo) {
   const Shop& s = shop();
   for (const std::string attack :
        {"similarity:2,simplify:0.3", "smooth:10,similarity:2", "similarity:2,crop:0.5",
-        "simplify:0.5,noise:0.001", "remesh:1,quant:10", "crop:0.3,noise:0.001"}) {
+        "simplify:0.5,noise:0.001", "remesh:1,quant:10", "crop:0.3,noise:0.001",
+        "crop:0.3,smooth:5", "taubin:10,simplify:0.5"}) {
     SCOPED_TRACE(attack);
     const Mesh leak = apply_attack_chain(s.marked, parse_attack_chain(attack), 11);
     const TraceResult r = trace(leak, s.original, s.issued, s.key);

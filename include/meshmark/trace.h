@@ -40,6 +40,7 @@ struct Resampled {
   Eigen::MatrixX3d point;              ///< #VO x 3 (rows of unmeasured vertices: the original's)
   std::vector<std::uint8_t> measured;  ///< 1 where a surface lies within erase_distance
   double fraction = 0;                 ///< measured share of the carrier
+  bool vertexwise = false;  ///< true: point[i] is the leak's vertex i (same faces), not a ray hit
 };
 
 /// Resamples the leak (VL, FL, already in the original's frame) at the carrier vertices of
