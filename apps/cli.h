@@ -101,6 +101,9 @@ IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::
                        int id_bits, int bits, const std::string& variant,
                        const EmbedOptions& options, double strength_spread, const Key& key);
 
+/// An output path as the registry records it (absolute, normalized).
+std::string recorded_path(const std::string& output);
+
 /// Records copies written to outputs (their content hashes read back) in one transaction.
 /// When that fails, the outputs are removed (no issued copy goes unrecorded) and the error
 /// is thrown again.

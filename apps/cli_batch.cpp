@@ -30,6 +30,7 @@ struct Job {
   std::string outcome;  // a refusal found before embedding, or what the worker did
   bool ok = false;
   bool refused = false;  // not run: malformed line, output clash
+  bool resumed = false;  // issued and recorded by an earlier run, its file intact: skipped
 };
 
 // Every line is a job, malformed ones included (refused, with the reason), so that one bad
@@ -107,6 +108,17 @@ void refuse_clashes(std::vector<Job>& jobs) {
   }
 }
 
+// Whether the recorded copy is this line's, issued by an earlier run, with its file as recorded.
+bool resumable(const IssuedCopy& taken, IssuedCopy wanted, const std::string& output) {
+  wanted.output_path = recorded_path(output);
+  if (!same_copy(taken, wanted)) return false;
+  try {
+    return content_hash(read_file(output)) == taken.output_hash;
+  } catch (const std::exception&) {
+    return false;  // gone or unreadable: not resumable, the line is refused as before
+  }
+}
+
 }  // namespace
 
 int run_batch(const std::string& manifest, const BatchSettings& settings) {
@@ -148,6 +160,13 @@ int run_batch(const std::string& manifest, const BatchSettings& settings) {
         if (!jobs[k].refused && records[k].id == taken.id &&
             records[k].original_hash == taken.original_hash) {
           jobs[k].refused = true;
+          if (taken.row && resumable(taken, records[k], jobs[k].output)) {
+            jobs[k].ok = jobs[k].resumed = true;
+            jobs[k].outcome =
+                fmt::format("already issued to '{}' on {} and its file is intact: skipped",
+                            taken.buyer, taken.issued_at);
+            continue;
+          }
           jobs[k].outcome =
               taken.row ? fmt::format("ID {} already issued from this original to '{}' on {}",
                                       taken.id, taken.buyer, taken.issued_at)
@@ -224,12 +243,13 @@ int run_batch(const std::string& manifest, const BatchSettings& settings) {
     std::vector<IssuedCopy> done;
     std::vector<std::string> outputs;
     for (std::size_t k = 0; k < jobs.size(); ++k)
-      if (jobs[k].ok) done.push_back(records[k]), outputs.push_back(jobs[k].output);
+      if (jobs[k].ok && !jobs[k].resumed)
+        done.push_back(records[k]), outputs.push_back(jobs[k].output);
     try {
       if (!done.empty()) record_copies(*registry, done, outputs);
     } catch (const std::exception& e) {
       for (Job& job : jobs)
-        if (job.ok)
+        if (job.ok && !job.resumed)
           job.ok = false, job.outcome = fmt::format("not recorded, removed: {}", e.what());
     }
   }

@@ -36,13 +36,17 @@ IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::
   return c;
 }
 
+std::string recorded_path(const std::string& output) {
+  std::error_code ec;
+  const std::filesystem::path absolute = std::filesystem::absolute(output, ec);
+  return ec ? output : absolute.lexically_normal().string();
+}
+
 void record_copies(Registry& registry, std::vector<IssuedCopy> copies,
                    const std::vector<std::string>& outputs) {
   try {
     for (std::size_t k = 0; k < copies.size(); ++k) {
-      std::error_code ec;
-      const std::filesystem::path absolute = std::filesystem::absolute(outputs[k], ec);
-      copies[k].output_path = ec ? outputs[k] : absolute.lexically_normal().string();
+      copies[k].output_path = recorded_path(outputs[k]);
       copies[k].output_hash = content_hash(read_file(outputs[k]));
     }
     registry.record(std::move(copies));

@@ -249,6 +249,7 @@ const std::vector<std::pair<std::string, std::string>>& attack_kinds() {
       {"taubin", "Taubin smoothing (0.5, k_pb 0.1), STRENGTH iterations"},
       {"soup", "triangle soup, edges rescaled by STRENGTH, 0.01 % noise"},
       {"simplify", "Lindstrom-Turk edge collapse down to STRENGTH x the faces"},
+      {"qsimplify", "Garland-Heckbert (quadric) edge collapse down to STRENGTH x the faces"},
       {"remesh", "isotropic remeshing (CGAL, 3 rounds) to STRENGTH x the mean edge length"},
       {"loop", "STRENGTH iterations of Loop subdivision (default 1)"},
       {"midpoint", "STRENGTH iterations of midpoint subdivision (default 1)"},
@@ -310,6 +311,7 @@ Mesh apply_attack(const Mesh& mesh, const AttackStep& s, std::uint64_t seed) {
   if (k == "taubin") return attack_smooth_taubin(mesh, whole(s, 0));
   if (k == "soup") return attack_triangle_soup(mesh, s.strength, seed);
   if (k == "simplify") return attack_simplify(mesh, s.strength);
+  if (k == "qsimplify") return attack_simplify(mesh, s.strength, SimplifyCost::GarlandHeckbert);
   if (k == "remesh") return attack_remesh(mesh, s.strength == 0 ? 1.0 : s.strength);
   if (k == "loop") return attack_subdivide(mesh, Subdivision::Loop, whole(s, 1));
   if (k == "midpoint") return attack_subdivide(mesh, Subdivision::Midpoint, whole(s, 1));

@@ -54,6 +54,17 @@ std::string content_hash(const std::string& bytes) {
   return hex(digest, sizeof digest);
 }
 
+bool same_copy(const IssuedCopy& recorded, const IssuedCopy& wanted) {
+  return recorded.original_hash == wanted.original_hash &&
+         recorded.key_fingerprint == wanted.key_fingerprint && recorded.id == wanted.id &&
+         recorded.id_bits == wanted.id_bits && recorded.bits == wanted.bits &&
+         recorded.buyer == wanted.buyer && recorded.variant == wanted.variant &&
+         recorded.strength == wanted.strength &&
+         recorded.strength_spread == wanted.strength_spread &&
+         recorded.bin_offset == wanted.bin_offset && recorded.mark_format == wanted.mark_format &&
+         recorded.output_path == wanted.output_path;
+}
+
 struct Registry::Impl {
   std::string location;
   std::unique_ptr<detail::RegistryBackend> store;

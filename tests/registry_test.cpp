@@ -184,7 +184,7 @@ TEST(Registry, CommandLineIssuesRecordsAndSurvivesAKilledBatch) {
   EXPECT_NE(r.out.find("Alice"), std::string::npos) << r.out;
   EXPECT_FALSE(std::filesystem::exists(dir + "/b.obj"));
   // A batch of 60 copies killed after a moment records all of them or none, never part; run
-  // again, it completes.
+  // again, it completes (resuming past the copies already recorded, if it had).
   std::ofstream manifest(dir + "/m.txt");
   for (int i = 0; i < 60; ++i)
     manifest << spot << " " << dir << "/c" << i << ".obj id:" << 100 + i << " buyer " << i << "\n";
@@ -196,12 +196,21 @@ TEST(Registry, CommandLineIssuesRecordsAndSurvivesAKilledBatch) {
           .c_str());
   const std::size_t after_kill = Registry(db).list().size() - 1;
   EXPECT_TRUE(after_kill == 0 || after_kill == 60) << after_kill;
-  if (after_kill == 0) {
-    r = test::run_cli(batch);
-    EXPECT_EQ(r.code, 0) << r.out;
-  }
-  const std::vector<IssuedCopy> all = Registry(db).list();
+  r = test::run_cli(batch);
+  EXPECT_EQ(r.code, 0) << r.out;
+  std::vector<IssuedCopy> all = Registry(db).list();
   ASSERT_EQ(all.size(), 61u);
+  // Run once more: every line was issued and its file is intact, so each is skipped, and
+  // nothing new is recorded.
+  r = test::run_cli(batch);
+  EXPECT_EQ(r.code, 0) << r.out;
+  std::size_t skipped = 0;
+  for (std::size_t at = r.out.find("skipped"); at != std::string::npos;
+       at = r.out.find("skipped", at + 1))
+    ++skipped;
+  EXPECT_EQ(skipped, 60u) << r.out;
+  EXPECT_EQ(Registry(db).list().size(), 61u);
+  all = Registry(db).list();
   for (const IssuedCopy& c : all) {
     // Each record names a file that exists, with the hash it has.
     EXPECT_EQ(c.output_hash, content_hash(read_file(c.output_path))) << c.output_path;
@@ -211,6 +220,12 @@ TEST(Registry, CommandLineIssuesRecordsAndSurvivesAKilledBatch) {
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("107"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("1 copy"), std::string::npos) << r.out;
+  // A copy whose file changed since is not taken for issued: its line is refused.
+  std::ofstream(dir + "/c7.obj", std::ios::app) << "# edited\n";
+  r = test::run_cli(batch);
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("ID 107 already issued"), std::string::npos) << r.out;
+  EXPECT_EQ(Registry(db).list().size(), 61u);
 }
 
 // A PostgreSQL server of this test process's own: initdb and pg_ctl from Debian's postgresql
@@ -335,8 +350,7 @@ TEST(RegistryPostgres, TraceGivesTheSameResultWithEitherRegistry) {
                                    "--registry '" + where + "'");
     ASSERT_EQ(r.code, 0) << r.out;
     if (where == lite) {
-      r = test::run_cli("attack similarity:2,simplify:0.6 " + dir + "/c5.obj " + dir +
-                        "/leak.obj");
+      r = test::run_cli("attack similarity:2,simplify:0.6 " + dir + "/c5.obj " + dir + "/leak.obj");
       ASSERT_EQ(r.code, 0) << r.out;
     }
     r = test::run_cli("trace " + dir + "/leak.obj --original " + spot + " --registry '" + where +

@@ -67,15 +67,22 @@ Mesh attack_crop(const Mesh& mesh, double fraction, std::uint64_t seed);
 /// rounds the coordinates). single_precision selects float32 for binary PLY.
 Mesh attack_format(const Mesh& mesh, const std::string& format, bool single_precision);
 
-/// Edge-collapse simplification to `ratio` of the faces (0 < ratio <= 1), Lindstrom-Turk cost
-/// and placement (CGAL Surface_mesh_simplification). The input is first turned into a
+/// Edge-collapse costs and placements.
+enum class SimplifyCost {
+  LindstromTurk,    ///< Lindstrom-Turk (memoryless; the LIRIS benchmark's)
+  GarlandHeckbert,  ///< Garland-Heckbert plane quadrics (MeshLab's and most tools' "quadric")
+};
+
+/// Edge-collapse simplification to `ratio` of the faces (0 < ratio <= 1), with the cost and
+/// placement `cost` (CGAL Surface_mesh_simplification). The input is first turned into a
 /// manifold CGAL can collapse: bit-identical positions merged, degenerate triangles (a
 /// repeated corner, corners at one position, zero area) and duplicate ones removed, the soup
 /// oriented (which splits non-manifold edges and vertices; CGAL's orient_polygon_soup).
 /// `ratio` counts the triangles that remain.
 /// \throw InvalidArgumentError for a ratio outside (0, 1].
 /// \throw InvalidInputError when no triangle of non-zero area remains.
-Mesh attack_simplify(const Mesh& mesh, double ratio);
+Mesh attack_simplify(const Mesh& mesh, double ratio,
+                     SimplifyCost cost = SimplifyCost::LindstromTurk);
 
 /// Isotropic remeshing (CGAL Polygon_mesh_processing::isotropic_remeshing, `iterations`
 /// rounds of splits, collapses, flips and tangential relaxation) to edges of `edge_factor`

@@ -59,6 +59,13 @@ std::string key_fingerprint(const Key& key);
 /// BLAKE2b-256 of bytes, in hexadecimal (64 characters).
 std::string content_hash(const std::string& bytes);
 
+/// Whether `recorded` (a registry row) is the copy `wanted` describes, issued already: the same
+/// original, key, code, ID, buyer and embedding settings, and the same output path (wanted's
+/// output_path as record() would store it). Such a copy is not issued again: a batch run again
+/// after it was recorded (killed before it printed, or rerun by hand) resumes past it, provided
+/// the file still holds the recorded bytes (the caller checks output_hash).
+bool same_copy(const IssuedCopy& recorded, const IssuedCopy& wanted);
+
 /// An open registry.
 class Registry {
  public:

@@ -1,5 +1,7 @@
-// Edge-collapse simplification with CGAL's Lindstrom-Turk cost and placement.
+// Edge-collapse simplification with CGAL's Lindstrom-Turk or Garland-Heckbert (plane quadric)
+// cost and placement.
 
+#include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/GarlandHeckbert_plane_policies.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/LindstromTurk_cost.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/LindstromTurk_placement.h>
 #include <CGAL/Surface_mesh_simplification/edge_collapse.h>
@@ -27,7 +29,7 @@ struct FaceCountStop {
 };
 }  // namespace
 
-Mesh attack_simplify(const Mesh& mesh, double ratio) {
+Mesh attack_simplify(const Mesh& mesh, double ratio, SimplifyCost cost) {
   if (!(ratio > 0 && ratio <= 1))
     throw InvalidArgumentError(fmt::format("simplification ratio {} is outside (0, 1]", ratio));
   detail::SurfaceMesh sm = detail::to_surface_mesh(mesh);
@@ -35,9 +37,17 @@ Mesh attack_simplify(const Mesh& mesh, double ratio) {
   // conversion drops, are no surface to simplify.
   const auto target =
       static_cast<std::size_t>(std::llround(ratio * static_cast<double>(sm.number_of_faces())));
-  SMS::edge_collapse(sm, FaceCountStop{&sm, target},
-                     CGAL::parameters::get_cost(SMS::LindstromTurk_cost<detail::SurfaceMesh>())
-                         .get_placement(SMS::LindstromTurk_placement<detail::SurfaceMesh>()));
+  const FaceCountStop stop{&sm, target};
+  if (cost == SimplifyCost::GarlandHeckbert) {
+    const SMS::GarlandHeckbert_plane_policies<detail::SurfaceMesh, detail::CgalKernel> quadrics(sm);
+    SMS::edge_collapse(
+        sm, stop,
+        CGAL::parameters::get_cost(quadrics.get_cost()).get_placement(quadrics.get_placement()));
+  } else {
+    SMS::edge_collapse(sm, stop,
+                       CGAL::parameters::get_cost(SMS::LindstromTurk_cost<detail::SurfaceMesh>())
+                           .get_placement(SMS::LindstromTurk_placement<detail::SurfaceMesh>()));
+  }
   return detail::from_surface_mesh(sm, mesh);
 }
 
