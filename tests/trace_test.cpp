@@ -130,8 +130,9 @@ TEST(Trace, NamesTheLeakerAfterRealProcessingAndNeverAnInnocent) {
   const Shop& s = shop();
   // Each of these defeats the blind decoder on the horse (tested below), and trace names the
   // buyer after every one.
-  const std::vector<std::string> named_after = {"simplify:0.3", "loop:1",   "sqrt3:1", "taubin:10",
-                                                "quant:8",      "crop:0.5", "remesh:1"};
+  const std::vector<std::string> named_after = {"simplify:0.3", "loop:1",       "sqrt3:1",
+                                                "taubin:10",    "quant:8",      "crop:0.5",
+                                                "remesh:1",     "qsimplify:0.3"};
   int blind_lost = 0;
   for (const std::string& attack : named_after) {
     SCOPED_TRACE(attack);
