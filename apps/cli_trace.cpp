@@ -99,11 +99,31 @@ int run(const TraceArgs& a) {
     throw InputFailure(e.what());
   }
   q.key_fingerprint = key_fingerprint(*key);
-  const Registry registry(a.registry);
-  const std::vector<IssuedCopy> candidates = registry.list(q);
+  // The registry is an input: one that does not exist or cannot be read is unreadable input,
+  // never an empty list (a mistyped path would read as "no buyer").
+  if (a.registry.find("://") == std::string::npos && !std::filesystem::exists(a.registry))
+    throw InputFailure(fmt::format("{}: no such registry", a.registry));
+  std::vector<IssuedCopy> candidates;
+  std::size_t under_key = 0;
+  try {
+    const Registry registry(a.registry);
+    candidates = registry.list(q);
+    if (candidates.empty()) {
+      RegistryQuery by_key;
+      by_key.key_fingerprint = q.key_fingerprint;
+      under_key = registry.list(by_key).size();
+    }
+  } catch (const IOError& e) {
+    throw InputFailure(e.what());
+  }
   TraceOptions options = a.options;
   options.register_leak = !a.no_register;
-  const TraceResult r = trace(leaked, original, candidates, *key, options);
+  TraceResult r = trace(leaked, original, candidates, *key, options);
+  if (r.status == TraceStatus::NoCandidates && under_key > 0)
+    r.message = fmt::format(
+        "no copy of this original was issued under this key ({} copies of other originals "
+        "were: is --original the file the copies were made from?)",
+        under_key);
   if (!a.report.empty()) write_report(a, options, leaked, original, *q.original_hash, r, *key);
   auto score = [](const CandidateScore& s) {
     return nlohmann::json{{"buyer", s.copy.buyer},     {"id", s.copy.id},
@@ -124,7 +144,7 @@ int run(const TraceArgs& a) {
                           {"vertices", e.vertices}});
     nlohmann::json j = {{"status", trace_status_name(r.status)},
                         {"message", r.message},
-                        {"candidates", r.ranking.size()},
+                        {"candidates", r.candidates},
                         {"threshold", options.threshold},
                         {"named", named},
                         {"best", top},
@@ -146,7 +166,7 @@ int run(const TraceArgs& a) {
         "reference: {})\n",
         100 * r.measured_fraction, r.attenuation, r.processing);
     fmt::print("  candidates       {} issued copies of this original under this key\n",
-               r.ranking.size());
+               r.candidates);
     for (std::size_t i = 0; i < r.ranking.size() && i < 3; ++i) {
       const CandidateScore& s = r.ranking[i];
       fmt::print("  {:<16} ID {} '{}': {} of {} bits, p = {:.3g}, corrected {:.3g}{}\n",
@@ -154,7 +174,7 @@ int run(const TraceArgs& a) {
                  s.matches, s.compared, s.p_value, s.corrected_p,
                  s.corrected_p < options.threshold ? "  NAMED" : "");
     }
-    if (!a.report.empty()) fmt::print("  report           {}\n", a.report);
+    if (!a.report.empty()) fmt::print("  report           {}\n", printable(a.report));
   }
   return r.status == TraceStatus::Named ? kOk : kNoId;
 }
@@ -172,8 +192,9 @@ void register_trace(CLI::App& app, int& exit_code, std::vector<std::string> argv
   sub->add_option("--registry", args->registry, "the registry of issued copies")->required();
   sub->add_option("--threshold", args->options.threshold,
                   "name a buyer below this false-alarm probability, corrected for the number "
-                  "of candidates")
-      ->check(CLI::Range(1e-300, 0.5));
+                  "of candidates (default 1e-6; at most 1e-3: a looser one names innocents "
+                  "too often to be evidence)")
+      ->check(CLI::Range(1e-300, 1e-3));
   sub->add_option("--erase-distance", args->options.erase_distance,
                   "original vertices with no leaked surface within this fraction of the "
                   "diagonal are not measured")

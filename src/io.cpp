@@ -348,6 +348,17 @@ void write_file_atomically(const std::string& path, const std::string& bytes) {
   if (dir.empty()) dir = ".";
   const std::string prefix = "." + target.filename().string() + ".meshmark-";
   remove_stale_temporaries(dir, prefix);
+  // Only a regular file is replaced: renaming over a device, a FIFO, a socket or a symbolic
+  // link would destroy it (as root, /dev/null itself) instead of writing to what it names.
+  struct stat link {};
+  if (::lstat(path.c_str(), &link) == 0 && !S_ISREG(link.st_mode))
+    throw IOError(fmt::format("{}: not a regular file ({}); meshmark writes regular files only",
+                              path,
+                              S_ISLNK(link.st_mode)                            ? "a symbolic link"
+                              : S_ISDIR(link.st_mode)                          ? "a directory"
+                              : S_ISFIFO(link.st_mode)                         ? "a FIFO"
+                              : S_ISCHR(link.st_mode) || S_ISBLK(link.st_mode) ? "a device"
+                                                                               : "a socket"));
   // A new file gets 0666 less the umask; an existing one keeps its mode (created no wider).
   struct stat old {};
   const bool existing = ::stat(path.c_str(), &old) == 0 && S_ISREG(old.st_mode);

@@ -60,7 +60,8 @@ Similarity icp(const Eigen::MatrixX3d& S, const SurfaceIndex& original, Similari
                const RegistrationOptions& o, bool with_scale, int iterations, double tolerance,
                double& rms, int& steps) {
   const Eigen::Index n = S.rows();
-  const Eigen::Index keep = std::max<Eigen::Index>(3, static_cast<Eigen::Index>(o.trim * n));
+  const Eigen::Index keep =
+      std::min(n, std::max<Eigen::Index>(3, static_cast<Eigen::Index>(o.trim * n)));
   std::vector<Eigen::Index> order(static_cast<std::size_t>(n));
   rms = std::numeric_limits<double>::infinity();
   for (steps = 0; steps < iterations; ++steps) {
@@ -103,7 +104,13 @@ Similarity icp_plane(const Eigen::MatrixX3d& S, const SurfaceIndex& original,
                      const RegistrationOptions& o, int iterations, double tolerance, double& rms,
                      int& steps) {
   const Eigen::Index n = S.rows();
-  const Eigen::Index keep = std::max<Eigen::Index>(7, static_cast<Eigen::Index>(o.trim * n));
+  const Eigen::Index keep =
+      std::min(n, std::max<Eigen::Index>(7, static_cast<Eigen::Index>(o.trim * n)));
+  if (keep < 7) {  // too few samples for the 7 unknowns: the start as it is
+    rms = trimmed_rms(S, original, T, o.trim);
+    steps = 0;
+    return T;
+  }
   std::vector<Eigen::Index> order(static_cast<std::size_t>(n));
   rms = std::numeric_limits<double>::infinity();
   double lowest = rms;
@@ -316,14 +323,23 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
   const ClosestPoints cp = index.query(best.transform.apply(S));
   const double near = std::max(3 * best.residual, 1e-3) * diagonal;
   best.overlap = static_cast<double>((cp.distance.array() <= near).count()) / S.rows();
-  best.status =
-      best.residual <= o.max_residual ? RegistrationStatus::Registered : RegistrationStatus::Failed;
+  // A leak shrunk onto a patch of the original fits it closely and means nothing: the
+  // registered leak must span at least 2 % of the original's diagonal.
+  const Eigen::MatrixX3d moved = best.transform.apply(all_l);
+  const double span = (moved.colwise().maxCoeff() - moved.colwise().minCoeff()).norm() / diagonal;
+  const bool collapsed = !(span >= 0.02);
+  best.status = best.residual <= o.max_residual && !collapsed ? RegistrationStatus::Registered
+                                                              : RegistrationStatus::Failed;
   best.message = fmt::format(
       "{}{}: residual {:.3g} of the diagonal, {:.0f} % of the leak near the "
-      "original, scale {:.6f}",
+      "original, scale {:.6f}{}",
       best.status == RegistrationStatus::Registered ? "registered" : "FAILED",
       best.iterations == 0 ? " (in the original's frame)" : "", best.residual, 100 * best.overlap,
-      best.transform.scale);
+      best.transform.scale,
+      collapsed ? fmt::format(" (the registered leak spans only {:.2g} of the original's diagonal: "
+                              "it is not this original)",
+                              span)
+                : "");
   return best;
 }
 

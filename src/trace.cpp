@@ -274,6 +274,7 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
   std::vector<IssuedCopy> mine;
   for (const IssuedCopy& c : candidates)
     if (c.key_fingerprint == fingerprint) mine.push_back(c);
+  r.candidates = mine.size();
   if (mine.empty()) {
     r.status = TraceStatus::NoCandidates;
     r.message = "no copy was issued under this key";

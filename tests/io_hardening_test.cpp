@@ -322,6 +322,34 @@ TEST(IoRegularFiles, DirectoriesDevicesAndFifosAreRefusedWithoutReading) {
   }
 }
 
+// Writing over something that is not a regular file (a device, a FIFO, a symbolic link, a
+// directory) is refused, naming it, and leaves it as it was: a rename over it would replace
+// /dev/null itself when run as root.
+TEST(IoRegularFiles, WritesNeverReplaceDevicesFifosLinksOrDirectories) {
+  const std::string dir = test::scratch_dir();
+  std::filesystem::create_symlink("/dev/null", dir + "/null.ply");
+  std::filesystem::create_symlink(dir + "/elsewhere.ply", dir + "/link.ply");
+  ASSERT_EQ(::mkfifo((dir + "/fifo.ply").c_str(), 0600), 0);
+  std::filesystem::create_directories(dir + "/folder.ply");
+  for (const std::string name : {"null.ply", "link.ply", "fifo.ply", "folder.ply"}) {
+    const std::string path = dir + "/" + name;
+    SCOPED_TRACE(path);
+    const std::filesystem::file_status before = std::filesystem::symlink_status(path);
+    try {
+      write_file_atomically(path, "ply\n");
+      ADD_FAILURE() << "written";
+    } catch (const IOError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind(path + ": not a regular file", 0), 0u) << e.what();
+    }
+    EXPECT_EQ(std::filesystem::symlink_status(path).type(), before.type());
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir + "/elsewhere.ply"));
+  // A regular file is still replaced.
+  write_file_atomically(dir + "/plain.ply", "one");
+  write_file_atomically(dir + "/plain.ply", "two");
+  EXPECT_EQ(read_file(dir + "/plain.ply"), "two");
+}
+
 TEST(IoRegularFiles, SizeLimitsAreCheckedAndNamed) {
   const std::string dir = test::scratch_dir();
   std::ofstream(dir + "/key") << std::string(1 << 20, 'k');

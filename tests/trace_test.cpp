@@ -275,6 +275,30 @@ TEST(Trace, NamesNobodyForAnUnmarkedMeshAnotherKeyOrAnotherLeak) {
   EXPECT_EQ(r.status, TraceStatus::NoCandidates);
 }
 
+// Leaks too small to register (a triangle, a few faces of a copy), and a leak of another mesh:
+// no crash, nobody named; a registration that shrinks the leak onto a patch is a failure.
+TEST(Trace, TinyLeaksAndOtherMeshesNameNobody) {
+  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  const Shop& s = shop();
+  for (const Eigen::Index faces : {1, 2, 5}) {
+    Mesh tiny = s.marked;
+    tiny.F = s.marked.F.topRows(faces);
+    const TraceResult r = trace(tiny, s.original, s.issued, s.key);
+    EXPECT_NE(r.status, TraceStatus::Named) << faces << " faces: " << r.message;
+  }
+  const std::string spot = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const TraceResult r = trace(read_mesh(spot), s.original, s.issued, s.key);
+  EXPECT_NE(r.status, TraceStatus::Named) << r.message;
+  if (r.registration.status == RegistrationStatus::Registered) {
+    const Eigen::MatrixX3d moved = r.registration.transform.apply(read_mesh(spot).V);
+    const double span = (moved.colwise().maxCoeff() - moved.colwise().minCoeff()).norm();
+    const double diagonal =
+        (s.original.V.colwise().maxCoeff() - s.original.V.colwise().minCoeff()).norm();
+    EXPECT_GE(span, 0.02 * diagonal) << "a collapsed registration was reported as registered";
+  }
+}
+
 TEST(Trace, CommandLineNamesTheBuyerFromTheRegistry) {
   const std::string spot = test::shared_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
@@ -299,6 +323,16 @@ TEST(Trace, CommandLineNamesTheBuyerFromTheRegistry) {
                     " --key studio");
   EXPECT_EQ(r.code, 6) << r.out;
   EXPECT_NE(r.out.find("no buyer"), std::string::npos) << r.out;
+  // A mistyped registry is unreadable input, not an empty list, and is not created.
+  r = test::run_cli("trace " + dir + "/leak.obj --original " + spot + " --registry " + dir +
+                    "/typo.db --key studio");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("typo.db: no such registry"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/typo.db"));
+  // A threshold loose enough to name innocents is refused.
+  r = test::run_cli("trace " + dir + "/leak.obj --original " + spot + " --registry " + db +
+                    " --key studio --threshold 0.5");
+  EXPECT_EQ(r.code, 1) << r.out;
 }
 
 }  // namespace

@@ -101,6 +101,7 @@ struct TraceTimings {
 /// What trace found.
 struct TraceResult {
   TraceStatus status = TraceStatus::NoBuyer;
+  std::size_t candidates = 0;           ///< copies issued under this key (scored or not)
   RegistrationResult registration;      ///< leak -> original
   double measured_fraction = 0;         ///< original carrier vertices measured (not erased)
   double attenuation = 0;               ///< fitted gamma of the first group of candidates
