@@ -113,6 +113,29 @@ std::string model_table(const CampaignConfig& c, const std::vector<TrialRow>& ro
   return md;
 }
 
+// Trace's right count per attack (rows) and model (columns), over variants, payloads, draws.
+std::string right_by_model(const CampaignConfig& c, const std::vector<TraceSummaryRow>& summary,
+                           const std::vector<TrialRow>& rows) {
+  std::string md = "| attack |";
+  for (const CampaignModel& m : c.models) md += " " + m.name + " |";
+  md += "\n| --- |";
+  for (std::size_t k = 0; k < c.models.size(); ++k) md += " ---: |";
+  md += "\n";
+  for (const TraceSummaryRow& s : summary) {
+    md += "| " + attack_label(s.attack, s.attack_strength, s.colluders) + " |";
+    for (const CampaignModel& m : c.models) {
+      int right = 0, n = 0;
+      for (const TrialRow& r : rows)
+        if (r.model == m.name && r.attack == s.attack && r.attack_strength == s.attack_strength &&
+            r.colluders == s.colluders)
+          ++n, right += r.trace_outcome == "right";
+      md += fmt::format(" {}/{} |", right, n);
+    }
+    md += "\n";
+  }
+  return md;
+}
+
 // One line per listed trial.
 std::string trial_lines(const std::vector<const TrialRow*>& trials, std::size_t most) {
   std::string md =
@@ -181,6 +204,8 @@ std::string write_trace_report(const std::string& out_dir, const CampaignConfig&
   md += "![outcomes](figure-trace.svg)\n\n" + rates_table(summary) + "\n";
   md += "## Per model and variant\n\nThe leaker's copy of payload 0 as issued.\n\n" +
         model_table(c, rows) + "\n";
+  md += "Trials where trace named the leaker (right / trials), per attack and model:\n\n" +
+        right_by_model(c, summary, rows) + "\n";
   md += fmt::format("## Trials trace named nobody ({})\n\n", unnamed.size());
   md += unnamed.empty() ? "None.\n\n" : trial_lines(unnamed, 100) + "\n";
   if (!failed.empty())
