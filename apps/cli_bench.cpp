@@ -433,8 +433,9 @@ int run(const BenchArgs& a) {
   if (!missing.empty())
     throw Error(fmt::format("{} trials missing after the run, first {} (a bug)", missing.size(),
                             missing.front()));
-  std::string jsonl, csv = csv_header() + "\n";
-  for (const TrialRow& r : rows) jsonl += row_to_json(r) + "\n", csv += row_to_csv(r) + "\n";
+  std::string jsonl, csv = csv_header(config.trace) + "\n";
+  for (const TrialRow& r : rows)
+    jsonl += row_to_json(r) + "\n", csv += row_to_csv(r, config.trace) + "\n";
   write_file_atomically(rows_path, jsonl);
   write_file_atomically((out / "rows.csv").string(), csv);
   std::vector<CalibrationRecord> records;
@@ -457,6 +458,15 @@ int run(const BenchArgs& a) {
       config.name, rows.size(), todo, world.size(), jobs, wall, total_wall);
   fmt::print("rows     {}\nsummary  {}\nreport   {}\n", (out / "rows.csv").string(),
              (out / "summary.csv").string(), report);
+  if (config.trace) {
+    for (const TraceSummaryRow& s : summarize_trace(config, rows))
+      fmt::print("  {:<34} trace right/none/wrong {}/{}/{}, blind {}/{}/{}\n",
+                 fmt::format("{}{}:{:g}", s.colluders == 2 ? "average of 2, " : "", s.attack,
+                             s.attack_strength),
+                 s.trace_right, s.trace_none, s.trace_wrong, s.blind_right, s.blind_none,
+                 s.blind_wrong);
+    return kOk;
+  }
   for (const SummaryRow& s : summarize(config, rows))
     if (s.attack != "none")
       fmt::print("  {} {:<12} {:<8g} median BER {:.3f} ({} trials)\n", s.variant, s.attack,

@@ -10,7 +10,9 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "campaign_internal.h"
 #include "meshmark/attack.h"
+#include "meshmark/coding.h"
 #include "meshmark/decode.h"
 #include "meshmark/error.h"
 #include "meshmark/io.h"
@@ -27,7 +29,16 @@
 
 namespace meshmark {
 
+namespace detail {
+std::uint64_t seed_of(const std::string& text, std::uint64_t salt) {
+  std::uint64_t h = 1469598103934665603ull ^ salt;  // FNV-1a
+  for (const unsigned char c : text) h = (h ^ c) * 1099511628211ull;
+  return Random(h).next();
+}
+}  // namespace detail
+
 namespace fs = std::filesystem;
+using detail::seed_of;
 using nlohmann::json;
 
 namespace {
@@ -35,13 +46,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
-}
-
-// FNV-1a of a text, finished by SplitMix64: a seed per trial key.
-std::uint64_t seed_of(const std::string& text, std::uint64_t salt) {
-  std::uint64_t h = 1469598103934665603ull ^ salt;
-  for (const unsigned char c : text) h = (h ^ c) * 1099511628211ull;
-  return Random(h).next();
 }
 
 std::string expand(std::string path, const fs::path& base) {
@@ -76,13 +80,64 @@ std::string csv_quote(const std::string& s) {
   return out + "\"";
 }
 
+// A series' kind is an attack kind, or a chain whose last step is one without a strength (the
+// series' strengths go there); every strength must make a valid chain.
+void check_series(const std::string& file, const std::string& where, const AttackSeries& s) {
+  const std::string last = s.kind.substr(s.kind.rfind(',') + 1);
+  const auto& kinds = attack_kinds();
+  if (last.find(':') != std::string::npos)
+    bad(file, fmt::format("{}: the last step of the chain \"{}\" takes the strengths: write it "
+                          "without \":\"",
+                          where, s.kind));
+  if (std::none_of(kinds.begin(), kinds.end(), [&](const auto& k) { return k.first == last; }))
+    bad(file, fmt::format("{}: unknown attack kind \"{}\"", where, last));
+  for (const double x : s.strengths) try {
+      (void)series_chain(s.kind, x);
+    } catch (const Error& e) {
+      bad(file, fmt::format("{}: strength {}: {}", where, x, e.what()));
+    }
+}
+
+// The trace mode's settings ("mode", "copies", "collusion", "spread"), refused in blind mode.
+void read_trace_settings(const std::string& file, const json& j, CampaignConfig& c) {
+  const std::string mode = j.value("mode", "blind");
+  if (mode != "blind" && mode != "trace")
+    bad(file, fmt::format("mode \"{}\" is neither \"blind\" nor \"trace\"", mode));
+  c.trace = mode == "trace";
+  for (const char* k : {"copies", "collusion", "spread"})
+    if (!c.trace && j.contains(k)) bad(file, fmt::format("\"{}\" needs \"mode\": \"trace\"", k));
+  if (!c.trace) return;
+  c.copies = j.value("copies", c.copies);
+  c.collusion = j.value("collusion", c.collusion);
+  c.spread = j.value("spread", c.spread);
+  if (c.copies < 2 || c.copies > 1000000)
+    bad(file, fmt::format("copies {} is out of 2..1000000", c.copies));
+  if (!(c.spread >= 0 && c.spread <= 4))
+    bad(file, fmt::format("spread {} is out of [0, 4]", c.spread));
+  try {
+    (void)IdCode(IdCodeOptions{c.bits});
+  } catch (const InvalidArgumentError& e) {
+    bad(file, fmt::format("bits {} cannot carry a 32-bit ID: {}", c.bits, e.what()));
+  }
+}
+
 }  // namespace
 
 bool attack_is_deterministic(const std::string& kind) {
-  static const std::set<std::string> fixed = {"none",     "quant",  "smooth",   "taubin",
-                                              "simplify", "loop",   "midpoint", "sqrt3",
-                                              "float32",  "to-obj", "to-off",   "to-stl"};
-  return fixed.count(kind) > 0;
+  static const std::set<std::string> fixed = {"none",   "quant",    "smooth", "taubin",  "simplify",
+                                              "loop",   "midpoint", "sqrt3",  "float32", "to-obj",
+                                              "to-off", "to-stl",   "remesh"};
+  for (std::size_t start = 0; start <= kind.size();) {  // every step of a chain
+    const std::size_t end = std::min(kind.find(',', start), kind.size());
+    const std::string step = kind.substr(start, end - start);
+    if (!fixed.count(step.substr(0, step.find(':')))) return false;
+    start = end + 1;
+  }
+  return true;
+}
+
+std::vector<AttackStep> series_chain(const std::string& kind, double x) {
+  return parse_attack_chain(fmt::format("{}:{}", kind, x));
 }
 
 CampaignConfig load_campaign(const std::string& path) {
@@ -96,7 +151,7 @@ CampaignConfig load_campaign(const std::string& path) {
   if (!j.is_object()) bad(path, "a campaign is a JSON object");
   check_keys(path, j, "campaign",
              {"name", "description", "models", "variants", "bits", "payloads", "draws", "seed",
-              "calibration", "strength", "attacks"});
+              "calibration", "strength", "attacks", "mode", "copies", "collusion", "spread"});
   const fs::path base = fs::absolute(path).parent_path();
   CampaignConfig c;
   c.source = path;
@@ -170,22 +225,15 @@ CampaignConfig load_campaign(const std::string& path) {
         AttackSeries s;
         s.kind = a.value("kind", "");
         if (s.kind == "none") continue;  // always there
-        const auto& kinds = attack_kinds();
-        if (std::none_of(kinds.begin(), kinds.end(),
-                         [&](const auto& k) { return k.first == s.kind; }))
-          bad(path, fmt::format("{}: unknown attack kind \"{}\"", where, s.kind));
         if (!a.contains("strengths") || !a["strengths"].is_array() || a["strengths"].empty())
           bad(path, where + ": \"strengths\" must be a non-empty array");
         s.strengths = a["strengths"].get<std::vector<double>>();
         s.draws = a.value("draws", 0);
-        for (const double x : s.strengths) try {
-            (void)parse_attack_chain(fmt::format("{}:{}", s.kind, x));
-          } catch (const Error& e) {
-            bad(path, fmt::format("{}: strength {}: {}", where, x, e.what()));
-          }
+        check_series(path, where, s);
         c.attacks.push_back(s);
       }
     }
+    read_trace_settings(path, j, c);
   } catch (const json::exception& e) {
     bad(path, fmt::format("a value has the wrong type: {}", e.what()));
   }
@@ -216,8 +264,9 @@ Payload calibration_payload(int bits, std::uint64_t seed) {
 }
 
 std::string trial_key(const std::string& model, const std::string& variant, int payload,
-                      const std::string& attack, double attack_strength, int draw) {
-  return fmt::format("{}|{}|{}|{}|{}|{}", model, variant, payload, attack, attack_strength, draw);
+                      const std::string& attack, double attack_strength, int draw, int colluders) {
+  return fmt::format("{}|{}|{}|{}|{}|{}{}", model, variant, payload, attack, attack_strength, draw,
+                     colluders == 2 ? "|avg2" : "");
 }
 
 CalibrationRecord calibrate_for_campaign(const CampaignConfig& c, int model, int variant,
@@ -243,28 +292,33 @@ CalibrationRecord calibrate_for_campaign(const CampaignConfig& c, int model, int
   return r;
 }
 
-namespace {
-struct PlannedTrial {
-  const AttackSeries* series;
-  double strength;
-  int draw;
-  std::string key;
-};
-std::vector<PlannedTrial> plan(const CampaignConfig& c, const CampaignUnit& u) {
+std::vector<detail::PlannedTrial> detail::plan_trials(const CampaignConfig& c,
+                                                      const CampaignUnit& u) {
   std::vector<PlannedTrial> trials;
-  for (const AttackSeries& s : c.attacks)
-    for (const double x : s.strengths)
-      for (int d = 0; d < draws_of(c, s); ++d)
-        trials.push_back(
-            {&s, x, d,
-             trial_key(c.models[u.model].name, c.variants[u.variant], u.payload, s.kind, x, d)});
+  const std::vector<int> colluders = !c.trace      ? std::vector<int>{0}
+                                     : c.collusion ? std::vector<int>{1, 2}
+                                                   : std::vector<int>{1};
+  for (const int n : colluders)
+    for (const AttackSeries& s : c.attacks)
+      for (const double x : s.strengths)
+        for (int d = 0; d < draws_of(c, s); ++d)
+          trials.push_back({&s, x, d, n,
+                            trial_key(c.models[u.model].name, c.variants[u.variant], u.payload,
+                                      s.kind, x, d, n)});
   return trials;
 }
-}  // namespace
+
+Mesh detail::attack_for_trial(const CampaignConfig& c, const PlannedTrial& t, const Mesh& mesh) {
+  const std::string& kind = t.series->kind;
+  const std::uint64_t seed = seed_of(t.key, c.seed);
+  if (kind == "none") return mesh;
+  if (kind.find(',') == std::string::npos) return apply_attack(mesh, {kind, t.strength}, seed);
+  return apply_attack_chain(mesh, series_chain(kind, t.strength), seed);
+}
 
 std::vector<std::string> unit_trial_keys(const CampaignConfig& c, const CampaignUnit& u) {
   std::vector<std::string> keys;
-  for (PlannedTrial& t : plan(c, u)) keys.push_back(std::move(t.key));
+  for (detail::PlannedTrial& t : detail::plan_trials(c, u)) keys.push_back(std::move(t.key));
   return keys;
 }
 
@@ -272,10 +326,11 @@ void run_campaign_unit(const CampaignConfig& c, const CampaignUnit& u, const Mes
                        const CalibrationRecord& record,
                        const std::function<bool(const std::string& key)>& done,
                        const std::function<void(const TrialRow&)>& emit) {
+  if (c.trace) return detail::run_trace_unit(c, u, mesh, record, done, emit);
   const std::string& model = c.models[u.model].name;
   const std::string& variant = c.variants[u.variant];
-  std::vector<PlannedTrial> todo;
-  for (PlannedTrial& t : plan(c, u))
+  std::vector<detail::PlannedTrial> todo;
+  for (detail::PlannedTrial& t : detail::plan_trials(c, u))
     if (!done(t.key)) todo.push_back(std::move(t));
   if (todo.empty()) return;
   const Payload payload = campaign_payload(c, u.payload);
@@ -307,19 +362,17 @@ void run_campaign_unit(const CampaignConfig& c, const CampaignUnit& u, const Mes
   ExtractOptions xo;
   xo.bits = c.bits;
   xo.center = eo.variant.center;
-  for (const auto& [series, x, d, key] : todo) {
+  for (const detail::PlannedTrial& t : todo) {
     TrialRow row = base;
-    row.key = key;
-    row.attack = series->kind;
-    row.attack_strength = x;
-    row.draw = d;
+    row.key = t.key;
+    row.attack = t.series->kind;
+    row.attack_strength = t.strength;
+    row.draw = t.draw;
     row.ber = 0.5;
     if (embedded) {
       try {
         const auto t0 = Clock::now();
-        const Mesh attacked = series->kind == "none"
-                                  ? marked
-                                  : apply_attack(marked, {series->kind, x}, seed_of(key, c.seed));
+        const Mesh attacked = detail::attack_for_trial(c, t, marked);
         row.attack_seconds = since(t0);
         const auto t1 = Clock::now();
         const ExtractResult r = extract(attacked.V, attacked.F, xo);
@@ -353,7 +406,18 @@ std::string row_to_json(const TrialRow& r) {
                   {"embed_seconds", r.embed_seconds},
                   {"attack_seconds", r.attack_seconds},
                   {"extract_seconds", r.extract_seconds}};
-  return j.dump();
+  if (r.colluders == 0) return j.dump();
+  json t = j;
+  t.update({{"colluders", r.colluders},
+            {"leakers", r.leakers},
+            {"trace_outcome", r.trace_outcome},
+            {"trace_status", r.trace_status},
+            {"trace_named", r.trace_named},
+            {"trace_p", r.trace_p},
+            {"blind_outcome", r.blind_outcome},
+            {"blind_id", r.blind_id},
+            {"trace_seconds", r.trace_seconds}});
+  return t.dump();
 }
 
 TrialRow row_from_json(const std::string& line) {
@@ -377,6 +441,16 @@ TrialRow row_from_json(const std::string& line) {
     r.embed_seconds = j.at("embed_seconds").get<double>();
     r.attack_seconds = j.at("attack_seconds").get<double>();
     r.extract_seconds = j.at("extract_seconds").get<double>();
+    if (!j.contains("colluders")) return r;
+    r.colluders = j.at("colluders").get<int>();
+    r.leakers = j.at("leakers").get<std::string>();
+    r.trace_outcome = j.at("trace_outcome").get<std::string>();
+    r.trace_status = j.at("trace_status").get<std::string>();
+    r.trace_named = j.at("trace_named").get<std::string>();
+    r.trace_p = j.at("trace_p").get<double>();
+    r.blind_outcome = j.at("blind_outcome").get<std::string>();
+    r.blind_id = j.at("blind_id").get<std::string>();
+    r.trace_seconds = j.at("trace_seconds").get<double>();
     return r;
   } catch (const json::exception& e) {
     throw InvalidInputError("rows", 0, fmt::format("not a campaign row: {}", e.what()));
@@ -408,16 +482,26 @@ CalibrationRecord calibration_from_json(const std::string& line) {
   }
 }
 
-std::string csv_header() {
-  return "model,variant,payload,strength,rms_percent,msdm,attack,attack_strength,draw,vertices,"
-         "ber,erasures,status,embed_seconds,attack_seconds,extract_seconds";
+std::string csv_header(bool trace) {
+  return std::string(
+             "model,variant,payload,strength,rms_percent,msdm,attack,attack_strength,draw,"
+             "vertices,ber,erasures,status,embed_seconds,attack_seconds,extract_seconds") +
+         (trace ? ",colluders,leakers,trace_outcome,trace_status,trace_named,trace_p,"
+                  "blind_outcome,blind_id,trace_seconds"
+                : "");
 }
 
-std::string row_to_csv(const TrialRow& r) {
-  return fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}", csv_quote(r.model),
-                     csv_quote(r.variant), r.payload, r.strength, r.rms_percent, r.msdm,
-                     csv_quote(r.attack), r.attack_strength, r.draw, r.vertices, r.ber, r.erasures,
-                     csv_quote(r.status), r.embed_seconds, r.attack_seconds, r.extract_seconds);
+std::string row_to_csv(const TrialRow& r, bool trace) {
+  std::string line =
+      fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}", csv_quote(r.model),
+                  csv_quote(r.variant), r.payload, r.strength, r.rms_percent, r.msdm,
+                  csv_quote(r.attack), r.attack_strength, r.draw, r.vertices, r.ber, r.erasures,
+                  csv_quote(r.status), r.embed_seconds, r.attack_seconds, r.extract_seconds);
+  if (trace)
+    line += fmt::format(",{},{},{},{},{},{},{},{},{}", r.colluders, csv_quote(r.leakers),
+                        r.trace_outcome, r.trace_status, csv_quote(r.trace_named), r.trace_p,
+                        r.blind_outcome, csv_quote(r.blind_id), r.trace_seconds);
+  return line;
 }
 
 std::vector<SummaryRow> summarize(const CampaignConfig& c, const std::vector<TrialRow>& rows) {

@@ -10,6 +10,7 @@
 #include <map>
 #include <set>
 
+#include "campaign_internal.h"
 #include "meshmark/attack.h"
 #include "meshmark/campaign.h"
 #include "meshmark/io.h"
@@ -18,6 +19,8 @@
 namespace meshmark {
 
 namespace fs = std::filesystem;
+using detail::svg_document;
+using detail::write_figure;
 
 namespace {
 
@@ -94,28 +97,6 @@ std::string panel(double x0, double y0, double w, double h, const std::string& t
   return s;
 }
 
-std::string svg_document(double w, double h, const std::string& body) {
-  return fmt::format(
-      "<?xml version='1.0' encoding='UTF-8'?>\n<svg xmlns='http://www.w3.org/2000/svg' "
-      "width='{0:.0f}' height='{1:.0f}' viewBox='0 0 {0:.0f} {1:.0f}' "
-      "font-family='DejaVu Sans, Helvetica, Arial, sans-serif'>\n<rect width='100%' height='100%' "
-      "fill='white'/>\n{2}</svg>\n",
-      w, h, body);
-}
-
-// Writes name.svg, and name.png when rsvg-convert is available; returns whether PNG exists.
-bool write_figure(const fs::path& dir, const std::string& name, const std::string& svg) {
-  const fs::path svg_path = dir / (name + ".svg");
-  write_file_atomically(svg_path.string(), svg);
-  if (std::system("command -v rsvg-convert >/dev/null 2>&1") != 0) return false;
-  const fs::path png = dir / (name + ".png"), tmp = dir / (name + ".png.tmp");
-  const std::string cmd =
-      fmt::format("rsvg-convert -f png -o '{}' '{}' 2>/dev/null", tmp.string(), svg_path.string());
-  if (std::system(cmd.c_str()) != 0) return false;
-  fs::rename(tmp, png);
-  return true;
-}
-
 std::string strength_label(const std::string& kind) {
   if (kind == "none") return "no attack: the watermarked mesh decoded as it is";
   for (const auto& [k, meaning] : attack_kinds())
@@ -155,9 +136,31 @@ const Published kCho[] = {{"noise-radius", 0.0005, 0.01},
 
 }  // namespace
 
+std::string detail::svg_document(double w, double h, const std::string& body) {
+  return fmt::format(
+      "<?xml version='1.0' encoding='UTF-8'?>\n<svg xmlns='http://www.w3.org/2000/svg' "
+      "width='{0:.0f}' height='{1:.0f}' viewBox='0 0 {0:.0f} {1:.0f}' "
+      "font-family='DejaVu Sans, Helvetica, Arial, sans-serif'>\n<rect width='100%' height='100%' "
+      "fill='white'/>\n{2}</svg>\n",
+      w, h, body);
+}
+
+bool detail::write_figure(const std::string& out, const std::string& name, const std::string& svg) {
+  const fs::path dir(out), svg_path = dir / (name + ".svg");
+  write_file_atomically(svg_path.string(), svg);
+  if (std::system("command -v rsvg-convert >/dev/null 2>&1") != 0) return false;
+  const fs::path png = dir / (name + ".png"), tmp = dir / (name + ".png.tmp");
+  const std::string cmd =
+      fmt::format("rsvg-convert -f png -o '{}' '{}' 2>/dev/null", tmp.string(), svg_path.string());
+  if (std::system(cmd.c_str()) != 0) return false;
+  fs::rename(tmp, png);
+  return true;
+}
+
 std::string write_campaign_report(const std::string& out_dir, const CampaignConfig& c,
                                   const std::vector<CalibrationRecord>& calibrations,
                                   const std::vector<TrialRow>& rows, double wall_seconds) {
+  if (c.trace) return detail::write_trace_report(out_dir, c, calibrations, rows, wall_seconds);
   const fs::path dir(out_dir);
   const std::vector<SummaryRow> summary = summarize(c, rows);
   std::string csv = "variant,attack,attack_strength,median_ber,mean_ber,trials\n";

@@ -2,6 +2,7 @@
 // recomputed from the CSV, a killed campaign resumed without a row lost or doubled, and MPI
 // ranks giving the rows of one process.
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -55,13 +56,87 @@ TEST(Campaign, RejectsBadFilesNamingFileAndKey) {
       {"{\"models\": [\"" + spot + "\"], \"variants\": [\"DXS\"]}", "variant \"DXS\""},
       {head + ", \"strength\": 0.7}", "strength 0.7 is out of (0, 1/2)"},
       {head + ", \"bits\": \"many\"}", "wrong type"},
-      {"{\"models\": [", "not valid JSON"}};
+      {"{\"models\": [", "not valid JSON"},
+      // Chains: the last step takes the strengths; every step must be an attack.
+      {head + ", \"attacks\": [{\"kind\": \"similarity:2,simplify:0.3\", \"strengths\": [0.5]}]}",
+       "attacks[0]: the last step of the chain \"similarity:2,simplify:0.3\" takes the strengths"},
+      {head + ", \"attacks\": [{\"kind\": \"melt:2,simplify\", \"strengths\": [0.5]}]}",
+       "attacks[0]: strength 0.5: unknown attack 'melt'"},
+      {head + ", \"attacks\": [{\"kind\": \"noise,melt\", \"strengths\": [1]}]}",
+       "unknown attack kind \"melt\""},
+      // Trace mode's settings.
+      {head + ", \"mode\": \"forensic\"}", "mode \"forensic\" is neither"},
+      {head + ", \"copies\": 10}", "\"copies\" needs \"mode\": \"trace\""},
+      {head + ", \"collusion\": true}", "\"collusion\" needs \"mode\": \"trace\""},
+      {head + ", \"mode\": \"trace\", \"copies\": 1}", "copies 1 is out of 2..1000000"},
+      {head + ", \"mode\": \"trace\", \"spread\": -1}", "spread -1 is out of [0, 4]"},
+      {head + ", \"mode\": \"trace\", \"bits\": 16}", "bits 16 cannot carry a 32-bit ID"},
+      {head + ", \"mode\": \"trace\", \"collusion\": 1}", "wrong type"}};
   for (std::size_t i = 0; i < cases.size(); ++i) {
     const std::string path = write_text(dir + "/c" + std::to_string(i) + ".json", cases[i].text);
     const std::string message = error_of(path);
     EXPECT_NE(message.find(path), std::string::npos) << message;
     EXPECT_NE(message.find(cases[i].expect), std::string::npos) << message;
   }
+}
+
+TEST(Campaign, ChainsRunTheirStepsWithTheSeriesStrengthLast) {
+  const std::vector<AttackStep> steps = series_chain("similarity:2,simplify", 0.3);
+  ASSERT_EQ(steps.size(), 2u);
+  EXPECT_EQ(steps[0].kind, "similarity");
+  EXPECT_EQ(steps[0].strength, 2);
+  EXPECT_EQ(steps[1].kind, "simplify");
+  EXPECT_EQ(steps[1].strength, 0.3);
+  EXPECT_EQ(series_chain("loop", 1).size(), 1u);
+  // Deterministic when every step is.
+  EXPECT_TRUE(attack_is_deterministic("quant:8,simplify"));
+  EXPECT_TRUE(attack_is_deterministic("remesh"));
+  EXPECT_FALSE(attack_is_deterministic("similarity:2,simplify"));
+  EXPECT_FALSE(attack_is_deterministic("simplify:0.5,noise"));
+}
+
+TEST(Campaign, TraceModeIssuesConsecutiveIdsAndPlansAveragedTrials) {
+  const std::string spot = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string path =
+      write_text(test::scratch_dir() + "/trace.json",
+                 "{\"models\": [\"" + spot +
+                     "\"], \"variants\": [\"VRS\"], \"mode\": \"trace\", \"copies\": 50, "
+                     "\"collusion\": true, \"payloads\": 3, \"draws\": 2, \"strength\": 0.05, "
+                     "\"attacks\": [{\"kind\": \"similarity:2,quant\", \"strengths\": [8, 10]}, "
+                     "{\"kind\": \"loop\", \"strengths\": [1]}]}");
+  const CampaignConfig c = load_campaign(path);
+  EXPECT_TRUE(c.trace);
+  EXPECT_EQ(c.copies, 50);
+  EXPECT_TRUE(c.collusion);
+  EXPECT_EQ(c.spread, 0.25);
+  // none 1 + chain 2 strengths x 2 draws + loop 1 = 6 trials, again on an average of two.
+  const std::vector<std::string> keys = unit_trial_keys(c, {0, 0, 1});
+  ASSERT_EQ(keys.size(), 12u);
+  EXPECT_EQ(keys[1], "spot|VRS|1|similarity:2,quant|8|0");
+  EXPECT_EQ(keys[6], "spot|VRS|1|none|0|0|avg2");
+  const std::vector<IssuedCopy> copies = campaign_copies(c, "spot", "VRS", 0.05);
+  ASSERT_EQ(copies.size(), 50u);
+  for (std::size_t i = 0; i < copies.size(); ++i) {
+    EXPECT_EQ(copies[i].id, campaign_first_id(c) + i);
+    EXPECT_EQ(copies[i].key_fingerprint, key_fingerprint(campaign_key(c)));
+    EXPECT_EQ(copies[i].strength_spread, 0.25);
+  }
+  for (int p = 0; p < 3; ++p) {
+    EXPECT_GE(campaign_leaker(c, p), campaign_first_id(c));
+    EXPECT_LT(campaign_leaker(c, p), campaign_first_id(c) + 50);
+  }
+}
+
+TEST(Campaign, TraceOutcomeIsRightOnlyWhenEveryoneNamedLeaked) {
+  EXPECT_EQ(trace_outcome({}, {5}), TraceOutcome::None);
+  EXPECT_EQ(trace_outcome({5}, {5}), TraceOutcome::Right);
+  EXPECT_EQ(trace_outcome({6}, {5}), TraceOutcome::Wrong);
+  EXPECT_EQ(trace_outcome({5, 6}, {5}), TraceOutcome::Wrong);
+  EXPECT_EQ(trace_outcome({6}, {5, 6}), TraceOutcome::Right);  // one colluder of two
+  EXPECT_EQ(trace_outcome({6, 5}, {5, 6}), TraceOutcome::Right);
+  EXPECT_EQ(trace_outcome({5, 7}, {5, 6}), TraceOutcome::Wrong);
+  EXPECT_STREQ(trace_outcome_name(TraceOutcome::Wrong), "wrong");
 }
 
 TEST(Calibrate, MeetsBothLimitsAndTheNextStepDoesNot) {
@@ -97,7 +172,7 @@ std::map<std::string, std::string> rows_without_times(const std::string& dir) {
   std::ifstream in(dir + "/rows.jsonl");
   for (std::string line; std::getline(in, line);) {
     TrialRow r = row_from_json(line);
-    r.embed_seconds = r.attack_seconds = r.extract_seconds = 0;
+    r.embed_seconds = r.attack_seconds = r.extract_seconds = r.trace_seconds = 0;
     EXPECT_TRUE(rows.emplace(r.key, row_to_json(r)).second) << "row twice: " << r.key;
   }
   return rows;
@@ -265,6 +340,50 @@ TEST(Campaign, CalibrateCommandSavesAndReusesItsResult) {
       "calibrate " + path + " --variant SRS --iterations 6 --max-msdm 0.2 --cache " + cache);
   ASSERT_EQ(other.code, 0) << other.out;
   EXPECT_EQ(other.out.find("[cached]"), std::string::npos) << other.out;
+}
+
+// The trace-quick campaign (the one CI runs): trace never names an innocent, nor the blind
+// decoder, and trace names the leaker at least as often as the blind decoder decodes it, on
+// the same attacked meshes; rows removed from the journal are run again to the same values.
+TEST(Campaign, TraceQuickCampaignNamesNoInnocentAndBeatsTheBlindDecoder) {
+  MESHMARK_REQUIRE(test::shared_mesh("stanford-bunny.obj"), "stanford-bunny.obj");
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "skipped under AddressSanitizer: a 2-minute campaign there takes too long for "
+                  "CI; the regular build runs it";
+#endif
+  const std::string dir = test::scratch_dir() + "/trace-quick";
+  const std::string config = std::string(MESHMARK_SOURCE_DIR) + "/bench/campaigns/trace-quick.json";
+  const test::CliRun run = test::run_cli("bench " + config + " --out " + dir + " --fresh");
+  ASSERT_EQ(run.code, 0) << run.out;
+  const std::map<std::string, std::string> rows = rows_without_times(dir);
+  int trace_right = 0, blind_right = 0, n = 0;
+  for (const auto& [key, json] : rows) {
+    const TrialRow r = row_from_json(json);
+    ++n;
+    EXPECT_EQ(r.status, "ok") << key;
+    EXPECT_NE(r.trace_outcome, "wrong") << key << ": trace named " << r.trace_named;
+    EXPECT_NE(r.blind_outcome, "wrong") << key << ": blind decoded " << r.blind_id;
+    trace_right += r.trace_outcome == "right";
+    blind_right += r.blind_outcome == "right";
+    if (r.attack == "none" && r.colluders == 1) EXPECT_EQ(r.trace_outcome, "right") << key;
+  }
+  EXPECT_GE(n, 10);
+  EXPECT_GE(trace_right, blind_right);
+  RecordProperty("trace_right", trace_right);
+  RecordProperty("blind_right", blind_right);
+  const std::string report = read_file(dir + "/report.md");
+  EXPECT_NE(report.find("## Wrong outcomes: none"), std::string::npos);
+  EXPECT_TRUE(fs::exists(dir + "/figure-trace.svg"));
+  // Resume: drop every other row of the journal; the rerun gives them back unchanged.
+  std::string kept;
+  int i = 0;
+  for (const auto& [key, json] : rows)
+    if (i++ % 2) kept += json + "\n";
+  write_text(dir + "/rows.jsonl", kept);
+  const test::CliRun again = test::run_cli("bench " + config + " --out " + dir);
+  ASSERT_EQ(again.code, 0) << again.out;
+  EXPECT_NE(again.out.find(fmt::format("({} run now", n - n / 2)), std::string::npos) << again.out;
+  EXPECT_EQ(rows_without_times(dir), rows);
 }
 
 }  // namespace

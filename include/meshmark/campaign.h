@@ -18,6 +18,23 @@
 /// attacks (quantization, smoothing, simplification, subdivision, format changes) run one draw.
 /// Every trial is named by a key (model|variant|payload|attack|strength|draw) and seeded from
 /// it, so a trial gives the same row whichever process, thread or order runs it.
+///
+/// An attack's "kind" may be a chain (attack.h, parse_attack_chain) whose last step takes the
+/// strengths: {"kind": "similarity:2,simplify", "strengths": [0.3, 0.5]} runs
+/// "similarity:2,simplify:0.3" and "similarity:2,simplify:0.5" (the earlier steps carry their
+/// own strengths; a chain is deterministic when all its steps are).
+///
+/// Trace mode ("mode": "trace"; trace.h) measures tracing with the original against the blind
+/// decoder. Per model and variant, "copies" (1000 by default) coded IDs are issued under the
+/// campaign's key (campaign_key) to consecutive IDs from campaign_first_id, as registry
+/// records; each payload index p picks a leaker among them (campaign_leaker) whose copy alone is
+/// embedded (keyed, at the strength with "spread", 0.25 by default). Every attack of every
+/// trial is then traced (the original and the issued records) and decoded blind (read_id) on
+/// the same attacked mesh; each gives right (only leakers named), none, or wrong (an innocent
+/// named). "collusion": true repeats every attack on the average of the vertex positions of
+/// the leaker's copy and the next ID's (the previous one's for the last ID): right is then at
+/// least one colluder named and no innocent. Rows carry both outcomes; keys of averaged trials
+/// end in "|avg2". bits and the 32-bit ID must make an IdCode (coding.h).
 
 #include <cstdint>
 #include <functional>
@@ -25,14 +42,17 @@
 #include <string>
 #include <vector>
 
+#include "meshmark/attack.h"
 #include "meshmark/calibrate.h"
+#include "meshmark/key.h"
 #include "meshmark/mesh.h"
+#include "meshmark/registry.h"
 
 namespace meshmark {
 
 /// One attack of a campaign at several strengths.
 struct AttackSeries {
-  std::string kind;               ///< an attack kind (attack.h), or "none"
+  std::string kind;               ///< an attack kind (attack.h), a chain ending in one, or "none"
   std::vector<double> strengths;  ///< at least one
   int draws = 0;                  ///< 0: the campaign's draws (1 for deterministic kinds)
 };
@@ -57,14 +77,22 @@ struct CampaignConfig {
   double strength = 0.05;
   CalibrateOptions calibration;
   std::vector<AttackSeries> attacks;  ///< "none" (strength 0) is always added first
+  bool trace = false;                 ///< "mode": "trace" (else "blind", the default)
+  int copies = 1000;                  ///< trace: IDs issued per model and variant (>= 2)
+  bool collusion = false;             ///< trace: every attack also on an average of two copies
+  double spread = 0.25;               ///< trace: keyed strength spread (watermark.h)
 };
 
 /// Reads a campaign file. \throw InvalidInputError naming the file and the bad key or value;
 /// IOError when it cannot be read.
 CampaignConfig load_campaign(const std::string& path);
 
-/// True for attacks whose output does not depend on the seed.
+/// True for attacks (or chains, every step) whose output does not depend on the seed.
 bool attack_is_deterministic(const std::string& kind);
+
+/// The attack chain a series runs at strength x ("similarity:2,simplify" at 0.3:
+/// "similarity:2,simplify:0.3"). \throw InvalidArgumentError naming a bad step.
+std::vector<AttackStep> series_chain(const std::string& kind, double x);
 
 /// An embedding of the campaign: model, variant and payload indices.
 struct CampaignUnit {
@@ -88,6 +116,35 @@ struct CalibrationRecord {
   int evaluations = 0;
 };
 
+/// What a trial's tracer named, against the copies that were leaked.
+enum class TraceOutcome {
+  Right,  ///< someone named, and every one named is a leaker
+  None,   ///< nobody named
+  Wrong,  ///< an innocent named (whoever else is)
+};
+
+/// "right", "none", "wrong".
+const char* trace_outcome_name(TraceOutcome outcome);
+
+/// The outcome of naming `named` when `leakers` leaked.
+TraceOutcome trace_outcome(const std::vector<std::uint64_t>& named,
+                           const std::vector<std::uint64_t>& leakers);
+
+/// Trace mode: the key copies are issued under (from the campaign's seed).
+Key campaign_key(const CampaignConfig& config);
+
+/// Trace mode: the first of the consecutive IDs issued (from the seed, below 2^31).
+std::uint64_t campaign_first_id(const CampaignConfig& config);
+
+/// Trace mode: the leaker of payload index p, one of the issued IDs (from the seed).
+std::uint64_t campaign_leaker(const CampaignConfig& config, int p);
+
+/// Trace mode: the records of the copies issued from a model in variant at strength (alpha),
+/// as a registry would list them: config.copies consecutive IDs from campaign_first_id, keyed
+/// with campaign_key, config.bits bits, 32-bit IDs, config.spread.
+std::vector<IssuedCopy> campaign_copies(const CampaignConfig& config, const std::string& model,
+                                        const std::string& variant, double strength);
+
 /// One trial.
 struct TrialRow {
   std::string key;  ///< model|variant|payload|attack|attack strength|draw
@@ -102,11 +159,23 @@ struct TrialRow {
   int erasures = 0;
   std::string status;  ///< "ok", or what failed (embedding, attack)
   double embed_seconds = 0, attack_seconds = 0, extract_seconds = 0;
+  // Trace mode only (colluders 0 otherwise). ber is then the blind reading's against the
+  // (first) leaker's codeword, and extract_seconds read_id's time.
+  int colluders = 0;          ///< copies averaged into the leak: 1, or 2 (collusion)
+  std::string leakers;        ///< their IDs, space-separated
+  std::string trace_outcome;  ///< trace_outcome_name of trace()'s named buyers
+  std::string trace_status;   ///< trace_status_name
+  std::string trace_named;    ///< the IDs trace named, space-separated, best first
+  double trace_p = 1;         ///< corrected p of trace's best candidate
+  std::string blind_outcome;  ///< trace_outcome_name of read_id's ID (none when no ID)
+  std::string blind_id;       ///< the ID read_id decoded, or why none
+  double trace_seconds = 0;   ///< trace(), registration included
 };
 
-/// The key of a trial.
+/// The key of a trial; colluders 2 (an averaged trial in trace mode) appends "|avg2".
 std::string trial_key(const std::string& model, const std::string& variant, int payload,
-                      const std::string& attack, double attack_strength, int draw);
+                      const std::string& attack, double attack_strength, int draw,
+                      int colluders = 0);
 
 /// The keys of a unit's trials, in canonical order (attacks, strengths, draws).
 std::vector<std::string> unit_trial_keys(const CampaignConfig& config, const CampaignUnit& unit);
@@ -128,9 +197,9 @@ TrialRow row_from_json(const std::string& line);
 std::string calibration_to_json(const CalibrationRecord& record);
 CalibrationRecord calibration_from_json(const std::string& line);
 
-/// CSV header and one CSV line (no newline) of a row.
-std::string csv_header();
-std::string row_to_csv(const TrialRow& row);
+/// CSV header and one CSV line (no newline) of a row; trace adds the trace mode's columns.
+std::string csv_header(bool trace = false);
+std::string row_to_csv(const TrialRow& row, bool trace = false);
 
 /// The median bit error rate of one variant, attack and strength, as the paper reports it.
 struct SummaryRow {
@@ -143,10 +212,29 @@ struct SummaryRow {
 /// Medians over models, payloads and draws, in the order variants then attacks of the config.
 std::vector<SummaryRow> summarize(const CampaignConfig& config, const std::vector<TrialRow>& rows);
 
+/// Trace mode: the outcomes of one attack, strength and number of colluders, over models,
+/// variants, payloads and draws, for trace and for the blind decoder on the same trials.
+struct TraceSummaryRow {
+  std::string attack;
+  double attack_strength = 0;
+  int colluders = 1;
+  int trials = 0;
+  int trace_right = 0, trace_none = 0, trace_wrong = 0;
+  int blind_right = 0, blind_none = 0, blind_wrong = 0;
+  double worst_right_p = 0;  ///< largest corrected p among trace's right trials (0: none)
+  double median_trace_seconds = 0;
+};
+
+/// The outcome counts, in the config's order of attacks and strengths, single copies first.
+std::vector<TraceSummaryRow> summarize_trace(const CampaignConfig& config,
+                                             const std::vector<TrialRow>& rows);
+
 /// Writes summary.csv, one SVG (and PNG when rsvg-convert is installed) per attack with the
 /// median BER against strength, one curve per variant, a panel figure of all attacks, and
 /// report.md (calibrations, distortions, medians, Loop table, timings, the published results
-/// of section 8 beside DRS's). Returns the report's path.
+/// of section 8 beside DRS's). Returns the report's path. In trace mode: summary.csv of
+/// summarize_trace, figure-trace.svg (right / none / wrong bars, trace beside blind, per
+/// attack and strength) and a report.md that lists every wrong outcome first.
 std::string write_campaign_report(const std::string& dir, const CampaignConfig& config,
                                   const std::vector<CalibrationRecord>& calibrations,
                                   const std::vector<TrialRow>& rows, double wall_seconds);

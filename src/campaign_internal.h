@@ -1,0 +1,53 @@
+#pragma once
+// Internal: the trials of a campaign unit and the figures' files, shared by the blind engine
+// (campaign.cpp, campaign_report.cpp) and the trace mode (campaign_trace.cpp,
+// campaign_trace_report.cpp).
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "meshmark/campaign.h"
+
+namespace meshmark::detail {
+
+/// A seed per text (a trial's key): FNV-1a finished by SplitMix64, salted with the campaign's.
+std::uint64_t seed_of(const std::string& text, std::uint64_t salt);
+
+/// One trial to run: an attack series at one strength, one draw, on one copy or (trace mode,
+/// colluders 2) an average of two.
+struct PlannedTrial {
+  const AttackSeries* series = nullptr;
+  double strength = 0;
+  int draw = 0;
+  int colluders = 0;  ///< 0 in blind mode
+  std::string key;
+};
+
+/// The unit's trials in canonical order: attacks, strengths, draws, then (trace mode, collusion)
+/// every one again on an average of two copies.
+std::vector<PlannedTrial> plan_trials(const CampaignConfig& config, const CampaignUnit& unit);
+
+/// The trial's attack applied to mesh (a copy of it for "none"), seeded from its key.
+Mesh attack_for_trial(const CampaignConfig& config, const PlannedTrial& trial, const Mesh& mesh);
+
+/// Trace mode's run_campaign_unit.
+void run_trace_unit(const CampaignConfig& config, const CampaignUnit& unit, const Mesh& mesh,
+                    const CalibrationRecord& record,
+                    const std::function<bool(const std::string& key)>& done,
+                    const std::function<void(const TrialRow&)>& emit);
+
+/// An SVG document of w x h pixels around body, on white.
+std::string svg_document(double w, double h, const std::string& body);
+
+/// Writes dir/name.svg, and dir/name.png when rsvg-convert is installed; returns whether the
+/// PNG was written.
+bool write_figure(const std::string& dir, const std::string& name, const std::string& svg);
+
+/// Trace mode's write_campaign_report.
+std::string write_trace_report(const std::string& dir, const CampaignConfig& config,
+                               const std::vector<CalibrationRecord>& calibrations,
+                               const std::vector<TrialRow>& rows, double wall_seconds);
+
+}  // namespace meshmark::detail
