@@ -124,9 +124,9 @@ void read_trace_settings(const std::string& file, const json& j, CampaignConfig&
 }  // namespace
 
 bool attack_is_deterministic(const std::string& kind) {
-  static const std::set<std::string> fixed = {"none",   "quant",    "smooth", "taubin",  "simplify",
-                                              "loop",   "midpoint", "sqrt3",  "float32", "to-obj",
-                                              "to-off", "to-stl",   "remesh"};
+  static const std::set<std::string> fixed = {
+      "none",  "quant",   "smooth", "taubin", "simplify", "loop",   "midpoint",
+      "sqrt3", "float32", "to-obj", "to-off", "to-stl",   "remesh", "qsimplify"};
   for (std::size_t start = 0; start <= kind.size();) {  // every step of a chain
     const std::size_t end = std::min(kind.find(',', start), kind.size());
     const std::string step = kind.substr(start, end - start);

@@ -29,10 +29,12 @@ std::string now_utc() {
   return text;
 }
 
-using Identity = std::tuple<std::string, std::string, int, int, std::uint64_t>;
+// A buyer's identity among the copies of one original under one key: the ID, whatever the
+// code's length (two copies with one ID and different bits would name two buyers by one ID).
+using Identity = std::tuple<std::string, std::string, std::uint64_t>;
 
 Identity identity(const IssuedCopy& c) {
-  return {c.original_hash, c.key_fingerprint, c.bits, c.id_bits, c.id};
+  return {c.original_hash, c.key_fingerprint, c.id};
 }
 
 bool is_postgres(const std::string& location) {

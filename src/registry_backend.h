@@ -20,7 +20,8 @@ class RegistryBackend {
   /// Runs body in one write transaction that excludes other writers until it ends; commits
   /// when body returns, rolls back and rethrows when it throws.
   virtual void transaction(const std::function<void()>& body) = 0;
-  /// The recorded copy with c's identity (original, key, bits, id_bits, id), if any.
+  /// The first recorded copy with c's identity (original, key, id: whatever its bits and ID
+  /// length), if any.
   virtual bool find(const IssuedCopy& c, IssuedCopy& recorded) = 0;
   /// Inserts c (inside transaction()); returns its row.
   virtual std::int64_t insert(const IssuedCopy& c) = 0;

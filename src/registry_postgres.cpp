@@ -115,11 +115,9 @@ class PostgresRegistry final : public RegistryBackend {
   }
 
   bool find(const IssuedCopy& c, IssuedCopy& recorded) override {
-    const std::vector<std::string> p = {c.original_hash, c.key_fingerprint, std::to_string(c.bits),
-                                        std::to_string(c.id_bits), std::to_string(c.id)};
+    const std::vector<std::string> p = {c.original_hash, c.key_fingerprint, std::to_string(c.id)};
     const Result r = run(fmt::format("SELECT row, {} FROM copies WHERE original_hash = $1 AND "
-                                     "key_fingerprint = $2 AND bits = $3 AND id_bits = $4 AND "
-                                     "id = $5",
+                                     "key_fingerprint = $2 AND id = $3 ORDER BY row LIMIT 1",
                                      kRegistryColumns),
                          p);
     if (r.rows() == 0) return false;

@@ -125,13 +125,11 @@ class SqliteRegistry final : public RegistryBackend {
   bool find(const IssuedCopy& c, IssuedCopy& recorded) override {
     Statement q(db_, path_,
                 fmt::format("SELECT row, {} FROM copies WHERE original_hash = ?1 AND "
-                            "key_fingerprint = ?2 AND bits = ?3 AND id_bits = ?4 AND id = ?5",
+                            "key_fingerprint = ?2 AND id = ?3 ORDER BY row LIMIT 1",
                             kRegistryColumns));
     q.bind(1, c.original_hash);
     q.bind(2, c.key_fingerprint);
-    q.bind(3, c.bits);
-    q.bind(4, c.id_bits);
-    q.bind(5, static_cast<std::int64_t>(c.id));
+    q.bind(3, static_cast<std::int64_t>(c.id));
     if (sqlite3_step(q.get()) != SQLITE_ROW) return false;
     recorded = q.copy();
     return true;

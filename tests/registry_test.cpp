@@ -94,6 +94,19 @@ TEST(Registry, AnIdIsIssuedOncePerOriginalAndKeyAndBatchesAreAllOrNothing) {
   EXPECT_EQ(r.list().size(), 1u);
   EXPECT_THROW(r.record({copy_of(4, "a"), copy_of(4, "b")}), InvalidArgumentError);
   EXPECT_EQ(r.list().size(), 1u);
+  // The same ID with another code length (ID bits or payload bits) is the same buyer's ID.
+  IssuedCopy shorter = copy_of(1, "mallory"), longer = copy_of(1, "mallory");
+  shorter.id_bits = 24, longer.bits = 96;
+  EXPECT_THROW(r.record({shorter}), InvalidArgumentError);
+  EXPECT_THROW(r.record({longer}), InvalidArgumentError);
+  EXPECT_THROW(r.record({copy_of(9, "a"),
+                         [] {
+                           IssuedCopy c = copy_of(9, "b");
+                           c.id_bits = 20;
+                           return c;
+                         }()}),
+               InvalidArgumentError);
+  EXPECT_EQ(r.list().size(), 1u);
   // The same ID under another key, or from another original, is another copy.
   IssuedCopy other_key = copy_of(1, "k"), other_original = copy_of(1, "o");
   other_key.key_fingerprint = std::string(32, 'e');

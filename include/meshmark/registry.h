@@ -77,9 +77,9 @@ class Registry {
   Registry(const Registry&) = delete;
   Registry& operator=(const Registry&) = delete;
 
-  /// The copies among `copies` whose (original_hash, key_fingerprint, bits, id_bits, id) is
-  /// already recorded (as recorded), and those repeated within `copies` itself (the later
-  /// ones, row 0).
+  /// The copies among `copies` whose (original_hash, key_fingerprint, id) is already recorded
+  /// (as recorded, whatever its bits and ID length), and those repeated within `copies`
+  /// itself (the later ones, row 0).
   std::vector<IssuedCopy> conflicts(const std::vector<IssuedCopy>& copies) const;
 
   /// Records copies in one transaction and returns them with their rows (and issued_at when
