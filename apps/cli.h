@@ -101,6 +101,11 @@ IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::
                        int id_bits, int bits, const std::string& variant,
                        const EmbedOptions& options, double strength_spread, const Key& key);
 
+/// The copies of an existing registry (a file or a postgresql:// URI) that match query. A
+/// registry is input here: one that does not exist is never created, and one that cannot be
+/// read is unreadable input (InputFailure: exit 2).
+std::vector<IssuedCopy> read_registry(const std::string& where, const RegistryQuery& query);
+
 /// An output path as the registry records it (absolute, normalized).
 std::string recorded_path(const std::string& output);
 

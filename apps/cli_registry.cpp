@@ -36,6 +36,16 @@ IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::
   return c;
 }
 
+std::vector<IssuedCopy> read_registry(const std::string& where, const RegistryQuery& query) {
+  if (where.find("://") == std::string::npos && !std::filesystem::exists(where))
+    throw InputFailure(fmt::format("{}: no such registry", where));
+  try {
+    return Registry(where).list(query);
+  } catch (const IOError& e) {
+    throw InputFailure(e.what());
+  }
+}
+
 std::string recorded_path(const std::string& output) {
   std::error_code ec;
   const std::filesystem::path absolute = std::filesystem::absolute(output, ec);
@@ -105,11 +115,7 @@ RegistryQuery query_of(const RegistryArgs& a) {
 }
 
 int run_list(const RegistryArgs& a) {
-  const bool uri = a.db.find("://") != std::string::npos;
-  if (!uri && !std::filesystem::exists(a.db))
-    throw InputFailure(fmt::format("{}: no such registry", a.db));
-  const Registry registry(a.db);
-  const std::vector<IssuedCopy> copies = registry.list(query_of(a));
+  const std::vector<IssuedCopy> copies = read_registry(a.db, query_of(a));
   if (a.format == "json" || a.format == "jsonl") {
     nlohmann::json all = nlohmann::json::array();
     for (const IssuedCopy& c : copies) {

@@ -99,22 +99,12 @@ int run(const TraceArgs& a) {
     throw InputFailure(e.what());
   }
   q.key_fingerprint = key_fingerprint(*key);
-  // The registry is an input: one that does not exist or cannot be read is unreadable input,
-  // never an empty list (a mistyped path would read as "no buyer").
-  if (a.registry.find("://") == std::string::npos && !std::filesystem::exists(a.registry))
-    throw InputFailure(fmt::format("{}: no such registry", a.registry));
-  std::vector<IssuedCopy> candidates;
-  std::size_t under_key = 0;
-  try {
-    const Registry registry(a.registry);
-    candidates = registry.list(q);
-    if (candidates.empty()) {
-      RegistryQuery by_key;
-      by_key.key_fingerprint = q.key_fingerprint;
-      under_key = registry.list(by_key).size();
-    }
-  } catch (const IOError& e) {
-    throw InputFailure(e.what());
+  const std::vector<IssuedCopy> candidates = read_registry(a.registry, q);
+  std::size_t under_key = 0;  // copies of other originals under this key
+  if (candidates.empty()) {
+    RegistryQuery by_key;
+    by_key.key_fingerprint = q.key_fingerprint;
+    under_key = read_registry(a.registry, by_key).size();
   }
   TraceOptions options = a.options;
   options.register_leak = !a.no_register;

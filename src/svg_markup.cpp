@@ -2,9 +2,12 @@
 
 #include <cmath>
 
+#include "meshmark/error.h"
+
 namespace meshmark::detail {
 
-std::string xml_escape(std::string_view text) {
+std::string xml_escape(std::string_view raw) {
+  const std::string text = printable(raw);  // no control or bidirectional-text bytes
   std::string out;
   out.reserve(text.size());
   for (const char c : text) {

@@ -7,8 +7,9 @@
 
 namespace meshmark::detail {
 
-/// text with &, <, >, " and ' written as entities: safe in HTML and SVG text and in attribute
-/// values quoted either way.
+/// text through printable() (control characters, bidirectional-text controls and invalid
+/// UTF-8 written as \xNN), then with &, <, >, " and ' written as entities: safe in HTML and
+/// SVG text and in attribute values quoted either way, and shown as it is.
 std::string xml_escape(std::string_view text);
 
 /// "Nice" tick values (1, 2, 2.5 or 5 times a power of ten apart, about five) covering
