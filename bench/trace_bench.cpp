@@ -56,7 +56,6 @@ BENCHMARK_CAPTURE(trace_leak, similarity_simplify30_10k_candidates, "similarity:
 BENCHMARK_CAPTURE(trace_leak, similarity_noise03_10k_candidates, "similarity:2,noise:0.003")
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(trace_leak, remesh_10k_candidates, "remesh:1")->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(trace_leak, smooth10_10k_candidates, "smooth:10")
-    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(trace_leak, smooth10_10k_candidates, "smooth:10")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(trace_leak, crop50_10k_candidates, "similarity:2,crop:0.5")
     ->Unit(benchmark::kMillisecond);
