@@ -261,9 +261,12 @@ int run_batch(const std::string& manifest, const BatchSettings& settings) {
   }
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  fmt::print("{} of {} copies watermarked from {} distinct inputs on {} threads in {:.2f} s\n",
-             jobs.size() - failed, jobs.size(), meshes.size() + unreadable.size(), threads,
-             seconds);
+  std::size_t resumed = 0;
+  for (const Job& job : jobs) resumed += job.resumed;
+  fmt::print("{} of {} copies watermarked from {} distinct inputs on {} threads in {:.2f} s{}\n",
+             jobs.size() - failed - resumed, jobs.size(), meshes.size() + unreadable.size(),
+             threads, seconds,
+             resumed ? fmt::format("; {} issued before and skipped", resumed) : "");
   return failed == 0 ? kOk : kNotEmbedded;
 }
 

@@ -218,10 +218,12 @@ TEST(Registry, CommandLineIssuesRecordsAndSurvivesAKilledBatch) {
   r = test::run_cli(batch);
   EXPECT_EQ(r.code, 0) << r.out;
   std::size_t skipped = 0;
-  for (std::size_t at = r.out.find("skipped"); at != std::string::npos;
-       at = r.out.find("skipped", at + 1))
+  for (std::size_t at = r.out.find("intact: skipped"); at != std::string::npos;
+       at = r.out.find("intact: skipped", at + 1))
     ++skipped;
   EXPECT_EQ(skipped, 60u) << r.out;
+  EXPECT_NE(r.out.find("0 of 60 copies watermarked"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("60 issued before and skipped"), std::string::npos) << r.out;
   EXPECT_EQ(Registry(db).list().size(), 61u);
   all = Registry(db).list();
   for (const IssuedCopy& c : all) {
