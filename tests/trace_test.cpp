@@ -125,6 +125,15 @@ const Shop& shop() {
   return s;
 }
 
+// trace names the shop's leaker, and nobody else, below the default threshold.
+void expect_leaker_named_alone(const Shop& s, const Mesh& leak) {
+  const TraceResult r = trace(leak, s.original, s.issued, s.key);
+  ASSERT_EQ(r.status, TraceStatus::Named) << r.message;
+  ASSERT_EQ(r.named.size(), 1u) << r.message;
+  EXPECT_EQ(r.named[0].copy.id, s.leaker);
+  EXPECT_LT(r.named[0].corrected_p, 1e-6);
+}
+
 TEST(Trace, NamesTheLeakerAfterRealProcessingAndNeverAnInnocent) {
   MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
   const Shop& s = shop();
@@ -137,11 +146,7 @@ TEST(Trace, NamesTheLeakerAfterRealProcessingAndNeverAnInnocent) {
   for (const std::string& attack : named_after) {
     SCOPED_TRACE(attack);
     const Mesh leak = apply_attack_chain(s.marked, parse_attack_chain(attack), 7);
-    const TraceResult r = trace(leak, s.original, s.issued, s.key);
-    ASSERT_EQ(r.status, TraceStatus::Named) << r.message;
-    ASSERT_EQ(r.named.size(), 1u) << r.message;
-    EXPECT_EQ(r.named[0].copy.id, s.leaker);
-    EXPECT_LT(r.named[0].corrected_p, 1e-6);
+    expect_leaker_named_alone(s, leak);
     const IdReading blind =
         read_id(leak.V, leak.F, ExtractOptions{64, CenterKind::Volume}, IdCode(), s.key);
     blind_lost += !(blind.id.valid && blind.id.id == s.leaker);
@@ -160,11 +165,7 @@ TEST(Trace, NamesTheLeakerAfterASimilarityAndChainsOfTwo) {
         "simplify:0.5,noise:0.001", "remesh:1,quant:10", "crop:0.3,noise:0.001",
         "crop:0.3,smooth:5", "taubin:10,simplify:0.5"}) {
     SCOPED_TRACE(attack);
-    const Mesh leak = apply_attack_chain(s.marked, parse_attack_chain(attack), 11);
-    const TraceResult r = trace(leak, s.original, s.issued, s.key);
-    ASSERT_EQ(r.status, TraceStatus::Named) << r.message;
-    ASSERT_EQ(r.named.size(), 1u) << r.message;
-    EXPECT_EQ(r.named[0].copy.id, s.leaker);
+    expect_leaker_named_alone(s, apply_attack_chain(s.marked, parse_attack_chain(attack), 11));
   }
 }
 
