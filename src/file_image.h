@@ -2,6 +2,7 @@
 // Internal: the image of a source file that lets a write change positions and nothing else.
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,11 @@ struct CoordSlot {
   bool big_endian = false;
 };
 
+/// What a format's writer keeps beside the bytes (glTF, Draco, 3MF define their own).
+struct FormatImage {
+  virtual ~FormatImage() = default;
+};
+
 struct FileImage {
   FileFormat format = FileFormat::Obj;
   Encoding encoding = Encoding::Ascii;
@@ -41,6 +47,7 @@ struct FileImage {
   Eigen::MatrixX3d V;            ///< positions as read (rows of the mesh)
   std::size_t face_count = 0;    ///< faces as read, to detect changed connectivity
   std::size_t face_index_count = 0;
+  std::shared_ptr<const FormatImage> extra;  ///< the format's own record, if any
 };
 
 namespace detail {

@@ -79,6 +79,14 @@ const char* format_name(FileFormat format) {
       return "ply";
     case FileFormat::Stl:
       return "stl";
+    case FileFormat::Gltf:
+      return "gltf";
+    case FileFormat::Glb:
+      return "glb";
+    case FileFormat::Draco:
+      return "drc";
+    case FileFormat::ThreeMf:
+      return "3mf";
   }
   return "?";
 }
@@ -103,8 +111,14 @@ FileFormat format_from_path(const std::string& path) {
   if (ext == ".obj") return FileFormat::Obj;
   if (ext == ".ply") return FileFormat::Ply;
   if (ext == ".stl") return FileFormat::Stl;
-  throw InvalidArgumentError(fmt::format(
-      "{}: unknown mesh extension '{}' (expected .off, .obj, .ply or .stl)", path, ext));
+  if (ext == ".gltf") return FileFormat::Gltf;
+  if (ext == ".glb") return FileFormat::Glb;
+  if (ext == ".drc") return FileFormat::Draco;
+  if (ext == ".3mf") return FileFormat::ThreeMf;
+  throw InvalidArgumentError(
+      fmt::format("{}: unknown mesh extension '{}' (expected .off, .obj, .ply, .stl, .gltf, .glb, "
+                  ".drc or .3mf)",
+                  path, ext));
 }
 
 namespace {
@@ -190,6 +204,13 @@ Mesh read_mesh_from_bytes(std::string bytes, FileFormat format, const std::strin
       return detail::read_ply(std::move(bytes), name, options);
     case FileFormat::Stl:
       return detail::read_stl(std::move(bytes), name, options);
+    case FileFormat::Gltf:
+    case FileFormat::Glb:
+      return detail::read_gltf(std::move(bytes), format, name, options);
+    case FileFormat::Draco:
+      return detail::read_draco(std::move(bytes), name, options);
+    case FileFormat::ThreeMf:
+      return detail::read_3mf(std::move(bytes), name, options);
   }
   throw InvalidArgumentError("unknown format");
 }
@@ -221,6 +242,17 @@ bool has_float32_slots(const FileImage& image) {
 }  // namespace
 
 std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format, const WriteOptions& options) {
+  switch (format) {  // formats whose writers own their images
+    case FileFormat::Gltf:
+    case FileFormat::Glb:
+      return detail::write_gltf(mesh, format, options);
+    case FileFormat::Draco:
+      return detail::write_draco(mesh, options);
+    case FileFormat::ThreeMf:
+      return detail::write_3mf(mesh, options);
+    default:
+      break;
+  }
   Encoding encoding = Encoding::Ascii;
   if (format == FileFormat::Ply || format == FileFormat::Stl)
     encoding = options.encoding.value_or(mesh.format == format ? mesh.encoding
@@ -248,6 +280,8 @@ std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format, const Write
       return detail::write_ply(mesh, encoding, options.single_precision, options.vertex_colors);
     case FileFormat::Stl:
       return detail::write_stl(mesh, encoding);
+    default:
+      break;
   }
   throw InvalidArgumentError("unknown format");
 }

@@ -14,6 +14,17 @@ Mesh read_obj(std::string bytes, const std::string& name, const ReadOptions& opt
 Mesh read_ply(std::string bytes, const std::string& name, const ReadOptions& options);
 Mesh read_stl(std::string bytes, const std::string& name, const ReadOptions& options);
 
+/// glTF 2.0 (format Gltf or Glb; io_gltf.cpp), Draco (io_draco.cpp) and 3MF (io_3mf.cpp). Their
+/// writers use the mesh's image when it applies (FileImage::extra holds what they need) and
+/// write from scratch otherwise.
+Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
+               const ReadOptions& options);
+std::string write_gltf(const Mesh& mesh, FileFormat format, const WriteOptions& options);
+Mesh read_draco(std::string bytes, const std::string& name, const ReadOptions& options);
+std::string write_draco(const Mesh& mesh, const WriteOptions& options);
+Mesh read_3mf(std::string bytes, const std::string& name, const ReadOptions& options);
+std::string write_3mf(const Mesh& mesh, const WriteOptions& options);
+
 /// Writers from scratch (no file image): positions and polygons only.
 std::string write_off(const Mesh& mesh);
 std::string write_obj(const Mesh& mesh);

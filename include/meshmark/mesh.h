@@ -13,7 +13,8 @@
 namespace meshmark {
 
 /// The mesh file formats meshmark reads and writes.
-enum class FileFormat { Off, Obj, Ply, Stl };
+/// glTF 2.0 as JSON (.gltf, buffers embedded or beside it) or binary (.glb); Draco (.drc); 3MF.
+enum class FileFormat { Off, Obj, Ply, Stl, Gltf, Glb, Draco, ThreeMf };
 
 /// How a file stores its numbers. OFF and OBJ are always ascii.
 enum class Encoding { Ascii, BinaryLittleEndian, BinaryBigEndian };
