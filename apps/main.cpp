@@ -24,14 +24,15 @@ void add_input_options(CLI::App& app, InputOptions& options) {
       "DISTANCE >= 0");
   app.add_option("--weld-tolerance", options.weld_tolerance,
                  "weld referenced vertices closer than this distance (model units) for the "
-                 "computations, in every format (STL always welds identical corners); writing "
+                 "computations, in every format (STL, glTF, Draco and 3MF always weld identical "
+                 "positions); writing "
                  "back keeps the file's own vertices")
       ->check(distance);
 }
 
 void add_output_options(CLI::App& app, OutputOptions& options) {
   app.add_option("--format", options.format, "output format (default: from OUT's extension)")
-      ->check(CLI::IsMember({"off", "obj", "ply", "stl"}));
+      ->check(CLI::IsMember({"off", "obj", "ply", "stl", "gltf", "glb", "drc", "3mf"}));
   app.add_option("--encoding", options.encoding,
                  "PLY/STL output encoding (default: keep the input's)")
       ->check(CLI::IsMember({"ascii", "binary_little_endian", "binary_big_endian"}));
@@ -42,7 +43,10 @@ Mesh read_input(const std::string& path, const InputOptions& options) {
   ReadOptions ro;
   ro.weld_tolerance = options.weld_tolerance;
   try {
-    return read_mesh(path, ro);
+    Mesh mesh = read_mesh(path, ro);
+    for (const std::string& note : mesh.notes)
+      fmt::print(stderr, "warning: {}: {}\n", printable(path), printable(note));
+    return mesh;
   } catch (const IOError& e) {
     throw InputFailure(e.what());
   }

@@ -17,7 +17,7 @@ packages=(
   librsvg2-bin                                     # campaign figures: SVG to PNG
   chromium libpng-dev                              # the trace report's rendering test
   libtinygltf-dev libmeshoptimizer-dev libdraco-dev lib3mf-dev libzip-dev   # glTF, meshopt, Draco, 3MF
-  gltfpack draco npm                               # third-party tools the format tests use
+  gltfpack draco npm assimp-testmodels             # third-party tools and glTF sample files for the format tests
   libcgal-dev libcgal-demo                         # CGAL, and its real meshes (data.tar.gz)
   clang libclang-rt-14-dev                         # libFuzzer and sanitizers (scripts/fuzz.sh)
   python3                                          # small helper scripts

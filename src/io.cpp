@@ -37,9 +37,12 @@ void append_position(std::string& out, const Eigen::MatrixX3d& V, Eigen::Index i
 }
 
 Mesh assemble(Parsed parsed, std::string bytes, FileFormat format, Encoding encoding,
-              const std::string& name, const ReadOptions& options) {
+              const std::string& name, const ReadOptions& options,
+              std::shared_ptr<const FormatImage> extra) {
   if (parsed.faces.size() == 0) fail(name, 0, "the file has no faces");
-  if (format == FileFormat::Stl || options.weld_tolerance > 0)
+  const bool split_format = format != FileFormat::Off && format != FileFormat::Obj &&
+                            format != FileFormat::Ply;
+  if (split_format || options.weld_tolerance > 0)
     weld_vertices(parsed, options.weld_tolerance);
   Mesh mesh;
   const auto nv = static_cast<Eigen::Index>(parsed.xyz.size() / 3);
@@ -62,6 +65,7 @@ Mesh assemble(Parsed parsed, std::string bytes, FileFormat format, Encoding enco
     image->V = mesh.V;
     image->face_count = mesh.faces.size();
     image->face_index_count = mesh.faces.indices.size();
+    image->extra = std::move(extra);
     mesh.image = std::move(image);
   }
   return mesh;
@@ -245,7 +249,7 @@ std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format, const Write
   switch (format) {  // formats whose writers own their images
     case FileFormat::Gltf:
     case FileFormat::Glb:
-      return detail::write_gltf(mesh, format, options);
+      return detail::write_gltf(mesh, format, options, {}, nullptr);
     case FileFormat::Draco:
       return detail::write_draco(mesh, options);
     case FileFormat::ThreeMf:
@@ -286,10 +290,29 @@ std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format, const Write
   throw InvalidArgumentError("unknown format");
 }
 
-void write_mesh(const std::string& path, const Mesh& mesh, const WriteOptions& options) {
+MeshFiles write_mesh_files(const std::string& path, const Mesh& mesh,
+                           const WriteOptions& options) {
   // The extension is looked at only when no format is given (OUT may have none).
   const FileFormat format = options.format ? *options.format : format_from_path(path);
-  write_file_atomically(path, write_mesh_to_bytes(mesh, format, options));
+  MeshFiles files;
+  files.format = format;
+  if (format == FileFormat::Gltf)
+    files.bytes = detail::write_gltf(mesh, format, options,
+                                     std::filesystem::path(path).stem().string(), &files.resources);
+  else
+    files.bytes = write_mesh_to_bytes(mesh, format, options);
+  return files;
+}
+
+void write_mesh_files_atomically(const std::string& path, const MeshFiles& files) {
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  for (const auto& [name, bytes] : files.resources)
+    write_file_atomically((folder / name).string(), bytes);
+  write_file_atomically(path, files.bytes);
+}
+
+void write_mesh(const std::string& path, const Mesh& mesh, const WriteOptions& options) {
+  write_mesh_files_atomically(path, write_mesh_files(path, mesh, options));
 }
 
 namespace {

@@ -1,6 +1,8 @@
 #pragma once
 // Internal: the per-format readers and writers behind io.h's dispatcher, and what they share.
 
+#include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -19,7 +21,11 @@ Mesh read_stl(std::string bytes, const std::string& name, const ReadOptions& opt
 /// write from scratch otherwise.
 Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
                const ReadOptions& options);
-std::string write_gltf(const Mesh& mesh, FileFormat format, const WriteOptions& options);
+/// resources: where a .gltf's external buffers go, named after resource_stem (the output's
+/// file name without extension); null: they are embedded as data URIs.
+std::string write_gltf(const Mesh& mesh, FileFormat format, const WriteOptions& options,
+                       const std::string& resource_stem,
+                       std::map<std::string, std::string>* resources);
 Mesh read_draco(std::string bytes, const std::string& name, const ReadOptions& options);
 std::string write_draco(const Mesh& mesh, const WriteOptions& options);
 Mesh read_3mf(std::string bytes, const std::string& name, const ReadOptions& options);
@@ -52,10 +58,12 @@ struct Parsed {
 /// its vertex (see patch_image). Defined in io_stl.cpp, STL's reader being its first user.
 void weld_vertices(Parsed& parsed, double tolerance);
 
-/// Builds the Mesh: V from xyz (welded first, for STL always and for the other formats when
-/// options.weld_tolerance > 0), F by triangulation, the image when asked. Throws
+/// Builds the Mesh: V from xyz (welded first: for STL, glTF, Draco and 3MF always, whose files
+/// split vertices at every seam; for OFF, OBJ and PLY when options.weld_tolerance > 0), F by
+/// triangulation, the image when asked (with the format's own record `extra`). Throws
 /// InvalidInputError when there are no faces or no triangles.
 Mesh assemble(Parsed parsed, std::string bytes, FileFormat format, Encoding encoding,
-              const std::string& name, const ReadOptions& options);
+              const std::string& name, const ReadOptions& options,
+              std::shared_ptr<const FormatImage> extra = nullptr);
 
 }  // namespace meshmark::detail

@@ -134,11 +134,12 @@ WrittenCheck write_marked_mesh(const std::string& path, const Mesh& mesh,
                                const WriteOptions& options, const ReadOptions& read_options,
                                const Payload& bins, const ExtractOptions& extract_options,
                                double min_margin) {
-  const FileFormat format = options.format ? *options.format : format_from_path(path);
-  std::string bytes = write_mesh_to_bytes(mesh, format, options);
+  const MeshFiles files = write_mesh_files(path, mesh, options);
+  const FileFormat format = files.format;
   ReadOptions ro = read_options;
   ro.keep_image = false;
-  const Mesh back = read_mesh_from_bytes(bytes, format, path, ro);
+  ro.resources = &files.resources;
+  const Mesh back = read_mesh_from_bytes(files.bytes, format, path, ro);
   ExtractOptions eo = extract_options;
   eo.bits = bins.size();
   const ExtractResult x = extract(back.V, back.F, eo);
@@ -159,7 +160,7 @@ WrittenCheck write_marked_mesh(const std::string& path, const Mesh& mesh,
         format_name(format), check.bit_errors, bins.size(), check.min_margin, min_margin);
     return check;
   }
-  write_file_atomically(path, bytes);
+  write_mesh_files_atomically(path, files);
   check.message = fmt::format("written and read back: smallest margin {:.4g}", check.min_margin);
   return check;
 }

@@ -10,6 +10,7 @@
 /// Text formats are written with round-trip precision (shortest representation that reads
 /// back to the same double).
 
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -29,6 +30,9 @@ struct ReadOptions {
   double weld_tolerance = 0.0;
   /// Keep the file image for faithful writing (costs about the file's size in memory).
   bool keep_image = true;
+  /// glTF: external buffers by their uri (percent-decoded), consulted before the disk (to read
+  /// back files not yet written, see MeshFiles). Not owned; null for none.
+  const std::map<std::string, std::string>* resources = nullptr;
 };
 
 /// Reads a mesh, choosing the format from the extension (.off .obj .ply .stl, any case).
@@ -64,7 +68,23 @@ struct WriteOptions {
 ///        extension.
 void write_mesh(const std::string& path, const Mesh& mesh, const WriteOptions& options = {});
 
-/// The bytes write_mesh would write (without touching the disk).
+/// A mesh file as a write produces it, and the files it names beside it (a .gltf's external
+/// buffers, named after the output: OUT.bin, or OUT_k.bin for buffer k when there are several).
+struct MeshFiles {
+  FileFormat format = FileFormat::Obj;
+  std::string bytes;                              ///< the file itself
+  std::map<std::string, std::string> resources;  ///< file name (beside it) -> bytes
+};
+
+/// What write_mesh would write to path (without touching the disk).
+MeshFiles write_mesh_files(const std::string& path, const Mesh& mesh,
+                           const WriteOptions& options = {});
+
+/// Writes the resources, then the file, each atomically (write_file_atomically).
+void write_mesh_files_atomically(const std::string& path, const MeshFiles& files);
+
+/// The bytes write_mesh would write (without touching the disk); a .gltf's external buffers
+/// are embedded as base64 data URIs here.
 std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format,
                                 const WriteOptions& options = {});
 

@@ -46,6 +46,9 @@ struct Mesh {
   /// in the same format substitutes the positions and keeps every other byte. Operations that
   /// change connectivity reset it.
   std::shared_ptr<const FileImage> image;
+  /// What the reader noticed that the caller should hear, one sentence each (glTF: skinned or
+  /// morphed meshes, non-uniform scales, instanced meshes, skipped point or line primitives).
+  std::vector<std::string> notes;
 };
 
 /// Fan-triangulates polygons: a face (v0, v1, ..., vk) gives (v0, vi, vi+1). Faces with fewer

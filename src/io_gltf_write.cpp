@@ -1,0 +1,376 @@
+// glTF 2.0 writing: positions patched into the source's own buffers (every other byte kept but
+// the accessors' min/max and, for re-encoded meshopt data, byte offsets and lengths), or a new
+// file with positions and triangles alone.
+
+#include <nlohmann/json.hpp>
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+
+#include <fmt/format.h>
+#include <meshoptimizer.h>
+
+#include "gltf_internal.h"
+#include "io_formats.h"
+#include "json_spans.h"
+#include "meshmark/error.h"
+
+namespace meshmark::detail {
+
+namespace {
+
+std::size_t round4(std::size_t n) {
+  return (n + 3) / 4 * 4;
+}
+
+// A file name as a URI path segment: bytes other than letters, digits and -._~ as %XX.
+std::string percent_encode(std::string_view name) {
+  std::string out;
+  for (const char c : name) {
+    const auto u = static_cast<unsigned char>(c);
+    if (std::isalnum(u) || c == '-' || c == '.' || c == '_' || c == '~')
+      out += c;
+    else
+      out += fmt::format("%{:02X}", u);
+  }
+  return out;
+}
+
+void put_u32(std::string& out, std::uint32_t v) {
+  char b[4];
+  std::memcpy(b, &v, 4);
+  out.append(b, 4);
+}
+
+// Shortest text that reads back as the same float (min/max of float accessors must equal the
+// data as stored) or as the same integer.
+std::string number_text(double v, int component) {
+  char buf[64];
+  const auto r = component == kGltfFloat
+                     ? std::to_chars(buf, buf + sizeof buf, static_cast<float>(v))
+                     : std::to_chars(buf, buf + sizeof buf, static_cast<long long>(v));
+  return std::string(buf, r.ptr);
+}
+
+std::string glb(std::string json, const std::string& bin, std::size_t bin_padding) {
+  json.append(round4(json.size()) - json.size(), ' ');
+  const std::size_t bin_chunk = bin.empty() ? 0 : round4(bin.size() + bin_padding);
+  std::string out;
+  out.reserve(28 + json.size() + bin_chunk);
+  put_u32(out, 0x46546C67);
+  put_u32(out, 2);
+  put_u32(out,
+          static_cast<std::uint32_t>(12 + 8 + json.size() + (bin.empty() ? 0 : 8 + bin_chunk)));
+  put_u32(out, static_cast<std::uint32_t>(json.size()));
+  put_u32(out, 0x4E4F534A);
+  out += json;
+  if (!bin.empty()) {
+    put_u32(out, static_cast<std::uint32_t>(bin_chunk));
+    put_u32(out, 0x004E4942);
+    out += bin;
+    out.append(bin_chunk - bin.size(), '\0');
+  }
+  return out;
+}
+
+// A file with the positions and triangles alone: float32 positions, uint32 indices, one node.
+std::string write_new(const Mesh& mesh, FileFormat format) {
+  std::string bin;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    for (int c = 0; c < 3; ++c) {
+      const auto f = static_cast<float>(mesh.V(i, c));
+      if (!std::isfinite(f))
+        throw InvalidArgumentError(
+            fmt::format("{}: vertex {} does not fit in float32, which glTF stores",
+                        mesh.source_path.empty() ? "the mesh" : mesh.source_path, i));
+      bin.append(reinterpret_cast<const char*>(&f), 4);
+      lo[c] = std::min(lo[c], static_cast<double>(f));
+      hi[c] = std::max(hi[c], static_cast<double>(f));
+    }
+  const std::size_t index_offset = bin.size();
+  for (Eigen::Index t = 0; t < mesh.F.rows(); ++t)
+    for (int c = 0; c < 3; ++c) put_u32(bin, static_cast<std::uint32_t>(mesh.F(t, c)));
+  using Json = nlohmann::ordered_json;
+  Json doc;
+  doc["asset"] = {{"version", "2.0"}, {"generator", "meshmark"}};
+  doc["scene"] = 0;
+  doc["scenes"] = Json::array({{{"nodes", {0}}}});
+  doc["nodes"] = Json::array({{{"mesh", 0}}});
+  doc["meshes"] = Json::array(
+      {{{"primitives",
+         Json::array({{{"attributes", {{"POSITION", 0}}}, {"indices", 1}, {"mode", 4}}})}}});
+  Json min = Json::array(), max = Json::array();
+  for (int c = 0; c < 3; ++c) {
+    min.push_back(static_cast<float>(mesh.V.rows() ? lo[c] : 0));
+    max.push_back(static_cast<float>(mesh.V.rows() ? hi[c] : 0));
+  }
+  doc["accessors"] = Json::array({{{"bufferView", 0},
+                                   {"componentType", kGltfFloat},
+                                   {"count", mesh.V.rows()},
+                                   {"type", "VEC3"},
+                                   {"min", min},
+                                   {"max", max}},
+                                  {{"bufferView", 1},
+                                   {"componentType", kGltfUnsignedInt},
+                                   {"count", 3 * mesh.F.rows()},
+                                   {"type", "SCALAR"}}});
+  doc["bufferViews"] = Json::array(
+      {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", index_offset}, {"target", 34962}},
+       {{"buffer", 0},
+        {"byteOffset", index_offset},
+        {"byteLength", bin.size() - index_offset},
+        {"target", 34963}}});
+  Json buffer = {{"byteLength", bin.size()}};
+  if (format == FileFormat::Gltf)
+    buffer["uri"] = "data:application/octet-stream;base64," + base64_encode(bin);
+  doc["buffers"] = Json::array({buffer});
+  const std::string json = doc.dump();
+  return format == FileFormat::Glb ? glb(json, bin, 0) : json;
+}
+
+struct Patch {
+  const Mesh& mesh;
+  const FileImage& image;
+  const GltfImage& g;
+  std::vector<std::string> buffers;        // patched copies
+  std::vector<std::string> views;          // patched decoded bytes of compressed views
+  std::vector<std::uint8_t> view_changed;  // compressed views to re-encode
+  std::vector<std::uint8_t> accessor_changed;
+
+  std::string& view_data(int v) {
+    const GltfView& view = g.views[static_cast<std::size_t>(v)];
+    return view.compressed ? views[static_cast<std::size_t>(v)]
+                           : buffers[static_cast<std::size_t>(view.buffer)];
+  }
+  std::size_t view_start(int v) const {
+    const GltfView& view = g.views[static_cast<std::size_t>(v)];
+    return view.compressed ? 0 : view.offset;
+  }
+
+  std::string where() const { return mesh.source_path.empty() ? "the mesh" : mesh.source_path; }
+
+  void positions() {
+    std::vector<int> users(g.accessor_counts.size(), 0);
+    for (const GltfInstance& inst : g.instances) ++users[static_cast<std::size_t>(inst.accessor)];
+    for (const GltfInstance& inst : g.instances) {
+      const Eigen::Matrix4d inverse = inst.world.inverse();
+      const std::size_t csize = gltf_component_size(inst.component);
+      char* base = view_data(inst.view).data() + view_start(inst.view) + inst.offset;
+      for (std::size_t k = 0; k < inst.count; ++k) {
+        const std::size_t f = inst.first + k;
+        Eigen::Vector4d w(0, 0, 0, 1);
+        bool moved = false;
+        for (int c = 0; c < 3; ++c) {
+          const CoordSlot& s = image.slots[3 * f + static_cast<std::size_t>(c)];
+          const double now = mesh.V(s.vertex, c), then = image.V(s.vertex, c);
+          const bool same = now == then && std::signbit(now) == std::signbit(then);
+          w[c] = same ? s.original : s.original + (now - then);
+          moved |= !same;
+        }
+        if (!moved) continue;
+        if (users[static_cast<std::size_t>(inst.accessor)] > 1)
+          throw InvalidArgumentError(fmt::format(
+              "{}: accessors[{}] is drawn by {} nodes (instanced); its vertices cannot move "
+              "differently in each, so a marked copy cannot be written",
+              where(), inst.accessor, users[static_cast<std::size_t>(inst.accessor)]));
+        const Eigen::Vector4d local = inverse * w;
+        for (int c = 0; c < 3; ++c)
+          if (!gltf_store_component(base + k * inst.stride + static_cast<std::size_t>(c) * csize,
+                                    inst.component, inst.normalized, local[c]))
+            throw InvalidArgumentError(fmt::format(
+                "{}: vertex {} of accessors[{}] moves to {} in its local frame, which its "
+                "component type {}{} cannot store",
+                where(), k, inst.accessor, local[c], inst.component,
+                inst.normalized ? " (normalized)" : ""));
+        accessor_changed[static_cast<std::size_t>(inst.accessor)] = 1;
+        if (g.views[static_cast<std::size_t>(inst.view)].compressed)
+          view_changed[static_cast<std::size_t>(inst.view)] = 1;
+      }
+    }
+  }
+
+  // min and max of every changed POSITION accessor, as the JSON holds them.
+  void bounds(const std::unordered_map<std::string, JsonSpan>& spans,
+              std::vector<JsonEdit>& edits) {
+    for (const GltfInstance& inst : g.instances) {
+      const auto a = static_cast<std::size_t>(inst.accessor);
+      if (!accessor_changed[a]) continue;
+      accessor_changed[a] = 0;  // once per accessor
+      const std::size_t csize = gltf_component_size(inst.component);
+      const char* base = view_data(inst.view).data() + view_start(inst.view) + inst.offset;
+      double lo[3], hi[3];
+      for (int c = 0; c < 3; ++c) {
+        lo[c] = std::numeric_limits<double>::infinity();
+        hi[c] = -lo[c];
+      }
+      for (std::size_t k = 0; k < inst.count; ++k)
+        for (int c = 0; c < 3; ++c) {
+          // Raw component values: glTF's min/max of normalized integers are the integers.
+          const double v = gltf_component_value(
+              base + k * inst.stride + static_cast<std::size_t>(c) * csize, inst.component, false);
+          lo[c] = std::min(lo[c], v);
+          hi[c] = std::max(hi[c], v);
+        }
+      for (const auto& [key, values] : {std::pair{"min", lo}, std::pair{"max", hi}}) {
+        const auto it = spans.find(fmt::format("/accessors/{}/{}", a, key));
+        if (it == spans.end()) continue;
+        edits.push_back(
+            {it->second, fmt::format("[{},{},{}]", number_text(values[0], inst.component),
+                                     number_text(values[1], inst.component),
+                                     number_text(values[2], inst.component))});
+      }
+    }
+  }
+
+  // Re-encodes changed meshopt views and moves what follows them in their buffers.
+  void recompress(const std::unordered_map<std::string, JsonSpan>& spans,
+                  std::vector<JsonEdit>& edits) {
+    std::vector<std::int64_t> shift_at;  // per buffer: list of (position, delta) pairs
+    struct Shift {
+      int buffer;
+      std::size_t at;
+      std::int64_t delta;
+    };
+    std::vector<Shift> shifts;
+    std::vector<std::size_t> new_length(g.views.size(), 0);
+    for (std::size_t v = 0; v < g.views.size(); ++v) {
+      if (!view_changed[v]) continue;
+      const GltfMeshopt& m = g.views[v].meshopt;
+      if (m.mode != "ATTRIBUTES" || m.filter != "NONE")
+        throw InvalidArgumentError(fmt::format(
+            "{}: bufferViews[{}] is meshopt-compressed with filter {}; meshmark re-encodes "
+            "unfiltered attributes only",
+            where(), v, m.filter));
+      meshopt_encodeVertexVersion(0);
+      std::string out(meshopt_encodeVertexBufferBound(m.count, m.stride), '\0');
+      const std::size_t n =
+          meshopt_encodeVertexBuffer(reinterpret_cast<unsigned char*>(out.data()), out.size(),
+                                     views[v].data(), m.count, m.stride);
+      if (n == 0) throw InvalidArgumentError(fmt::format("{}: meshopt encoding failed", where()));
+      out.resize(n);
+      std::string& buffer = buffers[static_cast<std::size_t>(m.buffer)];
+      // The same place in the buffer, now holding n bytes; what follows moves by the change of
+      // the 4-byte-aligned lengths (every view starts where it did relative to its neighbours).
+      std::size_t at = m.offset;
+      for (const Shift& s : shifts)
+        if (s.buffer == m.buffer && s.at <= m.offset)
+          at = static_cast<std::size_t>(static_cast<std::int64_t>(at) + s.delta);
+      const std::size_t old_span = std::min(round4(m.length), buffer.size() - at);
+      std::string padded = out;
+      padded.append(round4(n) - n, '\0');
+      const std::int64_t delta =
+          static_cast<std::int64_t>(padded.size()) - static_cast<std::int64_t>(old_span);
+      buffer.replace(at, old_span, padded);
+      shifts.push_back({m.buffer, m.offset + m.length, delta});
+      new_length[v] = n;
+    }
+    if (shifts.empty()) return;
+    auto moved = [&](int buffer, std::size_t offset) {
+      std::int64_t o = static_cast<std::int64_t>(offset);
+      for (const Shift& s : shifts)
+        if (s.buffer == buffer && offset >= s.at) o += s.delta;
+      return static_cast<std::size_t>(o);
+    };
+    auto edit = [&](const std::string& pointer, std::size_t value) {
+      const auto it = spans.find(pointer);
+      if (it == spans.end()) {
+        if (value == 0) return;  // an absent byteOffset stays 0
+        throw InvalidArgumentError(
+            fmt::format("{}: cannot place {} in the JSON", where(), pointer));
+      }
+      edits.push_back({it->second, std::to_string(value)});
+    };
+    for (std::size_t v = 0; v < g.views.size(); ++v) {
+      const GltfView& view = g.views[v];
+      if (view.compressed) {
+        const GltfMeshopt& m = view.meshopt;
+        const std::string p = fmt::format("/bufferViews/{}/extensions/EXT_meshopt_compression/", v);
+        if (moved(m.buffer, m.offset) != m.offset)
+          edit(p + "byteOffset", moved(m.buffer, m.offset));
+        if (view_changed[v]) edit(p + "byteLength", new_length[v]);
+      }
+      if (g.buffers[static_cast<std::size_t>(view.buffer)].kind != GltfBuffer::Kind::Fallback &&
+          moved(view.buffer, view.offset) != view.offset)
+        edit(fmt::format("/bufferViews/{}/byteOffset", v), moved(view.buffer, view.offset));
+    }
+    for (std::size_t b = 0; b < g.buffers.size(); ++b)
+      if (buffers[b].size() != g.buffers[b].data.size())
+        edit(fmt::format("/buffers/{}/byteLength", b), buffers[b].size());
+  }
+};
+
+}  // namespace
+
+std::string write_gltf(const Mesh& mesh, FileFormat format, const WriteOptions& options,
+                       const std::string& resource_stem,
+                       std::map<std::string, std::string>* resources) {
+  const FileImage* image = mesh.image.get();
+  const auto* g = image ? dynamic_cast<const GltfImage*>(image->extra.get()) : nullptr;
+  const bool applies = options.keep_source && g && image->format == format &&
+                       image->V.rows() == mesh.V.rows() && image->face_count == mesh.faces.size() &&
+                       image->face_index_count == mesh.faces.indices.size();
+  if (!applies) return write_new(mesh, format);
+
+  Patch p{mesh, *image, *g, {}, {}, {}, {}};
+  for (const GltfBuffer& b : g->buffers) p.buffers.push_back(b.data);
+  for (const GltfView& v : g->views) p.views.push_back(v.decoded);
+  p.view_changed.assign(g->views.size(), 0);
+  p.accessor_changed.assign(g->accessor_counts.size(), 0);
+  p.positions();
+  const auto spans = json_spans(g->json, 5);
+  std::vector<JsonEdit> edits;
+  p.bounds(spans, edits);
+  p.recompress(spans, edits);
+
+  if (format == FileFormat::Glb) {
+    const bool same_layout =
+        edits.empty() || std::all_of(p.buffers.begin(), p.buffers.end(),
+                                     [&, b = std::size_t{0}](const std::string& s) mutable {
+                                       return s.size() == g->buffers[b++].data.size();
+                                     });
+    std::string json = apply_json_edits(g->json, edits);
+    const bool has_bin = !g->buffers.empty() && g->buffers[0].kind == GltfBuffer::Kind::GlbBin;
+    // A JSON no longer than the source's is padded with spaces to its length (allowed after
+    // the JSON text), so every byte after it stays in place.
+    if (same_layout && json.size() <= g->json.size() && has_bin) {
+      json.append(g->json.size() - json.size(), ' ');
+      // The file as it was, with the JSON's and BIN chunk's bytes patched in place.
+      std::string out = image->bytes;
+      std::memcpy(out.data() + 20, json.data(), json.size());
+      std::memcpy(out.data() + 28 + g->json.size(), p.buffers[0].data(), p.buffers[0].size());
+      return out;
+    }
+    // The JSON changed length: a new container (padding bytes past the data are zeros).
+    return glb(json, has_bin ? p.buffers[0] : std::string(), 0);
+  }
+  // .gltf: buffers as data URIs (patched) or files beside the output.
+  for (std::size_t b = 0; b < g->buffers.size(); ++b) {
+    const GltfBuffer& buffer = g->buffers[b];
+    if (buffer.kind == GltfBuffer::Kind::Fallback) continue;
+    const auto it = spans.find(fmt::format("/buffers/{}/uri", b));
+    if (it == spans.end()) continue;
+    std::string uri;
+    if (buffer.kind == GltfBuffer::Kind::DataUri) {
+      if (p.buffers[b] == buffer.data) continue;
+      uri = buffer.uri.substr(0, buffer.uri.find(',') + 1) + base64_encode(p.buffers[b]);
+    } else if (resources) {
+      const std::string file = g->buffers.size() == 1 ? resource_stem + ".bin"
+                                                      : fmt::format("{}_{}.bin", resource_stem, b);
+      (*resources)[file] = p.buffers[b];
+      uri = percent_encode(file);
+    } else {
+      uri = "data:application/octet-stream;base64," + base64_encode(p.buffers[b]);
+    }
+    edits.push_back({it->second, nlohmann::json(uri).dump()});
+  }
+  return apply_json_edits(g->json, edits);
+}
+
+}  // namespace meshmark::detail
