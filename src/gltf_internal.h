@@ -4,6 +4,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "file_image.h"
@@ -23,8 +24,9 @@ enum GltfComponent : int {
 /// One buffer as the file stores it.
 struct GltfBuffer {
   enum class Kind { GlbBin, DataUri, External, Fallback } kind = Kind::GlbBin;
-  std::string data;  ///< its bytes (Fallback: empty; its views are decoded from elsewhere)
-  std::string uri;   ///< as written in the JSON (External, DataUri)
+  std::string own;        ///< the decoded or loaded bytes (DataUri, External)
+  std::string_view data;  ///< its bytes: own, or in GltfImage::file (GlbBin); Fallback: empty
+  std::string uri;        ///< as written in the JSON (External, DataUri)
 };
 
 /// EXT_meshopt_compression on a buffer view: where the compressed bytes are and how to decode.
@@ -61,6 +63,7 @@ struct GltfInstance {
 /// 3 * file vertex + axis, its original the world coordinate as read).
 struct GltfImage : FormatImage {
   bool binary = false;                ///< GLB
+  std::string file;                   ///< the whole source file (FileImage::bytes stays empty)
   std::string json;                   ///< the JSON text
   std::size_t bin_chunk_padding = 0;  ///< GLB: bytes of the BIN chunk past buffer 0's length
   std::vector<GltfBuffer> buffers;

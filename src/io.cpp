@@ -60,8 +60,9 @@ Mesh assemble(Parsed parsed, std::string bytes, FileFormat format, Encoding enco
     image->encoding = encoding;
     image->bytes = std::move(bytes);
     image->slots = std::move(parsed.slots);
-    std::sort(image->slots.begin(), image->slots.end(),
-              [](const CoordSlot& a, const CoordSlot& b) { return a.offset < b.offset; });
+    auto by_offset = [](const CoordSlot& a, const CoordSlot& b) { return a.offset < b.offset; };
+    if (!std::is_sorted(image->slots.begin(), image->slots.end(), by_offset))
+      std::sort(image->slots.begin(), image->slots.end(), by_offset);
     image->V = mesh.V;
     image->face_count = mesh.faces.size();
     image->face_index_count = mesh.faces.indices.size();

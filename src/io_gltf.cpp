@@ -225,7 +225,7 @@ struct Reader {
     return static_cast<int>(i);
   }
 
-  void read_buffers(const std::string& bytes, bool binary, std::size_t bin_offset,
+  void read_buffers(std::string_view bytes, bool binary, std::size_t bin_offset,
                     std::size_t bin_length) {
     const Json& buffers = array("buffers");
     img.buffers.resize(buffers.size());
@@ -260,15 +260,16 @@ struct Reader {
             out.uri.substr(0, comma).find(";base64") == std::string::npos)
           fail(where + ": a data URI that is not base64");
         out.kind = GltfBuffer::Kind::DataUri;
-        if (!base64_decode(std::string_view(out.uri).substr(comma + 1), out.data))
+        if (!base64_decode(std::string_view(out.uri).substr(comma + 1), out.own))
           fail(where + ": the data URI is not valid base64");
       } else {
         out.kind = GltfBuffer::Kind::External;
-        out.data = external(percent_decode(out.uri), where);
+        out.own = external(percent_decode(out.uri), where);
       }
-      if (out.data.size() < length)
-        fail(fmt::format("{}: {} bytes where byteLength says {}", where, out.data.size(), length));
-      out.data.resize(length);
+      if (out.own.size() < length)
+        fail(fmt::format("{}: {} bytes where byteLength says {}", where, out.own.size(), length));
+      out.own.resize(length);
+      out.data = out.own;
     }
   }
 
@@ -329,7 +330,7 @@ struct Reader {
     m.count = size(e, "count", w);
     m.mode = e.value("mode", std::string());
     m.filter = e.value("filter", std::string("NONE"));
-    const std::string& src = img.buffers[static_cast<std::size_t>(m.buffer)].data;
+    const std::string_view src = img.buffers[static_cast<std::size_t>(m.buffer)].data;
     if (img.buffers[static_cast<std::size_t>(m.buffer)].kind == GltfBuffer::Kind::Fallback)
       fail(w + ": the compressed data is in a fallback buffer");
     if (m.offset > src.size() || m.length > src.size() - m.offset)
@@ -377,8 +378,9 @@ struct Reader {
     }
   }
 
-  const std::string& view_bytes(const GltfView& v) const {
-    return v.compressed ? v.decoded : img.buffers[static_cast<std::size_t>(v.buffer)].data;
+  std::string_view view_bytes(const GltfView& v) const {
+    return v.compressed ? std::string_view(v.decoded)
+                        : img.buffers[static_cast<std::size_t>(v.buffer)].data;
   }
   std::size_t view_start(const GltfView& v) const { return v.compressed ? 0 : v.offset; }
 
@@ -486,6 +488,7 @@ Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
   } else {
     img.json = bytes;
   }
+  img.file = std::move(bytes);  // buffer 0 of a GLB is read in place
   std::vector<std::string> notes;
   Reader r{name, options, Json(), img, notes};
   try {
@@ -506,7 +509,7 @@ Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
         e != "EXT_texture_webp")
       fail(name, 0, fmt::format("required extension '{}' is not supported", e));
   }
-  r.read_buffers(bytes, img.binary, bin_offset, bin_length);
+  r.read_buffers(img.file, img.binary, bin_offset, bin_length);
   r.read_views();
   const Json& accessors = r.array("accessors");
   const Json& meshes = r.array("meshes");
@@ -561,6 +564,8 @@ Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
       inst.first = parsed.xyz.size() / 3;
       inst.offset = acc.offset;
       const std::size_t csize = gltf_component_size(acc.component);
+      parsed.xyz.reserve(parsed.xyz.size() + 3 * acc.count);
+      parsed.slots.reserve(parsed.slots.size() + 3 * acc.count);
       for (std::size_t k = 0; k < acc.count; ++k) {
         const char* e = acc.data + k * acc.stride;
         Eigen::Vector4d p(gltf_component_value(e, acc.component, acc.normalized),
@@ -710,8 +715,8 @@ Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
          fmt::format("no triangle primitive in the default scene ({} point or line "
                      "primitives)",
                      skipped_primitives));
-  Mesh mesh = assemble(std::move(parsed), std::move(bytes), format, Encoding::BinaryLittleEndian,
-                       name, options, std::move(image));
+  Mesh mesh = assemble(std::move(parsed), std::string(), format, Encoding::BinaryLittleEndian, name,
+                       options, std::move(image));
   mesh.notes = std::move(notes);
   return mesh;
 }

@@ -319,7 +319,7 @@ std::string write_gltf(const Mesh& mesh, FileFormat format, const WriteOptions& 
   if (!applies) return write_new(mesh, format);
 
   Patch p{mesh, *image, *g, {}, {}, {}, {}};
-  for (const GltfBuffer& b : g->buffers) p.buffers.push_back(b.data);
+  for (const GltfBuffer& b : g->buffers) p.buffers.emplace_back(b.data);
   for (const GltfView& v : g->views) p.views.push_back(v.decoded);
   p.view_changed.assign(g->views.size(), 0);
   p.accessor_changed.assign(g->accessor_counts.size(), 0);
@@ -342,7 +342,7 @@ std::string write_gltf(const Mesh& mesh, FileFormat format, const WriteOptions& 
     if (same_layout && json.size() <= g->json.size() && has_bin) {
       json.append(g->json.size() - json.size(), ' ');
       // The file as it was, with the JSON's and BIN chunk's bytes patched in place.
-      std::string out = image->bytes;
+      std::string out = g->file;
       std::memcpy(out.data() + 20, json.data(), json.size());
       std::memcpy(out.data() + 28 + g->json.size(), p.buffers[0].data(), p.buffers[0].size());
       return out;
