@@ -9,12 +9,13 @@ seconds="${1:-20}"
 command -v clang++ >/dev/null || { echo "fuzz: clang++ is missing (apt-get install clang libclang-rt-14-dev)" >&2; exit 1; }
 out=build-fuzz
 mkdir -p "$out" fuzz/crashes
-sources="src/error.cpp src/mesh.cpp src/text_scan.cpp src/file_image.cpp src/io.cpp src/io_off.cpp src/io_obj.cpp src/io_ply.cpp src/io_stl.cpp"
+sources="src/error.cpp src/mesh.cpp src/text_scan.cpp src/file_image.cpp src/io.cpp src/io_off.cpp src/io_obj.cpp src/io_ply.cpp src/io_stl.cpp src/io_gltf.cpp src/io_gltf_write.cpp src/json_spans.cpp src/io_draco.cpp src/io_3mf.cpp"
+format_libs="-lmeshoptimizer -ldraco -l3MF"
 clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
-  -Iinclude -Isrc -isystem /usr/include/eigen3 $sources fuzz/fuzz_read.cpp -lfmt -o "$out/fuzz_read"
+  -Iinclude -Isrc -isystem /usr/include/eigen3 $sources fuzz/fuzz_read.cpp -lfmt $format_libs -o "$out/fuzz_read"
 clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
   -Iinclude -Isrc -isystem /usr/include/eigen3 $sources src/payload.cpp src/key.cpp src/coding.cpp fuzz/fuzz_decode.cpp \
-  -lfmt -lsodium -o "$out/fuzz_decode"
+  -lfmt -lsodium $format_libs -o "$out/fuzz_decode"
 # Seeds: real meshes, each prefixed with the byte that selects its format.
 seeds="$out/seeds"
 rm -rf "$seeds" && mkdir -p "$seeds"
@@ -28,6 +29,15 @@ add_seed ../shared/meshes/featuretype.STL 3
 for f in build/cgal-data/data/meshes/cube.off build/cgal-data/data/meshes/tetrahedron.off build/cgal-data/data/meshes/elephant.off; do add_seed "$f" 0; done
 for f in build/cgal-data/data/meshes/colored_tetra.ply build/cgal-data/data/meshes/sphere.ply; do add_seed "$f" 2; done
 add_seed build/cgal-data/data/meshes/sphere.stl 3
+# glTF and GLB seeds: gltfpack's outputs (quantized, float, meshopt) and Debian's sample files.
+if command -v gltfpack >/dev/null && [ -f ../shared/meshes/spot.obj ]; then
+  for flags in "" "-noq" "-cc"; do
+    gltfpack -i ../shared/meshes/spot.obj -o "$out/seed$flags.glb" $flags >/dev/null 2>&1 && add_seed "$out/seed$flags.glb" 5
+  done
+fi
+for f in /usr/share/assimp/models/glTF2/BoxTextured-glTF-Embedded/BoxTextured.gltf \
+         /usr/share/assimp/models/glTF2/glTF-Sample-Models/AnimatedMorphCube-glTF/AnimatedMorphCube.gltf; do add_seed "$f" 4; done
+add_seed /usr/share/assimp/models/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb 5
 for f in fuzz/regressions/*; do [ -f "$f" ] && cp "$f" "$seeds/"; done
 corpus="$out/corpus"
 mkdir -p "$corpus"

@@ -20,12 +20,14 @@ TEST(FuzzRegressions, EveryKeptInputReadsOrFailsCleanly) {
     std::ifstream in(entry.path(), std::ios::binary);
     const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     if (bytes.empty()) continue;
-    const FileFormat formats[] = {FileFormat::Off, FileFormat::Obj, FileFormat::Ply,
-                                  FileFormat::Stl};
+    // The first byte picks the format as fuzz/fuzz_read.cpp does.
+    const FileFormat formats[] = {FileFormat::Off,  FileFormat::Obj,   FileFormat::Ply,
+                                  FileFormat::Stl,  FileFormat::Gltf,  FileFormat::Glb,
+                                  FileFormat::Draco, FileFormat::ThreeMf};
     SCOPED_TRACE(entry.path().string());
     try {
       const Mesh m = read_mesh_from_bytes(
-          bytes.substr(1), formats[static_cast<unsigned char>(bytes[0]) % 4], "regression");
+          bytes.substr(1), formats[static_cast<unsigned char>(bytes[0]) % 8], "regression");
       EXPECT_TRUE(m.F.rows() == 0 || m.F.maxCoeff() < m.V.rows());
     } catch (const Error&) {
     }
