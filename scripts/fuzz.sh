@@ -9,7 +9,7 @@ seconds="${1:-20}"
 command -v clang++ >/dev/null || { echo "fuzz: clang++ is missing (apt-get install clang libclang-rt-14-dev)" >&2; exit 1; }
 out=build-fuzz
 mkdir -p "$out" fuzz/crashes
-sources="src/error.cpp src/mesh.cpp src/text_scan.cpp src/file_image.cpp src/io.cpp src/io_off.cpp src/io_obj.cpp src/io_ply.cpp src/io_stl.cpp src/io_gltf.cpp src/io_gltf_write.cpp src/json_spans.cpp src/io_draco.cpp src/io_3mf.cpp"
+sources="src/error.cpp src/mesh.cpp src/text_scan.cpp src/file_image.cpp src/io.cpp src/io_off.cpp src/io_obj.cpp src/io_ply.cpp src/io_stl.cpp src/io_gltf.cpp src/io_gltf_write.cpp src/json_spans.cpp src/io_draco.cpp src/draco_codec.cpp src/io_3mf.cpp"
 format_libs="-lmeshoptimizer -ldraco -l3MF"
 clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
   -Iinclude -Isrc -isystem /usr/include/eigen3 $sources fuzz/fuzz_read.cpp -lfmt $format_libs -o "$out/fuzz_read"

@@ -72,6 +72,42 @@ Mesh assemble(Parsed parsed, std::string bytes, FileFormat format, Encoding enco
   return mesh;
 }
 
+Mesh assemble_welded(Parsed parsed, FileFormat format, const std::string& name,
+                     const ReadOptions& options, std::vector<int>& vertex_of_point) {
+  const std::size_t np = parsed.xyz.size() / 3;
+  parsed.slots.assign(np, CoordSlot{});
+  for (std::size_t p = 0; p < np; ++p) parsed.slots[p].vertex = static_cast<std::int32_t>(p);
+  weld_vertices(parsed, options.weld_tolerance);
+  vertex_of_point.resize(np);
+  for (std::size_t p = 0; p < np; ++p) vertex_of_point[p] = parsed.slots[p].vertex;
+  parsed.slots.clear();
+  ReadOptions welded = options;
+  welded.weld_tolerance = 0;
+  welded.keep_image = false;
+  return assemble(std::move(parsed), {}, format, Encoding::BinaryLittleEndian, name, welded);
+}
+
+void attach_image(Mesh& mesh, std::shared_ptr<const FormatImage> extra,
+                  const ReadOptions& options) {
+  if (!options.keep_image) return;
+  auto image = std::make_shared<FileImage>();
+  image->format = mesh.format;
+  image->encoding = mesh.encoding;
+  image->V = mesh.V;
+  image->face_count = mesh.faces.size();
+  image->face_index_count = mesh.faces.indices.size();
+  image->extra = std::move(extra);
+  mesh.image = std::move(image);
+}
+
+std::vector<double> point_displacements(const Mesh& mesh, const std::vector<int>& vertex_of_point) {
+  std::vector<double> d(3 * vertex_of_point.size());
+  for (std::size_t p = 0; p < vertex_of_point.size(); ++p)
+    for (int a = 0; a < 3; ++a)
+      d[3 * p + a] = mesh.V(vertex_of_point[p], a) - mesh.image->V(vertex_of_point[p], a);
+  return d;
+}
+
 }  // namespace detail
 
 const char* format_name(FileFormat format) {

@@ -6,8 +6,12 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <iostream>
 #include <random>
 #include <sstream>
+
+#include "meshmark/error.h"
+#include "meshmark/io.h"
 
 namespace meshmark::test {
 
@@ -101,6 +105,20 @@ CliRun run_cli(const std::string& args) {
   const int status = pclose(pipe);
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
+}
+
+void expect_invalid_input(const std::string& path) {
+  try {
+    read_mesh(path);
+    ADD_FAILURE() << path << ": read without an exception";
+  } catch (const InvalidInputError& e) {
+    EXPECT_EQ(e.file(), path);
+    EXPECT_FALSE(e.detail().empty());
+    std::cout << "  refused: " << e.what() << "\n";
+  }
+  const CliRun r = run_cli("extract " + path);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find(path), std::string::npos) << r.out;
 }
 
 }  // namespace meshmark::test

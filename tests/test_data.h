@@ -39,6 +39,11 @@ CliRun run_cli(const std::string& args);
 /// The whitespace-separated words of a line.
 std::vector<std::string> words(const std::string& line);
 
+/// Expects a malformed mesh file to be refused: read_mesh throws InvalidInputError naming path
+/// with a message (printed, so that a run shows what each refusal says), and the CLI's
+/// extract exits 2 naming path.
+void expect_invalid_input(const std::string& path);
+
 }  // namespace meshmark::test
 
 /// Skips the current test when path is empty, naming what is missing.

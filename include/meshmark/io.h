@@ -9,6 +9,12 @@
 /// normals and attribute bytes. Coordinates whose value did not change keep their bytes.
 /// Text formats are written with round-trip precision (shortest representation that reads
 /// back to the same double).
+///
+/// Draco (.drc) and 3MF (.3mf) are read through libdraco and lib3mf, bit-identical positions
+/// welded (Draco splits vertices at seams; 3MF places objects in world space); writing back
+/// re-encodes the source with every point or object vertex moved by its vertex's displacement
+/// and everything else those libraries keep (see io_formats.h for what Draco's quantization
+/// and lib3mf's writer change).
 
 #include <map>
 #include <optional>
