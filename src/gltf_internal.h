@@ -7,6 +7,7 @@
 #include <string_view>
 #include <vector>
 
+#include "draco_codec.h"
 #include "file_image.h"
 
 namespace meshmark::detail {
@@ -57,6 +58,16 @@ struct GltfInstance {
   bool normalized = false;
   Eigen::Matrix4d world = Eigen::Matrix4d::Identity();
   std::size_t first = 0;
+  int draco = -1;  ///< KHR_draco_mesh_compression: index in GltfImage::dracos (view unused)
+};
+
+/// A KHR_draco_mesh_compression primitive's data: its buffer view, decoded, and the accessors
+/// that describe it (their counts follow the decoded points and triangles).
+struct GltfDraco {
+  int view = -1;
+  int position_accessor = -1, indices_accessor = -1;
+  std::vector<int> attribute_accessors;
+  DracoMesh mesh;
 };
 
 /// What a glTF writer needs besides FileImage::bytes and slots (a slot's offset is
@@ -69,6 +80,7 @@ struct GltfImage : FormatImage {
   std::vector<GltfBuffer> buffers;
   std::vector<GltfView> views;
   std::vector<GltfInstance> instances;
+  std::vector<GltfDraco> dracos;
   std::vector<std::size_t> accessor_counts;  ///< elements of every accessor (for min/max)
 };
 

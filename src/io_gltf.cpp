@@ -524,6 +524,77 @@ Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
   std::map<int, std::vector<int>> nodes_of_accessor;
   std::size_t skipped_primitives = 0;
 
+  // File vertex f at world position w: its coordinates, and a slot per axis for the writer.
+  auto add_vertex = [&](std::size_t f, const Eigen::Vector4d& w) {
+    for (int c = 0; c < 3; ++c) {
+      parsed.xyz.push_back(w[c]);
+      CoordSlot slot;
+      slot.offset = 3 * f + static_cast<std::uint64_t>(c);
+      slot.original = w[c];
+      slot.vertex = static_cast<std::int32_t>(f);
+      slot.axis = static_cast<std::uint8_t>(c);
+      parsed.slots.push_back(slot);
+    }
+  };
+
+  // A Draco-compressed primitive: its points in world space, its triangles.
+  std::map<int, int> draco_of_view;
+  auto add_draco = [&](int n, const Eigen::Matrix4d& world, const Json& prim, const Json& ext,
+                       int a, std::size_t mode, const std::string& where) {
+    const std::string w = where + ".extensions.KHR_draco_mesh_compression";
+    if (!ext.is_object()) fail(name, 0, w + " is not an object");
+    if (mode != 4) fail(name, 0, w + ": Draco primitives must be triangles (mode 4)");
+    const int v = r.index(ext, "bufferView", w, img.views.size());
+    const auto ids = ext.find("attributes");
+    if (ids == ext.end() || !ids->is_object() || !ids->contains("POSITION"))
+      fail(name, 0, w + ": no POSITION attribute id");
+    auto [found, fresh_view] = draco_of_view.try_emplace(v, static_cast<int>(img.dracos.size()));
+    if (fresh_view) {
+      GltfDraco d;
+      d.view = v;
+      const GltfView& view = img.views[static_cast<std::size_t>(v)];
+      d.mesh = decode_draco(r.view_bytes(view).substr(r.view_start(view), view.length),
+                            name + " (" + w + ")");
+      if ((*ids)["POSITION"] != d.mesh.attribute_id_of_position)
+        fail(name, 0,
+             fmt::format("{}: POSITION is attribute {} in the JSON, {} in the Draco data", w,
+                         (*ids)["POSITION"].dump(), d.mesh.attribute_id_of_position));
+      d.position_accessor = a;
+      for (const auto& [key, acc] : prim["attributes"].items())
+        d.attribute_accessors.push_back(
+            r.index(prim["attributes"], key.c_str(), where, accessors.size()));
+      if (prim.contains("indices"))
+        d.indices_accessor = r.index(prim, "indices", where, accessors.size());
+      img.dracos.push_back(std::move(d));
+    }
+    auto [it, fresh] = instance_of.try_emplace({n, -1 - v}, img.instances.size());
+    const GltfDraco& d = img.dracos[static_cast<std::size_t>(found->second)];
+    if (fresh) {
+      GltfInstance inst;
+      inst.node = n;
+      inst.accessor = a;
+      inst.count = d.mesh.positions.size() / 3;
+      inst.world = world;
+      inst.first = parsed.xyz.size() / 3;
+      inst.draco = found->second;
+      for (std::size_t k = 0; k < inst.count; ++k) {
+        const Eigen::Vector4d p =
+            world * Eigen::Vector4d(d.mesh.positions[3 * k], d.mesh.positions[3 * k + 1],
+                                    d.mesh.positions[3 * k + 2], 1.0);
+        add_vertex(inst.first + k, p);
+      }
+      nodes_of_accessor[a].push_back(n);
+      img.instances.push_back(inst);
+    }
+    const GltfInstance& inst = img.instances[it->second];
+    for (std::size_t t = 0; t + 2 < d.mesh.triangles.size(); t += 3) {
+      const int tri[3] = {static_cast<int>(inst.first + d.mesh.triangles[t]),
+                          static_cast<int>(inst.first + d.mesh.triangles[t + 1]),
+                          static_cast<int>(inst.first + d.mesh.triangles[t + 2])};
+      parsed.faces.push_back(tri, 3);
+    }
+  };
+
   auto add_primitive = [&](int n, const Eigen::Matrix4d& world, const Json& prim,
                            const std::string& where) {
     if (!prim.is_object()) fail(name, 0, where + " is not an object");
@@ -532,8 +603,6 @@ Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
       ++skipped_primitives;
       return;
     }
-    if (prim.contains("extensions") && prim["extensions"].contains("KHR_draco_mesh_compression"))
-      fail(name, 0, where + ": KHR_draco_mesh_compression is not read yet");
     const auto attrs = prim.find("attributes");
     if (attrs == prim.end() || !attrs->is_object() || !attrs->contains("POSITION"))
       fail(name, 0, where + ": no POSITION attribute");
@@ -543,6 +612,11 @@ Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
           fmt::format("{} has morph targets: they keep their displacements, the mark "
                       "is in the base shape",
                       where));
+    const auto ext = prim.find("extensions");
+    if (ext != prim.end() && ext->is_object() && ext->contains("KHR_draco_mesh_compression")) {
+      add_draco(n, world, prim, (*ext)["KHR_draco_mesh_compression"], a, mode, where);
+      return;
+    }
     auto [it, fresh] = instance_of.try_emplace({n, a}, img.instances.size());
     if (fresh) {
       const Reader::Access acc = r.accessor(a, "VEC3", 3);
@@ -574,15 +648,7 @@ Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
         if (!p.allFinite())
           fail(name, 0, fmt::format("accessors[{}]: element {} is not finite", a, k));
         const Eigen::Vector4d w = world * p;
-        for (int c = 0; c < 3; ++c) {
-          parsed.xyz.push_back(w[c]);
-          CoordSlot slot;
-          slot.offset = 3 * (inst.first + k) + static_cast<std::uint64_t>(c);
-          slot.original = w[c];
-          slot.vertex = static_cast<std::int32_t>(inst.first + k);
-          slot.axis = static_cast<std::uint8_t>(c);
-          parsed.slots.push_back(slot);
-        }
+        add_vertex(inst.first + k, w);
       }
       nodes_of_accessor[a].push_back(n);
       img.instances.push_back(inst);

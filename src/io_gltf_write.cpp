@@ -143,6 +143,8 @@ struct Patch {
   std::vector<std::string> views;          // patched decoded bytes of compressed views
   std::vector<std::uint8_t> view_changed;  // compressed views to re-encode
   std::vector<std::uint8_t> accessor_changed;
+  std::vector<std::vector<double>> draco_positions;  // per Draco primitive, local, 3 per point
+  std::vector<std::uint8_t> draco_changed;
 
   std::string& view_data(int v) {
     const GltfView& view = g.views[static_cast<std::size_t>(v)];
@@ -162,7 +164,9 @@ struct Patch {
     for (const GltfInstance& inst : g.instances) {
       const Eigen::Matrix4d inverse = inst.world.inverse();
       const std::size_t csize = gltf_component_size(inst.component);
-      char* base = view_data(inst.view).data() + view_start(inst.view) + inst.offset;
+      char* base = inst.draco >= 0
+                       ? nullptr
+                       : view_data(inst.view).data() + view_start(inst.view) + inst.offset;
       for (std::size_t k = 0; k < inst.count; ++k) {
         const std::size_t f = inst.first + k;
         Eigen::Vector4d w(0, 0, 0, 1);
@@ -181,6 +185,13 @@ struct Patch {
               "differently in each, so a marked copy cannot be written",
               where(), inst.accessor, users[static_cast<std::size_t>(inst.accessor)]));
         const Eigen::Vector4d local = inverse * w;
+        if (inst.draco >= 0) {
+          const auto d = static_cast<std::size_t>(inst.draco);
+          for (int c = 0; c < 3; ++c)
+            draco_positions[d][3 * k + static_cast<std::size_t>(c)] = local[c];
+          draco_changed[d] = 1;
+          continue;
+        }
         for (int c = 0; c < 3; ++c)
           if (!gltf_store_component(base + k * inst.stride + static_cast<std::size_t>(c) * csize,
                                     inst.component, inst.normalized, local[c]))
@@ -229,17 +240,27 @@ struct Patch {
     }
   }
 
-  // Re-encodes changed meshopt views and moves what follows them in their buffers.
+  // Re-encodes changed meshopt views and Draco primitives, puts the new bytes where the old
+  // were, and moves what follows them in their buffers (by the change of the 4-byte-aligned
+  // lengths, so every view keeps its alignment and its place relative to its neighbours).
   void recompress(const std::unordered_map<std::string, JsonSpan>& spans,
                   std::vector<JsonEdit>& edits) {
-    std::vector<std::int64_t> shift_at;  // per buffer: list of (position, delta) pairs
-    struct Shift {
-      int buffer;
-      std::size_t at;
-      std::int64_t delta;
+    auto edit = [&](const std::string& pointer, const std::string& value, bool may_be_absent) {
+      const auto it = spans.find(pointer);
+      if (it == spans.end()) {
+        if (may_be_absent) return;  // an absent byteOffset stays 0
+        throw InvalidArgumentError(
+            fmt::format("{}: cannot place {} in the JSON", where(), pointer));
+      }
+      edits.push_back({it->second, value});
     };
-    std::vector<Shift> shifts;
-    std::vector<std::size_t> new_length(g.views.size(), 0);
+    struct Replacement {
+      int buffer;
+      std::size_t offset, length;
+      std::string bytes;
+      std::string length_pointer;  // the JSON member holding the length
+    };
+    std::vector<Replacement> replacements;
     for (std::size_t v = 0; v < g.views.size(); ++v) {
       if (!view_changed[v]) continue;
       const GltfMeshopt& m = g.views[v].meshopt;
@@ -255,54 +276,89 @@ struct Patch {
                                      views[v].data(), m.count, m.stride);
       if (n == 0) throw InvalidArgumentError(fmt::format("{}: meshopt encoding failed", where()));
       out.resize(n);
-      std::string& buffer = buffers[static_cast<std::size_t>(m.buffer)];
-      // The same place in the buffer, now holding n bytes; what follows moves by the change of
-      // the 4-byte-aligned lengths (every view starts where it did relative to its neighbours).
-      std::size_t at = m.offset;
-      for (const Shift& s : shifts)
-        if (s.buffer == m.buffer && s.at <= m.offset)
-          at = static_cast<std::size_t>(static_cast<std::int64_t>(at) + s.delta);
-      const std::size_t old_span = std::min(round4(m.length), buffer.size() - at);
-      std::string padded = out;
-      padded.append(round4(n) - n, '\0');
-      const std::int64_t delta =
-          static_cast<std::int64_t>(padded.size()) - static_cast<std::int64_t>(old_span);
-      buffer.replace(at, old_span, padded);
-      shifts.push_back({m.buffer, m.offset + m.length, delta});
-      new_length[v] = n;
+      replacements.push_back(
+          {m.buffer, m.offset, m.length, std::move(out),
+           fmt::format("/bufferViews/{}/extensions/EXT_meshopt_compression/byteLength", v)});
     }
-    if (shifts.empty()) return;
+    for (std::size_t d = 0; d < g.dracos.size(); ++d) {
+      if (!draco_changed[d]) continue;
+      const GltfDraco& dm = g.dracos[d];
+      std::string out = encode_draco(dm.mesh, draco_positions[d]);
+      // What a reader will decode: its points and triangles set the accessors' counts, its
+      // positions the POSITION accessor's min and max.
+      const DracoMesh back = decode_draco(out, where());
+      const std::size_t points = back.positions.size() / 3;
+      for (const int a : dm.attribute_accessors)
+        if (g.accessor_counts[static_cast<std::size_t>(a)] != points)
+          edit(fmt::format("/accessors/{}/count", a), std::to_string(points), false);
+      if (dm.indices_accessor >= 0 &&
+          g.accessor_counts[static_cast<std::size_t>(dm.indices_accessor)] != back.triangles.size())
+        edit(fmt::format("/accessors/{}/count", dm.indices_accessor),
+             std::to_string(back.triangles.size()), false);
+      double lo[3], hi[3];
+      for (int c = 0; c < 3; ++c) {
+        lo[c] = std::numeric_limits<double>::infinity();
+        hi[c] = -lo[c];
+      }
+      for (std::size_t k = 0; k < points; ++k)
+        for (int c = 0; c < 3; ++c) {
+          lo[c] = std::min(lo[c], back.positions[3 * k + static_cast<std::size_t>(c)]);
+          hi[c] = std::max(hi[c], back.positions[3 * k + static_cast<std::size_t>(c)]);
+        }
+      for (const auto& [key, values] : {std::pair{"min", lo}, std::pair{"max", hi}})
+        edit(fmt::format("/accessors/{}/{}", dm.position_accessor, key),
+             fmt::format("[{},{},{}]", number_text(values[0], kGltfFloat),
+                         number_text(values[1], kGltfFloat), number_text(values[2], kGltfFloat)),
+             true);
+      const GltfView& view = g.views[static_cast<std::size_t>(dm.view)];
+      replacements.push_back({view.buffer, view.offset, view.length, std::move(out),
+                              fmt::format("/bufferViews/{}/byteLength", dm.view)});
+    }
+    if (replacements.empty()) return;
+    std::sort(replacements.begin(), replacements.end(),
+              [](const Replacement& x, const Replacement& y) {
+                return std::pair(x.buffer, x.offset) < std::pair(y.buffer, y.offset);
+              });
+    struct Shift {
+      int buffer;
+      std::size_t at;  // offsets at or past this (in the source) move by delta
+      std::int64_t delta;
+    };
+    std::vector<Shift> shifts;
     auto moved = [&](int buffer, std::size_t offset) {
       std::int64_t o = static_cast<std::int64_t>(offset);
-      for (const Shift& s : shifts)
-        if (s.buffer == buffer && offset >= s.at) o += s.delta;
+      for (const Shift& sh : shifts)
+        if (sh.buffer == buffer && offset >= sh.at) o += sh.delta;
       return static_cast<std::size_t>(o);
     };
-    auto edit = [&](const std::string& pointer, std::size_t value) {
-      const auto it = spans.find(pointer);
-      if (it == spans.end()) {
-        if (value == 0) return;  // an absent byteOffset stays 0
-        throw InvalidArgumentError(
-            fmt::format("{}: cannot place {} in the JSON", where(), pointer));
-      }
-      edits.push_back({it->second, std::to_string(value)});
-    };
+    for (Replacement& r : replacements) {
+      std::string& buffer = buffers[static_cast<std::size_t>(r.buffer)];
+      const std::size_t at = moved(r.buffer, r.offset);
+      const std::size_t old_span = std::min(round4(r.length), buffer.size() - at);
+      const std::size_t n = r.bytes.size();
+      r.bytes.append(round4(n) - n, '\0');
+      buffer.replace(at, old_span, r.bytes);
+      shifts.push_back(
+          {r.buffer, r.offset + r.length,
+           static_cast<std::int64_t>(r.bytes.size()) - static_cast<std::int64_t>(old_span)});
+      edit(r.length_pointer, std::to_string(n), false);
+    }
     for (std::size_t v = 0; v < g.views.size(); ++v) {
       const GltfView& view = g.views[v];
       if (view.compressed) {
         const GltfMeshopt& m = view.meshopt;
-        const std::string p = fmt::format("/bufferViews/{}/extensions/EXT_meshopt_compression/", v);
         if (moved(m.buffer, m.offset) != m.offset)
-          edit(p + "byteOffset", moved(m.buffer, m.offset));
-        if (view_changed[v]) edit(p + "byteLength", new_length[v]);
+          edit(fmt::format("/bufferViews/{}/extensions/EXT_meshopt_compression/byteOffset", v),
+               std::to_string(moved(m.buffer, m.offset)), m.offset == 0);
       }
       if (g.buffers[static_cast<std::size_t>(view.buffer)].kind != GltfBuffer::Kind::Fallback &&
           moved(view.buffer, view.offset) != view.offset)
-        edit(fmt::format("/bufferViews/{}/byteOffset", v), moved(view.buffer, view.offset));
+        edit(fmt::format("/bufferViews/{}/byteOffset", v),
+             std::to_string(moved(view.buffer, view.offset)), view.offset == 0);
     }
     for (std::size_t b = 0; b < g.buffers.size(); ++b)
       if (buffers[b].size() != g.buffers[b].data.size())
-        edit(fmt::format("/buffers/{}/byteLength", b), buffers[b].size());
+        edit(fmt::format("/buffers/{}/byteLength", b), std::to_string(buffers[b].size()), false);
   }
 };
 
@@ -322,6 +378,8 @@ std::string write_gltf(const Mesh& mesh, FileFormat format, const WriteOptions& 
   for (const GltfBuffer& b : g->buffers) p.buffers.emplace_back(b.data);
   for (const GltfView& v : g->views) p.views.push_back(v.decoded);
   p.view_changed.assign(g->views.size(), 0);
+  for (const GltfDraco& d : g->dracos) p.draco_positions.push_back(d.mesh.positions);
+  p.draco_changed.assign(g->dracos.size(), 0);
   p.accessor_changed.assign(g->accessor_counts.size(), 0);
   p.positions();
   const auto spans = json_spans(g->json, 5);

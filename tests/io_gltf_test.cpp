@@ -518,6 +518,83 @@ TEST(Gltf, NodeTransformsAreAppliedAndUndone) {
   EXPECT_EQ(back_flat.V.rows(), flat.V.rows());
 }
 
+// A GLB whose one primitive is Draco-compressed (KHR_draco_mesh_compression), built by the
+// test around draco_encoder's output; counts from draco_decoder's PLY, read independently.
+TEST(Gltf, DracoCompressedPrimitiveIsReadAndReencoded) {
+  const std::string bunny = test::shared_mesh("bunny.ply");
+  MESHMARK_REQUIRE(bunny, "bunny.ply");
+  if (!have("draco_encoder")) GTEST_SKIP() << "skipped: draco_encoder is not installed";
+  const std::string dir = test::scratch_dir();
+  ASSERT_EQ(sh("draco_encoder -i '" + bunny + "' -o '" + dir + "/b.drc' -qp 14").code, 0);
+  ASSERT_EQ(sh("draco_decoder -i '" + dir + "/b.drc' -o '" + dir + "/b.ply'").code, 0);
+  const Mesh decoded = read_mesh(dir + "/b.ply");  // meshmark's PLY reader, not its Draco one
+  const std::string drc = slurp(dir + "/b.drc");
+  std::string bin = drc;
+  bin.append((4 - bin.size() % 4) % 4, '\0');
+  Json doc = {
+      {"asset", {{"version", "2.0"}}},
+      {"extensionsUsed", {"KHR_draco_mesh_compression"}},
+      {"extensionsRequired", {"KHR_draco_mesh_compression"}},
+      {"buffers", {{{"byteLength", bin.size()}}}},
+      {"bufferViews", {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", drc.size()}}}},
+      {"accessors",
+       {{{"componentType", 5126},
+         {"count", decoded.V.rows()},
+         {"type", "VEC3"},
+         {"min",
+          {decoded.V.col(0).minCoeff(), decoded.V.col(1).minCoeff(), decoded.V.col(2).minCoeff()}},
+         {"max",
+          {decoded.V.col(0).maxCoeff(), decoded.V.col(1).maxCoeff(), decoded.V.col(2).maxCoeff()}}},
+        {{"componentType", 5125}, {"count", 3 * decoded.F.rows()}, {"type", "SCALAR"}}}},
+      {"meshes",
+       {{{"primitives",
+          {{{"attributes", {{"POSITION", 0}}},
+            {"indices", 1},
+            {"extensions",
+             {{"KHR_draco_mesh_compression",
+               {{"bufferView", 0}, {"attributes", {{"POSITION", 0}}}}}}}}}}}}},
+      {"nodes", {{{"mesh", 0}, {"translation", {1, 2, 3}}}}},
+      {"scenes", {{{"nodes", {0}}}}},
+      {"scene", 0}};
+  std::string json = doc.dump();
+  json.append((4 - json.size() % 4) % 4, ' ');
+  std::string glb;
+  auto u32 = [&](std::uint32_t v) { glb.append(reinterpret_cast<const char*>(&v), 4); };
+  u32(0x46546C67);
+  u32(2);
+  u32(static_cast<std::uint32_t>(28 + json.size() + bin.size()));
+  u32(static_cast<std::uint32_t>(json.size()));
+  u32(0x4E4F534A);
+  glb += json;
+  u32(static_cast<std::uint32_t>(bin.size()));
+  u32(0x004E4942);
+  glb += bin;
+  const std::string in = dir + "/draco.glb";
+  std::ofstream(in, std::ios::binary) << glb;
+  const Mesh m = read_mesh(in);
+  EXPECT_EQ(m.F.rows(), decoded.F.rows());
+  // Every vertex is a decoded point moved by the node's translation (float32 + double sum).
+  std::set<std::array<double, 3>> points;
+  for (Eigen::Index i = 0; i < decoded.V.rows(); ++i)
+    points.insert({decoded.V(i, 0) + 1, decoded.V(i, 1) + 2, decoded.V(i, 2) + 3});
+  for (Eigen::Index i = 0; i < m.V.rows(); ++i)
+    ASSERT_TRUE(points.count({m.V(i, 0), m.V(i, 1), m.V(i, 2)})) << i;
+  const std::string out = mark(in, dir + "/draco-marked.glb");
+  // The JSON is the source's but for the view's length and the POSITION accessor's bounds.
+  const Glb a = split_glb(glb), b = split_glb(slurp(out));
+  Json ja = a.json, jb = b.json;
+  for (Json* j : {&ja, &jb}) {
+    (*j)["bufferViews"][0].erase("byteLength");
+    (*j)["buffers"][0].erase("byteLength");
+    (*j)["accessors"][0].erase("min");
+    (*j)["accessors"][0].erase("max");
+  }
+  EXPECT_EQ(ja, jb);
+  EXPECT_TRUE(jb.dump().find("KHR_draco_mesh_compression") != std::string::npos);
+  std::string report;
+  if (validator_installed()) EXPECT_EQ(validator_errors(out, &report), 0) << report;
+}
+
 TEST(Gltf, SampleAssetsFromDebianReadOrFailClearly) {
   const std::string root = "/usr/share/assimp/models/glTF2";
   if (!std::filesystem::exists(root)) GTEST_SKIP() << "skipped: assimp-testmodels is not installed";
