@@ -77,6 +77,7 @@ ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
     for (int q = 0; q < options.skip_nearest; ++q) leave_out_one(false);
   }
   r.histogram = build_histogram(V, referenced, r.center.point, options.bits);
+  r.check = check_carrier(referenced, r.histogram);
   const auto nb = static_cast<std::size_t>(options.bits);
   if (!r.histogram.valid()) {
     r.bits.assign(nb, kErasure);

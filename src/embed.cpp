@@ -110,6 +110,14 @@ EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Pa
   EmbedResult res;
   res.V = V;
   const detail::EmbedContext ctx = make_context(V, F, payload, options);
+  res.check = check_carrier(
+      ctx.referenced, build_histogram(V, ctx.referenced, ctx.original_center, payload.size()));
+  if (res.check.status == CarrierHealth::Unusable) {
+    res.status = EmbedStatus::InvalidMesh;
+    res.message = res.check.summary();
+    res.seconds = elapsed();
+    return res;
+  }
   detail::RoundProblem round;
   AdmmQpSolver admm;
   for (int k = 0; k < options.max_rounds; ++k) {

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "meshmark/carrier_check.h"
 #include "meshmark/histogram.h"
 #include "meshmark/payload.h"
 
@@ -35,6 +36,9 @@ struct ExtractResult {
   int erasures = 0;                ///< number of empty bins
   Center center;                   ///< the center the histogram was built around
   Histogram histogram;             ///< the histogram itself
+  /// Whether the carrier can carry nb bits (carrier_check.h): a warning (Weak) or an error
+  /// (Unusable: collapsed, duplicated or far too coarse geometry) to report with the bits.
+  CarrierCheck check;
   /// The bits as a payload, erasures read as 0.
   Payload payload() const;
   /// Smallest margin over the bits (0 with an erasure).

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "meshmark/admm_qp.h"
+#include "meshmark/carrier_check.h"
 #include "meshmark/histogram.h"
 #include "meshmark/ipopt_qp.h"
 #include "meshmark/payload.h"
@@ -52,8 +53,9 @@ enum class EmbedStatus {
   Embedded,      ///< every bit decodes with its margin, center within tolerance
   Infeasible,    ///< some bits cannot reach their targets (infeasible_bits); V unchanged
   NotConverged,  ///< max_rounds or the solver's iteration limit reached; V is the last round's
-  InvalidMesh,   ///< no histogram (no referenced vertex, all at one distance), or a volume
-                 ///< center that is ill-defined (open or inconsistently oriented mesh)
+  InvalidMesh,   ///< no histogram (no referenced vertex, all at one distance), fewer distinct
+                 ///< positions than bins (check), or a volume center that is ill-defined
+                 ///< (open or inconsistently oriented mesh)
 };
 
 /// What embed did.
@@ -75,6 +77,9 @@ struct EmbedResult {
   double center_drift = 0;          ///< |C^w - C| in bin widths
   double bin_width = 0;             ///< s of the original histogram (model units)
   double seconds = 0;               ///< wall time of the computation (no file I/O)
+  /// The input's carrier checked for nb bits before embedding (carrier_check.h): Weak is a
+  /// warning (bits that one vertex decides, or empty bins); Unusable stops with InvalidMesh.
+  CarrierCheck check;
 };
 
 /// Embeds payload (nb = payload.size() bits) into V, F (#V x 3, #F x 3). Unreferenced
