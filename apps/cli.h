@@ -9,6 +9,7 @@
 
 #include <optional>
 
+#include "meshmark/carrier_check.h"
 #include "meshmark/coding.h"
 #include "meshmark/embed.h"
 #include "meshmark/io.h"
@@ -53,6 +54,11 @@ void add_output_options(CLI::App& app, OutputOptions& options);
 
 /// Reads a mesh with the options (throws the library's errors).
 Mesh read_input(const std::string& path, const InputOptions& options);
+
+/// Prints a carrier check's findings (library's check_carrier) for the mesh read from path on
+/// stderr, one "warning" line each when the carrier is weak.
+/// \throw InputFailure (exit kBadInput) naming the file and what is wrong when it is unusable.
+void report_carrier(const std::string& path, const CarrierCheck& check);
 
 /// Throws InvalidArgumentError when output names the same file as any of the inputs.
 void refuse_overwrite(const std::string& output, std::initializer_list<std::string> inputs);

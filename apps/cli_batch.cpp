@@ -227,6 +227,8 @@ int run_batch(const std::string& manifest, const BatchSettings& settings) {
         job.ok = true;
         job.outcome = fmt::format("{} rounds, RMS {:.5f} %, {:.1f} ms", r.rounds, r.rms_percent,
                                   1e3 * r.seconds);
+        if (r.check.status == CarrierHealth::Weak)
+          job.outcome += fmt::format(" (warning: {})", r.check.summary());
       } catch (const std::exception& e) {
         job.outcome = e.what();
       }

@@ -51,6 +51,7 @@ int run(const DetectArgs& a) {
   eo.center = parse_variant(a.variant).center;
   const Mesh mesh = read_input(a.input, a.in);
   const ExtractResult r = extract(mesh.V, mesh.F, eo);
+  report_carrier(a.input, r.check);
   const std::vector<std::uint8_t> bits = layout.from_bins(r.bits);
   IdDecodeResult decoded;
   if (coded) decoded = code->decode(bits, layout.values_from_bins(r.margins), id_key(key));

@@ -92,6 +92,7 @@ int run(const EmbedArgs& a) {
   }
   Mesh mesh = read_input(a.input, a.in);
   EmbedResult r = embed(mesh.V, mesh.F, bins, options);
+  if (r.check.status == CarrierHealth::Weak) report_carrier(a.input, r.check);
   std::string status = embed_status_name(r.status);
   if (r.status == EmbedStatus::Embedded) {
     mesh.V = r.V;
@@ -129,7 +130,12 @@ int run(const EmbedArgs& a) {
                         {"rms_displacement", r.rms_displacement},
                         {"rms_percent_of_diagonal", r.rms_percent},
                         {"center_drift_bins", r.center_drift},
-                        {"seconds", r.seconds}};
+                        {"seconds", r.seconds},
+                        {"carrier",
+                         {{"status", carrier_health_name(r.check.status)},
+                          {"positions", r.check.positions},
+                          {"vertices", r.check.carrier},
+                          {"diagnostics", r.check.diagnostics}}}};
     fmt::print("{}\n", j.dump(2));
   } else {
     fmt::print("{}: {}\n", ok ? "embedded" : "NOT embedded", r.message);

@@ -41,6 +41,7 @@ int run(const ExtractArgs& a) {
   else
     reading.reading = read_mark(mesh.V, mesh.F, options, layout);
   const ExtractResult& r = reading.reading.extract;
+  report_carrier(a.input, r.check);
   const IdDecodeResult& id = reading.id;
   // Per bit, in payload order (the layout maps bits to bins).
   const std::vector<std::uint8_t>& bits = reading.reading.bits;
@@ -67,6 +68,10 @@ int run(const ExtractArgs& a) {
                         {"bits", a.bits},         {"keyed", key.has_value()},
                         {"erasures", r.erasures}, {"min_margin", r.min_margin()},
                         {"per_bit", per_bit}};
+    j["carrier"] = {{"status", carrier_health_name(r.check.status)},
+                    {"positions", r.check.positions},
+                    {"vertices", r.check.carrier},
+                    {"diagnostics", r.check.diagnostics}};
     if (expected) j["expected"] = payload_to_hex(*expected), j["bit_error_rate"] = ber;
     if (code) {
       j["id_valid"] = id.valid;

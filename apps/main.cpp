@@ -52,6 +52,13 @@ Mesh read_input(const std::string& path, const InputOptions& options) {
   }
 }
 
+void report_carrier(const std::string& path, const CarrierCheck& check) {
+  if (check.status == CarrierHealth::Unusable)
+    throw InputFailure(fmt::format("{}: {}", path, check.summary()));
+  for (const std::string& d : check.diagnostics)
+    fmt::print(stderr, "meshmark: warning: {}: {}\n", printable(path), printable(d));
+}
+
 void refuse_overwrite(const std::string& output, std::initializer_list<std::string> inputs) {
   for (const std::string& input : inputs) {
     std::error_code ec;

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "meshmark/error.h"
+#include "meshmark/mesh.h"
 
 namespace meshmark {
 
@@ -16,7 +17,7 @@ Eigen::Vector3d discrete_center(const Eigen::MatrixX3d& V,
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   count = 0;
   for (Eigen::Index i = 0; i < V.rows(); ++i)
-    if (referenced[i]) {
+    if (referenced[i] == kCounted) {
       sum += V.row(i).transpose();
       count += 1;
     }
@@ -180,7 +181,7 @@ CenterJacobians center_jacobians(const Eigen::MatrixX3d& V, const Eigen::MatrixX
   if (kind == CenterKind::Discrete) {
     out.center = center_of_mass(V, F, referenced, kind);
     for (Eigen::Index i = 0; i < V.rows(); ++i)
-      if (referenced[i]) out.J[i] = Eigen::Matrix3d::Identity() / n;
+      if (referenced[i] == kCounted) out.J[i] = Eigen::Matrix3d::Identity() / n;
     return out;
   }
   // J_i T = sum (s g^T + w6 I) / d - D sum g^T: the first sum in J, the second in B.
@@ -202,7 +203,7 @@ CenterJacobians center_jacobians(const Eigen::MatrixX3d& V, const Eigen::MatrixX
       kind == CenterKind::Volume ? reference_point_term(tot, D, n) : Eigen::Matrix3d::Zero();
   for (Eigen::Index i = 0; i < V.rows(); ++i) {
     out.J[i] = (out.J[i] / d - D * B[i].transpose()) / tot.T;
-    if (referenced[i]) out.J[i] += K;
+    if (referenced[i] == kCounted) out.J[i] += K;
   }
   return out;
 }
@@ -217,7 +218,7 @@ CenterProducts center_jacobian_products(const Eigen::MatrixX3d& V, const Eigen::
   if (kind == CenterKind::Discrete) {
     out.center = center_of_mass(V, F, referenced, kind);
     for (Eigen::Index i = 0; i < V.rows(); ++i)
-      if (referenced[i]) out.E.row(i) = U.row(i) / n;
+      if (referenced[i] == kCounted) out.E.row(i) = U.row(i) / n;
     return out;
   }
   // (J_i u_i) T = sum (s (g . u_i) + w6 u_i) / d - D sum g . u_i: a 3-vector and a scalar.
@@ -247,7 +248,7 @@ CenterProducts center_jacobian_products(const Eigen::MatrixX3d& V, const Eigen::
       kind == CenterKind::Volume ? reference_point_term(tot, D, n) : Eigen::Matrix3d::Zero();
   for (Eigen::Index i = 0; i < V.rows(); ++i) {
     Eigen::Vector3d e = (acc[i].a / d - D * acc[i].b) / tot.T;
-    if (kind == CenterKind::Volume && referenced[i]) e += K * Uv[i];
+    if (kind == CenterKind::Volume && referenced[i] == kCounted) e += K * Uv[i];
     out.E.row(i) = e.transpose();
   }
   return out;

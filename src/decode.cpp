@@ -48,7 +48,7 @@ ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
   auto referenced = carrier_vertices(V, F);
   r.center = center_of_mass(V, F, referenced, options.center);
   if (options.skip_nearest > 0 || options.skip_farthest > 0) {
-    // Leave out the farthest vertices one at a time, then the nearest, each time recomputing
+    // Leave out the farthest positions one at a time, then the nearest, each time recomputing
     // the center without the vertices left out and without their faces (an outlier's faces
     // add area and volume to the surface and volume centers).
     std::vector<std::uint8_t> left_out(referenced.size(), 0);
@@ -57,13 +57,15 @@ ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
       int pick = -1;
       double best = 0;
       for (Eigen::Index i = 0; i < V.rows(); ++i) {
-        if (!referenced[i]) continue;
+        if (referenced[i] != kCounted) continue;
         const double d = (V.row(i).transpose() - r.center.point).squaredNorm();
         if (pick < 0 || (farthest ? d > best : d < best)) pick = static_cast<int>(i), best = d;
       }
       if (pick < 0) return;
-      referenced[pick] = 0;
-      left_out[pick] = 1;
+      // The position leaves, with every vertex at it (a split corner's twins and their faces).
+      const Eigen::RowVector3d p = V.row(pick);
+      for (Eigen::Index i = 0; i < V.rows(); ++i)
+        if (referenced[i] && V.row(i) == p) referenced[i] = 0, left_out[i] = 1;
       Eigen::Index count = 0;
       for (Eigen::Index f = 0; f < kept.rows(); ++f)
         if (!left_out[kept(f, 0)] && !left_out[kept(f, 1)] && !left_out[kept(f, 2)])
@@ -75,6 +77,7 @@ ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
     for (int q = 0; q < options.skip_nearest; ++q) leave_out_one(false);
   }
   r.histogram = build_histogram(V, referenced, r.center.point, options.bits);
+  r.check = check_carrier(referenced, r.histogram);
   const auto nb = static_cast<std::size_t>(options.bits);
   if (!r.histogram.valid()) {
     r.bits.assign(nb, kErasure);

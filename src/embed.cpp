@@ -35,18 +35,6 @@ void check_options(const Payload& payload, const EmbedOptions& o) {
   if (o.max_rounds < 1) throw InvalidArgumentError("max_rounds must be at least 1");
 }
 
-PositionGroups singleton_groups(const std::vector<std::uint8_t>& referenced) {
-  PositionGroups g;
-  g.group_of.assign(referenced.size(), -1);
-  for (std::size_t i = 0; i < referenced.size(); ++i) {
-    if (!referenced[i]) continue;
-    g.group_of[i] = static_cast<int>(g.members.size());
-    g.members.push_back(static_cast<int>(i));
-    g.offsets.push_back(static_cast<int>(g.members.size()));
-  }
-  return g;
-}
-
 // Signed margins m_j (tbar_j - 1/2) of the payload's bits in a histogram (-1/2 when empty).
 std::vector<double> signed_margins(const Histogram& h, const Payload& payload) {
   std::vector<double> means;
@@ -65,7 +53,7 @@ void measure(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referen
   for (Eigen::Index i = 0; i < V.rows(); ++i) {
     const double d2 = (res.V.row(i) - V.row(i)).squaredNorm();
     res.squared_displacement += d2;
-    if (referenced[i]) sum += d2, n += 1;
+    if (referenced[i] == kCounted) sum += d2, n += 1;  // each position once
   }
   res.rms_displacement = n > 0 ? std::sqrt(sum / n) : 0;
   const double diag = bounding_box_diagonal(V, referenced);
@@ -80,8 +68,7 @@ detail::EmbedContext make_context(const Eigen::MatrixX3d& V, const Eigen::Matrix
   ctx.payload = &payload;
   ctx.options = &o;
   ctx.referenced = carrier_vertices(V, F);
-  ctx.groups = o.keep_duplicates_together ? group_identical_positions(V, ctx.referenced)
-                                          : singleton_groups(ctx.referenced);
+  ctx.groups = group_identical_positions(V, ctx.referenced);
   if (o.variant.cost == CostKind::Laplacian) {
     ctx.adjacency = vertex_adjacency(F, V.rows());
     ctx.laplacian = detail::laplacian_rows(ctx.groups, ctx.adjacency);
@@ -123,6 +110,14 @@ EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Pa
   EmbedResult res;
   res.V = V;
   const detail::EmbedContext ctx = make_context(V, F, payload, options);
+  res.check = check_carrier(
+      ctx.referenced, build_histogram(V, ctx.referenced, ctx.original_center, payload.size()));
+  if (res.check.status == CarrierHealth::Unusable) {
+    res.status = EmbedStatus::InvalidMesh;
+    res.message = res.check.summary();
+    res.seconds = elapsed();
+    return res;
+  }
   detail::RoundProblem round;
   AdmmQpSolver admm;
   for (int k = 0; k < options.max_rounds; ++k) {

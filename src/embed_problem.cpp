@@ -137,29 +137,28 @@ void LaplacianOperator::apply(const Eigen::VectorXd& x, Eigen::VectorXd& Hx) con
   for (int g = 0; g < ng; ++g) {
     double sum = 0;
     for (int k = groups.offsets[g]; k < groups.offsets[g + 1]; ++k) sum += s_[groups.members[k]];
-    Hx(g) = lambda_ * (groups.offsets[g + 1] - groups.offsets[g]) * x(g) + (1 - lambda_) * sum;
+    Hx(g) = lambda_ * x(g) + (1 - lambda_) * sum;
   }
 }
 
 Eigen::VectorXd LaplacianOperator::diagonal() const {
   Eigen::VectorXd d = (1 - lambda_) * ctx_->laplacian.ctc_diagonal;  // u_g . u_g = 1
-  for (int g = 0; g < ctx_->groups.count(); ++g)
-    d(g) += lambda_ * (ctx_->groups.offsets[g + 1] - ctx_->groups.offsets[g]);
+  d.array() += lambda_;
   return d;
 }
 
 namespace {
 
-// Laplacian-cost Hessian over groups: lambda diag(w) + (1 - lambda) B^T B (WATERMARK.md
-// section 3), from the topology matrix and this round's directions: O(nonzeros), no sort.
+// Laplacian-cost Hessian over groups: lambda I + (1 - lambda) B^T B (WATERMARK.md section 3;
+// each position's squared displacement once), from the topology matrix and this round's
+// directions: O(nonzeros), no sort.
 Eigen::SparseMatrix<double> laplacian_hessian(const EmbedContext& ctx, const Eigen::MatrixX3d& U,
                                               double lambda) {
   Eigen::SparseMatrix<double> H = ctx.laplacian_topology;
   for (Eigen::Index g = 0; g < H.outerSize(); ++g)
     for (Eigen::SparseMatrix<double>::InnerIterator it(H, g); it; ++it) {
       it.valueRef() *= (1 - lambda) * U.row(it.row()).dot(U.row(g));
-      if (it.row() == g)
-        it.valueRef() += lambda * (ctx.groups.offsets[g + 1] - ctx.groups.offsets[g]);
+      if (it.row() == g) it.valueRef() += lambda;
     }
   return H;
 }
@@ -183,8 +182,7 @@ void fall_back_where_bins_cannot_reach(const EmbedContext& ctx, const Eigen::Mat
     const Eigen::Vector3d rhohat = (V.row(first).transpose() - h.center) / h.rho(first);
     const Eigen::Vector3d u = round.U.row(g).transpose();
     if (u == rhohat) continue;
-    const double w = ctx.groups.offsets[g + 1] - ctx.groups.offsets[g];
-    qp.a(g) = (ctx.payload->bits[j] ? 1.0 : -1.0) * w / counts[j];  // cos(psi) = 1
+    qp.a(g) = (ctx.payload->bits[j] ? 1.0 : -1.0) / counts[j];  // cos(psi) = 1
     qp.lo(g) = o.bin_offset - h.t(first);
     qp.hi(g) = 1 - o.bin_offset - h.t(first);
     round.U.row(g) = rhohat.transpose();
@@ -234,8 +232,7 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
   round.U.resize(ng, 3);
   round.radial_fallbacks = 0;
   for (int g = 0; g < ng; ++g) {
-    const int first = ctx.groups.members[ctx.groups.offsets[g]];
-    const double w = ctx.groups.offsets[g + 1] - ctx.groups.offsets[g];
+    const int first = ctx.groups.members[ctx.groups.offsets[g]];  // the one that counts
     const double rho = h.rho(first), t = h.t(first);
     const int bin = h.bin[first];
     const Eigen::Vector3d rhohat = (V.row(first).transpose() - ctx.original_center) / rho;
@@ -264,9 +261,9 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
     round.U.row(g) = u.transpose();
     if (bin >= 1 && bin <= nb) {
       qp.row[g] = bin - 1;
-      qp.a(g) = (payload.bits[bin - 1] ? 1.0 : -1.0) * w * rhohat.dot(u) / counts[bin - 1];
+      qp.a(g) = (payload.bits[bin - 1] ? 1.0 : -1.0) * rhohat.dot(u) / counts[bin - 1];
     }
-    qp.h(g) = w;
+    qp.h(g) = 1;  // the position's squared displacement, once however many vertices share it
   }
   fall_back_where_bins_cannot_reach(ctx, V, h, counts, round);
   // The center rows: e_g = sum over the group's vertices of J_i u_g, and the center itself.

@@ -25,7 +25,7 @@ LaplacianRows laplacian_rows(const PositionGroups& groups, const Adjacency& adja
 
 struct EmbedContext;
 
-/// Cost L's Hessian H = lambda diag(w) + (1 - lambda) B^T B, applied without assembling it:
+/// Cost L's Hessian H = lambda I + (1 - lambda) B^T B, applied without assembling it:
 /// B x and B^T y are one pass over the one-rings each (B^T by symmetry of the adjacency).
 class LaplacianOperator {
  public:

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include "meshmark/mesh.h"
+
 namespace meshmark {
 
 std::vector<std::uint8_t> carrier_vertices(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
@@ -23,28 +25,19 @@ std::vector<std::uint8_t> carrier_vertices(const Eigen::MatrixX3d& V, const Eige
   }
   // Vertices only collapsed faces use (orphans): one at the position of a carrier vertex (a
   // seam's twin) joins it, since they move together and its faces stay collapsed.
-  std::vector<int> orphans;
   for (Eigen::Index f = 0; f < F.rows(); ++f)
     for (int k = 0; k < 3; ++k) {
       const int i = F(f, k);
-      if (i >= 0 && i < nv && used[i] == 0) used[i] = 2, orphans.push_back(i);
+      if (i >= 0 && i < nv && used[i] == 0) used[i] = 2;
     }
-  if (!orphans.empty()) {
-    auto less = [&](int i, int j) {
-      for (int k = 0; k < 3; ++k)
-        if (V(i, k) != V(j, k)) return V(i, k) < V(j, k);
-      return false;
-    };
-    std::sort(orphans.begin(), orphans.end(), less);
-    for (Eigen::Index i = 0; i < nv; ++i) {
-      if (used[i] != 1) continue;
-      const int v = static_cast<int>(i);
-      for (auto it = std::lower_bound(orphans.begin(), orphans.end(), v, less);
-           it != orphans.end() && !less(v, *it); ++it)
-        used[*it] = 3;
-    }
-    for (auto& u : used) u = u == 1 || u == 3;
-  }
+  // One hash pass over the positions: the first vertex at each position counts, the others at
+  // it are twins; a position with no carrier vertex (orphans alone) is left out.
+  const std::vector<int> first = first_at_same_position(V, used);
+  std::vector<std::uint8_t> carried(static_cast<std::size_t>(nv), 0);
+  for (Eigen::Index i = 0; i < nv; ++i)
+    if (used[i] == 1) carried[first[i]] = 1;
+  for (Eigen::Index i = 0; i < nv; ++i)
+    used[i] = first[i] < 0 || !carried[first[i]] ? 0 : first[i] == i ? kCounted : kTwin;
   return used;
 }
 
@@ -60,7 +53,7 @@ Histogram build_histogram(const Eigen::MatrixX3d& V, const std::vector<std::uint
   h.rho_min = std::numeric_limits<double>::infinity();
   h.rho_max = -h.rho_min;
   for (Eigen::Index i = 0; i < nv; ++i) {
-    if (!referenced[i]) continue;
+    if (referenced[i] != kCounted) continue;
     const double r = (V.row(i).transpose() - center).norm();
     h.rho(i) = r;
     if (r < h.rho_min) h.rho_min = r, h.argmin = static_cast<int>(i);
@@ -72,7 +65,7 @@ Histogram build_histogram(const Eigen::MatrixX3d& V, const std::vector<std::uint
   }
   h.step = (h.rho_max - h.rho_min) / h.bins;
   for (Eigen::Index i = 0; i < nv; ++i) {
-    if (!referenced[i]) continue;
+    if (referenced[i] != kCounted) continue;
     const double x = (h.rho(i) - h.rho_min) / h.step;
     const int b = std::min(static_cast<int>(std::floor(x)), h.bins - 1);
     h.bin[i] = b;

@@ -126,8 +126,8 @@ Eigen::MatrixX3d vertex_normals(const Eigen::MatrixX3d& V, const Eigen::MatrixX3
   return N;
 }
 
-PositionGroups group_identical_positions(const Eigen::MatrixX3d& V,
-                                         const std::vector<std::uint8_t>& referenced) {
+std::vector<int> first_at_same_position(const Eigen::MatrixX3d& V,
+                                        const std::vector<std::uint8_t>& mask) {
   const auto nv = static_cast<int>(V.rows());
   // Open addressing on the positions' bits (-0.0 and +0.0 hash and compare equal): the first
   // index seen at a position, the smallest, leads its group. O(n), no sort.
@@ -154,7 +154,7 @@ PositionGroups group_identical_positions(const Eigen::MatrixX3d& V,
   for (int i = 0; i < nv; ++i) {
     if (i + kAhead < nv)
       __builtin_prefetch(&table[hash[static_cast<std::size_t>(i + kAhead)] & (slots - 1)]);
-    if (!referenced[static_cast<std::size_t>(i)]) continue;
+    if (!mask[static_cast<std::size_t>(i)]) continue;
     const std::uint64_t h = hash[static_cast<std::size_t>(i)];
     for (std::size_t k = h & (slots - 1);; k = (k + 1) & (slots - 1)) {
       const int j = table[k];
@@ -169,6 +169,13 @@ PositionGroups group_identical_positions(const Eigen::MatrixX3d& V,
       }
     }
   }
+  return leader;
+}
+
+PositionGroups group_identical_positions(const Eigen::MatrixX3d& V,
+                                         const std::vector<std::uint8_t>& referenced) {
+  const auto nv = static_cast<int>(V.rows());
+  const std::vector<int> leader = first_at_same_position(V, referenced);
   PositionGroups groups;
   groups.group_of.assign(static_cast<std::size_t>(nv), -1);
   std::vector<int> sizes;

@@ -185,8 +185,8 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
   const std::vector<std::uint8_t> used_l = carrier_vertices(VL, FL);
   const std::vector<std::uint8_t> used_o = carrier_vertices(VO, FO);
   std::vector<Eigen::Index> rows;
-  for (Eigen::Index i = 0; i < VL.rows(); ++i)
-    if (used_l[i]) rows.push_back(i);
+  for (Eigen::Index i = 0; i < VL.rows(); ++i)  // each position once (kCounted)
+    if (used_l[i] == kCounted) rows.push_back(i);
   if (rows.size() < 3)
     throw InvalidArgumentError("the leaked mesh has fewer than 3 usable vertices");
   Random rng(o.seed);
@@ -197,18 +197,19 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
   }
   Eigen::MatrixX3d S(static_cast<Eigen::Index>(rows.size()), 3);
   for (std::size_t k = 0; k < rows.size(); ++k) S.row(k) = VL.row(rows[k]);
-  Eigen::MatrixX3d PO(std::count(used_o.begin(), used_o.end(), 1), 3);
+  Eigen::MatrixX3d PO(std::count(used_o.begin(), used_o.end(), kCounted), 3);
   for (Eigen::Index i = 0, k = 0; i < VO.rows(); ++i)
-    if (used_o[i]) PO.row(k++) = VO.row(i);
+    if (used_o[i] == kCounted) PO.row(k++) = VO.row(i);
   const double diagonal = bounding_box_diagonal(VO, used_o);
 
   // Starts: the identity, then the principal axes matched in the four proper ways.
   std::vector<Similarity> starts(1);
   Eigen::Vector3d mean_l, mean_o;
   Eigen::Matrix3d cov_l, cov_o;
-  Eigen::MatrixX3d all_l(static_cast<Eigen::Index>(std::count(used_l.begin(), used_l.end(), 1)), 3);
+  Eigen::MatrixX3d all_l(
+      static_cast<Eigen::Index>(std::count(used_l.begin(), used_l.end(), kCounted)), 3);
   for (Eigen::Index i = 0, k = 0; i < VL.rows(); ++i)
-    if (used_l[i]) all_l.row(k++) = VL.row(i);
+    if (used_l[i] == kCounted) all_l.row(k++) = VL.row(i);
   moments(all_l, mean_l, cov_l);
   moments(PO, mean_o, cov_o);
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> el(cov_l), eo(cov_o);

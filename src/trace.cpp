@@ -46,8 +46,8 @@ Resampled measure(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
                   const Eigen::MatrixX3d& VO, const std::vector<std::uint8_t>& carrier,
                   const Eigen::Vector3d& center, double erase) {
   std::vector<Eigen::Index> rows;
-  for (Eigen::Index i = 0; i < VO.rows(); ++i)
-    if (carrier[i]) rows.push_back(i);
+  for (Eigen::Index i = 0; i < VO.rows(); ++i)  // each position once
+    if (carrier[i] == kCounted) rows.push_back(i);
   Eigen::MatrixX3d Q(static_cast<Eigen::Index>(rows.size()), 3);
   for (std::size_t k = 0; k < rows.size(); ++k) Q.row(k) = VO.row(rows[k]);
   const ClosestPoints cp = closest_points(VL, FL, Q);
@@ -96,7 +96,7 @@ std::vector<BitEvidence> read_bins(const Eigen::MatrixX3d& VO, const Eigen::Vect
   std::vector<double> sum0(nb, 0), sum(nb, 0);
   std::vector<int> count(nb, 0);
   for (Eigen::Index i = 0; i < VO.rows(); ++i) {
-    if (!carrier[i] || !m.measured[i]) continue;
+    if (carrier[i] != kCounted || !m.measured[i]) continue;
     const int j = h.bin[i] - 1;
     if (j < 0 || j >= nb) continue;
     const double rho = (m.point.row(i).transpose() - h.center).norm();
@@ -200,7 +200,7 @@ Eigen::MatrixX3d processed_reference(const Mesh& original, const Eigen::MatrixX3
                                      const Eigen::Vector3d& center, std::string& processing) {
   std::vector<Eigen::Index> rows;
   for (Eigen::Index i = 0; i < original.V.rows(); ++i)
-    if (carrier[i] && m.measured[i]) rows.push_back(i);
+    if (carrier[i] == kCounted && m.measured[i]) rows.push_back(i);
   const Eigen::VectorXd base = radii(original.V, original.V, normals, m, center);
   // d: what the leak's distances to the center differ by from the original's.
   Eigen::VectorXd d(static_cast<Eigen::Index>(rows.size()));
@@ -252,7 +252,7 @@ Resampled resample_at_original(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3
     m.measured.assign(static_cast<std::size_t>(VO.rows()), 0);
     std::size_t used = 0, found = 0;
     for (Eigen::Index i = 0; i < VO.rows(); ++i) {
-      if (!carrier[i]) continue;
+      if (carrier[i] != kCounted) continue;
       ++used;
       if ((VL.row(i) - VO.row(i)).norm() <= erase_distance) m.measured[i] = 1, ++found;
     }

@@ -57,7 +57,12 @@ TEST(Cli, RefusesToOverwriteTheInputAndReportsInfeasibleBits) {
   const CliRun same = run("embed " + in + " " + in + " --payload 1 --bits 4");
   EXPECT_EQ(same.code, 1) << same.out;
   EXPECT_EQ(read_file(in), before);
-  const CliRun infeasible = run("embed " + in + " " + dir + "/out.obj --payload 0123456789abcdef");
+  // 82 positions: enough to fill 66 bins once (fewer are refused before embedding, as
+  // unusable), too few to fill them all.
+  const std::string sparse = dir + "/sparse.obj";
+  write_mesh(sparse, test::bumpy_sphere(8, 10, 1));
+  const CliRun infeasible =
+      run("embed " + sparse + " " + dir + "/out.obj --payload 0123456789abcdef");
   EXPECT_EQ(infeasible.code, 4) << infeasible.out;
   EXPECT_NE(infeasible.out.find("infeasible bits"), std::string::npos) << infeasible.out;
   EXPECT_FALSE(std::filesystem::exists(dir + "/out.obj"));

@@ -1,7 +1,9 @@
 #include "ipopt_reference.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <map>
 #include <set>
 
 namespace meshmark::test {
@@ -9,8 +11,14 @@ namespace meshmark::test {
 GeneralQp drs_reference_problem(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                                 const std::vector<int>& bits, double alpha, double G,
                                 std::vector<int>& referenced, Eigen::MatrixX3d& directions) {
+  // One variable per distinct position (its first vertex), as every position counts once.
   std::set<int> used(F.data(), F.data() + F.size());
-  referenced.assign(used.begin(), used.end());
+  std::map<std::array<double, 3>, int> first;
+  for (int i : used)
+    first.emplace(std::array<double, 3>{V(i, 0) + 0.0, V(i, 1) + 0.0, V(i, 2) + 0.0}, i);
+  referenced.clear();
+  for (const auto& [p, i] : first) referenced.push_back(i);
+  std::sort(referenced.begin(), referenced.end());
   const auto n = static_cast<Eigen::Index>(referenced.size());
   Eigen::Vector3d C = Eigen::Vector3d::Zero();
   for (int i : referenced) C += V.row(i).transpose();

@@ -29,12 +29,15 @@ inline constexpr double kVolumeCenterMinQuality = 1e-3;
 
 /// Computes the center of mass of the referenced vertices (D), of the triangles weighted by
 /// area (S), or of the tetrahedra (O, p0, p1, p2) weighted by signed volume with O the
-/// discrete center (V). V: #V x 3, F: #F x 3, referenced: size #V (referenced_vertices()).
+/// discrete center (V). V: #V x 3, F: #F x 3, referenced: size #V (referenced_vertices(), or
+/// carrier_vertices(): only vertices marked kCounted count in the discrete center, so a twin
+/// at the position of a counted vertex adds nothing; faces count whatever their corners).
 Center center_of_mass(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                       const std::vector<std::uint8_t>& referenced, CenterKind kind);
 
-/// The center and the 3 x 3 Jacobian J_i = dC/dp_i of every vertex (zero for unreferenced
-/// vertices), stored as J[i].
+/// The center and the 3 x 3 Jacobian J_i = dC/dp_i of every vertex (its faces' share only, for
+/// twins; zero for unreferenced vertices), stored as J[i]. Moving a position moves every vertex
+/// at it: its Jacobian is the sum over them.
 struct CenterJacobians {
   Center center;
   std::vector<Eigen::Matrix3d> J;

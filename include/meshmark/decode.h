@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "meshmark/carrier_check.h"
 #include "meshmark/histogram.h"
 #include "meshmark/payload.h"
 
@@ -16,8 +17,9 @@ namespace meshmark {
 struct ExtractOptions {
   int bits = 64;                             ///< payload length nb (nB = nb + 2 bins)
   CenterKind center = CenterKind::Discrete;  ///< the variant's center
-  /// Carrier vertices left out, nearest the center and farthest from it: a reading that undoes
-  /// outliers an attacker added (read_id in watermark.h tries a few). 0 for the normal reading.
+  /// Carrier positions (each with every vertex at it) left out, nearest the center and farthest
+  /// from it: a reading that undoes outliers an attacker added (read_id in watermark.h tries a
+  /// few). 0 for the normal reading.
   int skip_nearest = 0;
   int skip_farthest = 0;  ///< see skip_nearest
 };
@@ -30,10 +32,13 @@ struct ExtractResult {
   std::vector<std::uint8_t> bits;  ///< 0, 1, or kErasure for an empty bin
   std::vector<double> means;       ///< tbar_j, mean position in bin j + 1 (NaN when empty)
   std::vector<double> margins;     ///< |tbar_j - 1/2|, the bit's confidence (0 when erased)
-  std::vector<int> counts;         ///< vertices in bin j + 1
+  std::vector<int> counts;         ///< distinct carrier positions in bin j + 1
   int erasures = 0;                ///< number of empty bins
   Center center;                   ///< the center the histogram was built around
   Histogram histogram;             ///< the histogram itself
+  /// Whether the carrier can carry nb bits (carrier_check.h): a warning (Weak) or an error
+  /// (Unusable: collapsed, duplicated or far too coarse geometry) to report with the bits.
+  CarrierCheck check;
   /// The bits as a payload, erasures read as 0.
   Payload payload() const;
   /// Smallest margin over the bits (0 with an erasure).
@@ -41,8 +46,9 @@ struct ExtractResult {
 };
 
 /// Decodes nb bits from V, F (#V x 3, #F x 3). Only the carrier counts (carrier_vertices in
-/// histogram.h: vertices of faces of nonzero area). A mesh whose vertices all lie at one
-/// distance gives all erasures.
+/// histogram.h: vertices of faces of nonzero area), each position once: a mesh with split
+/// corners or stacked duplicates reads as its welded version. A mesh whose vertices all lie at
+/// one distance gives all erasures.
 ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                       const ExtractOptions& options = {});
 

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "meshmark/admm_qp.h"
+#include "meshmark/carrier_check.h"
 #include "meshmark/histogram.h"
 #include "meshmark/ipopt_qp.h"
 #include "meshmark/payload.h"
@@ -40,8 +41,6 @@ struct EmbedOptions {
   double margin_tolerance = 1e-6;
   /// The center may move by at most this many bin widths.
   double center_tolerance = 1e-6;
-  /// Vertices at bit-identical positions (unwelded seams) move as one, so seams stay closed.
-  bool keep_duplicates_together = true;
   QpSettings solver;                              ///< the exact separable solver (costs S and Q)
   AdmmSettings admm;                              ///< the sparse solver (cost L)
   RoughnessOptions roughness;                     ///< direction S: constants of the roughness field
@@ -54,8 +53,9 @@ enum class EmbedStatus {
   Embedded,      ///< every bit decodes with its margin, center within tolerance
   Infeasible,    ///< some bits cannot reach their targets (infeasible_bits); V unchanged
   NotConverged,  ///< max_rounds or the solver's iteration limit reached; V is the last round's
-  InvalidMesh,   ///< no histogram (no referenced vertex, all at one distance), or a volume
-                 ///< center that is ill-defined (open or inconsistently oriented mesh)
+  InvalidMesh,   ///< no histogram (no referenced vertex, all at one distance), fewer distinct
+                 ///< positions than bins (check), or a volume center that is ill-defined
+                 ///< (open or inconsistently oriented mesh)
 };
 
 /// What embed did.
@@ -72,15 +72,21 @@ struct EmbedResult {
   std::vector<double> margins;      ///< per bit, m_j (tbar_j - 1/2) after embedding (signed)
   double min_margin = 0;            ///< smallest of margins
   double squared_displacement = 0;  ///< sum_i |p_i^w - p_i|^2 (model units squared)
-  double rms_displacement = 0;      ///< sqrt(mean over referenced vertices of |p^w - p|^2)
+  double rms_displacement = 0;      ///< sqrt(mean over carrier positions of |p^w - p|^2)
   double rms_percent = 0;           ///< rms_displacement as % of the bounding-box diagonal
   double center_drift = 0;          ///< |C^w - C| in bin widths
   double bin_width = 0;             ///< s of the original histogram (model units)
   double seconds = 0;               ///< wall time of the computation (no file I/O)
+  /// The input's carrier checked for nb bits before embedding (carrier_check.h): Weak is a
+  /// warning (bits that one vertex decides, or empty bins); Unusable stops with InvalidMesh.
+  CarrierCheck check;
 };
 
 /// Embeds payload (nb = payload.size() bits) into V, F (#V x 3, #F x 3). Unreferenced
-/// vertices do not move. The input is not modified; the result holds the new positions.
+/// vertices do not move. Vertices at bit-identical positions (unwelded seams, split corners)
+/// share one unknown, so seams stay closed, and count once in the bin means, the center and the
+/// cost, as the decoder counts them (carrier_vertices): a mesh with split corners is marked as
+/// its welded version is. The input is not modified; the result holds the new positions.
 /// \throw InvalidArgumentError for an empty payload or options out of range.
 EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Payload& payload,
                   const EmbedOptions& options = {});

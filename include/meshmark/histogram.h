@@ -18,8 +18,8 @@ struct Histogram {
   double rho_min = 0, rho_max = 0;
   double step = 0;               ///< s = (rho_max - rho_min) / nB
   int bins = 0;                  ///< nB
-  Eigen::VectorXd rho;           ///< per vertex distance (NaN for unreferenced vertices)
-  std::vector<int> bin;          ///< per vertex bin B_i in [0, nB), -1 for unreferenced
+  Eigen::VectorXd rho;           ///< per vertex distance (NaN for vertices that do not count)
+  std::vector<int> bin;          ///< per vertex bin B_i in [0, nB), -1 for those that do not
   Eigen::VectorXd t;             ///< per vertex position inside its bin, (rho - rho_min)/s - B_i
   int argmin = -1, argmax = -1;  ///< a vertex attaining rho_min, rho_max
   /// False when there is nothing to histogram (no referenced vertex, or all at one distance).
@@ -36,10 +36,18 @@ struct Histogram {
 /// unfold, which adds its private vertex to the decoder's carrier: one vertex inside the range
 /// (embed's check of the written file reads the mark as a decoder would, so it is caught if it
 /// ever matters).
+///
+/// Each position counts once (welding for decoding): the first carrier vertex at a position is
+/// kCounted, every later one at the bit-identical position kTwin (mesh.h). A mesh whose every
+/// corner is split (glTF, Draco, an OBJ with per-face normals, or each triangle its own three
+/// vertices) therefore has the same histogram, bin means and center as its welded version, and
+/// copies of one vertex stacked at a point by an attacker change nothing. Cost: one hash pass
+/// over the positions. Returns a mask of size #V with values 0, kCounted, kTwin.
 std::vector<std::uint8_t> carrier_vertices(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F);
 
-/// Builds the histogram of the referenced vertices around center for nbits bits.
-/// Bin of vertex i: floor((rho_i - rho_min) / s), clamped to nB - 1.
+/// Builds the histogram of the counted vertices (referenced[i] == kCounted: a plain 0/1 mask
+/// counts every marked vertex; twins and unmarked vertices get NaN and bin -1) around center
+/// for nbits bits. Bin of vertex i: floor((rho_i - rho_min) / s), clamped to nB - 1.
 Histogram build_histogram(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referenced,
                           const Eigen::Vector3d& center, int nbits);
 

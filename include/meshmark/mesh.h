@@ -87,6 +87,20 @@ Eigen::MatrixX3d vertex_normals(const Eigen::MatrixX3d& V, const Eigen::MatrixX3
 /// Unit face normals (zero for degenerate faces). #F x 3.
 Eigen::MatrixX3d face_normals(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F);
 
+/// Values of a vertex mask that counts each position once (carrier_vertices in histogram.h):
+/// 0 outside the set; kCounted for the first (smallest-index) vertex at its position, the one
+/// that counts in histograms and the discrete center; kTwin for a later vertex at the position
+/// of a counted one (an unwelded seam or corner, or a duplicate): it moves with its position but
+/// never counts again. A plain 0/1 mask (referenced_vertices) counts every vertex.
+inline constexpr std::uint8_t kCounted = 1;
+inline constexpr std::uint8_t kTwin = 2;  ///< see kCounted
+
+/// For every vertex with mask[i] != 0, the smallest index j with mask[j] != 0 at a
+/// bit-identical position (i itself when none is smaller); -1 where mask[i] == 0. -0.0 equals
+/// +0.0. One hash table over the positions: O(#V) expected, no sort. mask: size #V.
+std::vector<int> first_at_same_position(const Eigen::MatrixX3d& V,
+                                        const std::vector<std::uint8_t>& mask);
+
 /// Groups of referenced vertices at bit-identical positions (unwelded seams, duplicates):
 /// group_of[i] is the group of vertex i (-1 for unreferenced), members are listed per group in
 /// compressed rows. Groups are numbered in order of their first vertex.
