@@ -27,21 +27,10 @@ namespace {
 
 using Json = nlohmann::json;
 
-struct Run {
-  int code = -1;
-  std::string out;
-};
+using Run = test::CliRun;
 
 Run sh(const std::string& cmd) {
-  Run r;
-  FILE* pipe = popen((cmd + " 2>&1").c_str(), "r");
-  if (!pipe) return r;
-  std::array<char, 4096> buf;
-  std::size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), pipe)) > 0) r.out.append(buf.data(), n);
-  const int status = pclose(pipe);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
+  return test::run_command(cmd);
 }
 
 std::string spot_obj() {

@@ -95,7 +95,11 @@ std::vector<std::string> words(const std::string& line) {
 }
 
 CliRun run_cli(const std::string& args) {
-  const std::string cmd = std::string(MESHMARK_CLI) + " " + args + " 2>&1";
+  return run_command(std::string(MESHMARK_CLI) + " " + args);
+}
+
+CliRun run_command(const std::string& command) {
+  const std::string cmd = command + " 2>&1";
   CliRun r;
   FILE* pipe = popen(cmd.c_str(), "r");
   if (!pipe) return r;

@@ -36,6 +36,9 @@ struct CliRun {
 /// Runs the meshmark CLI with args (a shell command line tail).
 CliRun run_cli(const std::string& args);
 
+/// Runs a shell command line (stderr merged into the output).
+CliRun run_command(const std::string& command);
+
 /// The whitespace-separated words of a line.
 std::vector<std::string> words(const std::string& line);
 
