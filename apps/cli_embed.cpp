@@ -166,7 +166,7 @@ void register_embed(CLI::App& app, int& exit_code) {
   auto args = std::make_shared<EmbedArgs>();
   CLI::App* sub =
       app.add_subcommand("embed", "Embed a payload into a mesh and write the watermarked mesh");
-  sub->add_option("IN", args->input, "input mesh (.off .obj .ply .stl)");
+  sub->add_option("IN", args->input, "input mesh (.off .obj .ply .stl .gltf .glb .drc .3mf)");
   sub->add_option("OUT", args->output, "output mesh; format from its extension");
   sub->add_option("--batch", args->batch,
                   "manifest: one 'INPUT OUTPUT PAYLOAD' or 'INPUT OUTPUT id:N BUYER' per line, "

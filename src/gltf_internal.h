@@ -28,6 +28,7 @@ struct GltfBuffer {
   std::string own;        ///< the decoded or loaded bytes (DataUri, External)
   std::string_view data;  ///< its bytes: own, or in GltfImage::file (GlbBin); Fallback: empty
   std::string uri;        ///< as written in the JSON (External, DataUri)
+  std::string path;       ///< External: the file it was read from
 };
 
 /// EXT_meshopt_compression on a buffer view: where the compressed bytes are and how to decode.

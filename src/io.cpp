@@ -40,10 +40,9 @@ Mesh assemble(Parsed parsed, std::string bytes, FileFormat format, Encoding enco
               const std::string& name, const ReadOptions& options,
               std::shared_ptr<const FormatImage> extra) {
   if (parsed.faces.size() == 0) fail(name, 0, "the file has no faces");
-  const bool split_format = format != FileFormat::Off && format != FileFormat::Obj &&
-                            format != FileFormat::Ply;
-  if (split_format || options.weld_tolerance > 0)
-    weld_vertices(parsed, options.weld_tolerance);
+  const bool split_format =
+      format != FileFormat::Off && format != FileFormat::Obj && format != FileFormat::Ply;
+  if (split_format || options.weld_tolerance > 0) weld_vertices(parsed, options.weld_tolerance);
   Mesh mesh;
   const auto nv = static_cast<Eigen::Index>(parsed.xyz.size() / 3);
   mesh.V = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(
@@ -327,12 +326,13 @@ std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format, const Write
   throw InvalidArgumentError("unknown format");
 }
 
-MeshFiles write_mesh_files(const std::string& path, const Mesh& mesh,
-                           const WriteOptions& options) {
+MeshFiles write_mesh_files(const std::string& path, const Mesh& mesh, const WriteOptions& options) {
   // The extension is looked at only when no format is given (OUT may have none).
   const FileFormat format = options.format ? *options.format : format_from_path(path);
   MeshFiles files;
   files.format = format;
+  if (!mesh.source_path.empty()) files.inputs.push_back(mesh.source_path);
+  for (std::string& p : detail::gltf_source_files(mesh)) files.inputs.push_back(std::move(p));
   if (format == FileFormat::Gltf)
     files.bytes = detail::write_gltf(mesh, format, options,
                                      std::filesystem::path(path).stem().string(), &files.resources);
@@ -343,6 +343,21 @@ MeshFiles write_mesh_files(const std::string& path, const Mesh& mesh,
 
 void write_mesh_files_atomically(const std::string& path, const MeshFiles& files) {
   const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  std::vector<std::string> targets;
+  for (const auto& entry : files.resources) targets.push_back((folder / entry.first).string());
+  targets.push_back(path);
+  for (const std::string& target : targets) {
+    std::error_code ec;
+    for (const std::string& input : files.inputs)
+      if (std::filesystem::equivalent(target, input, ec))
+        throw InvalidArgumentError(
+            fmt::format("{}: refusing to overwrite {}, which the mesh was read from",
+                        printable(target), printable(input)));
+    struct stat st {};
+    if (::lstat(target.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
+      throw IOError(fmt::format("{}: not a regular file; meshmark writes regular files only",
+                                printable(target)));
+  }
   for (const auto& [name, bytes] : files.resources)
     write_file_atomically((folder / name).string(), bytes);
   write_file_atomically(path, files.bytes);

@@ -66,6 +66,10 @@ Mesh read_3mf(std::string bytes, const std::string& name, const ReadOptions& opt
 /// type in lib3mf); Error when lib3mf fails to write.
 std::string write_3mf(const Mesh& mesh, const WriteOptions& options);
 
+/// The files a glTF mesh's source read besides itself (its external buffers); empty for
+/// other meshes.
+std::vector<std::string> gltf_source_files(const Mesh& mesh);
+
 /// Writers from scratch (no file image): positions and polygons only.
 std::string write_off(const Mesh& mesh);
 std::string write_obj(const Mesh& mesh);

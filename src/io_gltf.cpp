@@ -11,6 +11,8 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <set>
+#include <tuple>
 
 #include <fmt/format.h>
 #include <meshoptimizer.h>
@@ -265,6 +267,7 @@ struct Reader {
       } else {
         out.kind = GltfBuffer::Kind::External;
         out.own = external(percent_decode(out.uri), where);
+        out.path = (std::filesystem::path(name).parent_path() / percent_decode(out.uri)).string();
       }
       if (out.own.size() < length)
         fail(fmt::format("{}: {} bytes where byteLength says {}", where, out.own.size(), length));
@@ -277,6 +280,7 @@ struct Reader {
   std::string external(const std::string& uri, const std::string& where) const {
     const std::filesystem::path p(uri);
     if (uri.empty() || p.is_absolute() || uri.find(':') != std::string::npos ||
+        uri.find('\0') != std::string::npos ||
         std::any_of(p.begin(), p.end(), [](const std::filesystem::path& c) { return c == ".."; }))
       fail(fmt::format("{}: uri '{}' is not a relative path below the file's folder", where, uri));
     if (options.resources) {
@@ -284,7 +288,11 @@ struct Reader {
       if (it != options.resources->end()) return it->second;
     }
     const std::filesystem::path path = std::filesystem::path(name).parent_path() / p;
-    return read_file(path.string(), std::size_t{1} << 32, "glTF buffer");
+    try {
+      return read_file(path.string(), std::size_t{1} << 32, "glTF buffer");
+    } catch (const IOError& e) {
+      fail(fmt::format("{} (uri '{}'): {}", where, uri, e.what()));
+    }
   }
 
   void read_views() {
@@ -413,6 +421,11 @@ struct Reader {
     const GltfView& v = img.views[static_cast<std::size_t>(out.view)];
     const std::size_t element = csize * static_cast<std::size_t>(components);
     out.stride = v.stride ? v.stride : element;
+    if (out.stride < element)
+      fail(fmt::format("{}: bufferViews[{}]'s byteStride {} is shorter than an element ({} bytes)",
+                       where, out.view, out.stride, element));
+    if (out.normalized && (out.component == kGltfFloat || out.component == kGltfUnsignedInt))
+      fail(fmt::format("{}: 'normalized' on componentType {}", where, out.component));
     if (out.count == 0) fail(where + ": count is 0");
     if (out.offset > v.length || element > v.length - out.offset ||
         (out.count - 1) > (v.length - out.offset - element) / out.stride)
@@ -441,13 +454,20 @@ struct Reader {
       return out;
     };
     const std::vector<double> matrix = numbers("matrix", 16);
-    if (!matrix.empty()) {
-      for (int c = 0; c < 4; ++c)
-        for (int row = 0; row < 4; ++row) m(row, c) = matrix[static_cast<std::size_t>(4 * c + row)];
-      return m;
-    }
     const std::vector<double> t = numbers("translation", 3), q = numbers("rotation", 4),
                               s = numbers("scale", 3);
+    if (!matrix.empty()) {
+      if (!t.empty() || !q.empty() || !s.empty())
+        r.fail(fmt::format("nodes[{}]: both 'matrix' and translation/rotation/scale", n));
+      for (int c = 0; c < 4; ++c)
+        for (int row = 0; row < 4; ++row) m(row, c) = matrix[static_cast<std::size_t>(4 * c + row)];
+      if (m.row(3) != Eigen::RowVector4d(0, 0, 0, 1))
+        r.fail(fmt::format("nodes[{}]: 'matrix' is not affine (its last row is not 0 0 0 1)", n));
+      return m;
+    }
+    if (!q.empty() && std::abs(std::hypot(q[0], q[1], q[2]) * std::hypot(q[0], q[1], q[2]) +
+                               q[3] * q[3] - 1) > 1e-3)
+      r.fail(fmt::format("nodes[{}]: 'rotation' is not a unit quaternion", n));
     Eigen::Matrix3d rs = Eigen::Matrix3d::Identity();
     if (!q.empty()) rs = Eigen::Quaterniond(q[3], q[0], q[1], q[2]).normalized().toRotationMatrix();
     if (!s.empty()) rs = rs * Eigen::Vector3d(s[0], s[1], s[2]).asDiagonal();
@@ -459,8 +479,10 @@ struct Reader {
 
 }  // namespace
 
-Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
-               const ReadOptions& options) {
+namespace {
+
+Mesh read_gltf_document(std::string bytes, FileFormat format, const std::string& name,
+                        const ReadOptions& options) {
   auto image = std::make_shared<GltfImage>();
   GltfImage& img = *image;
   img.binary = format == FileFormat::Glb;
@@ -517,11 +539,16 @@ Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
   img.accessor_counts.assign(accessors.size(), 0);
   for (std::size_t a = 0; a < accessors.size(); ++a)
     if (accessors[a].is_object())
-      img.accessor_counts[a] = accessors[a].value("count", std::size_t{0});
+      img.accessor_counts[a] = r.size(accessors[a], "count", fmt::format("accessors[{}]", a), 0);
 
   Parsed parsed;
-  std::map<std::pair<int, int>, std::size_t> instance_of;  // (node, accessor) -> instance
-  std::map<int, std::vector<int>> nodes_of_accessor;
+  // Each POSITION accessor (or Draco view) is read once, in the frame of the first node that
+  // draws it: a scene drawing one mesh a thousand times is not a thousand times larger, and a
+  // marked copy moves the stored vertices every instance shares. Each primitive (positions,
+  // indices, mode) is read once too.
+  std::map<int, std::size_t> instance_of;  // accessor, or -1 - Draco view -> instance
+  std::map<int, std::set<int>> nodes_of_accessor;
+  std::set<std::tuple<int, int, std::size_t>> primitives_read;
   std::size_t skipped_primitives = 0;
 
   // File vertex f at world position w: its coordinates, and a slot per axis for the writer.
@@ -567,7 +594,9 @@ Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
         d.indices_accessor = r.index(prim, "indices", where, accessors.size());
       img.dracos.push_back(std::move(d));
     }
-    auto [it, fresh] = instance_of.try_emplace({n, -1 - v}, img.instances.size());
+    nodes_of_accessor[a].insert(n);
+    if (!primitives_read.insert({-1 - v, -1, mode}).second) return;
+    auto [it, fresh] = instance_of.try_emplace(-1 - v, img.instances.size());
     const GltfDraco& d = img.dracos[static_cast<std::size_t>(found->second)];
     if (fresh) {
       GltfInstance inst;
@@ -583,7 +612,6 @@ Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
                                     d.mesh.positions[3 * k + 2], 1.0);
         add_vertex(inst.first + k, p);
       }
-      nodes_of_accessor[a].push_back(n);
       img.instances.push_back(inst);
     }
     const GltfInstance& inst = img.instances[it->second];
@@ -617,7 +645,11 @@ Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
       add_draco(n, world, prim, (*ext)["KHR_draco_mesh_compression"], a, mode, where);
       return;
     }
-    auto [it, fresh] = instance_of.try_emplace({n, a}, img.instances.size());
+    nodes_of_accessor[a].insert(n);
+    const int indices =
+        prim.contains("indices") ? r.index(prim, "indices", where, accessors.size()) : -1;
+    if (!primitives_read.insert({a, indices, mode}).second) return;
+    auto [it, fresh] = instance_of.try_emplace(a, img.instances.size());
     if (fresh) {
       const Reader::Access acc = r.accessor(a, "VEC3", 3);
       if (acc.component == kGltfUnsignedInt ||
@@ -650,7 +682,6 @@ Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
         const Eigen::Vector4d w = world * p;
         add_vertex(inst.first + k, w);
       }
-      nodes_of_accessor[a].push_back(n);
       img.instances.push_back(inst);
     }
     const GltfInstance& inst = img.instances[it->second];
@@ -768,12 +799,19 @@ Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
                       fmt::format("meshes[{}].primitives[{}]", m, p));
     }
   }
+  std::size_t instanced = 0, most = 0;
+  int example = -1;
   for (const auto& [a, users] : nodes_of_accessor)
-    if (users.size() > 1)
-      notes.push_back(
-          fmt::format("accessors[{}] (positions) is drawn by {} nodes: every instance "
-                      "is read; a marked copy cannot be written back",
-                      a, users.size()));
+    if (users.size() > 1) {
+      ++instanced;
+      if (users.size() > most) most = users.size(), example = a;
+    }
+  if (instanced > 0)
+    notes.push_back(
+        fmt::format("{} position accessors are drawn by several nodes (instanced; "
+                    "accessors[{}] by {}): each is read and marked once, in the "
+                    "frame of the first node drawing it",
+                    instanced, example, most));
   if (skipped_primitives > 0)
     notes.push_back(fmt::format("{} point or line primitives skipped", skipped_primitives));
   if (parsed.faces.size() == 0)
@@ -785,6 +823,18 @@ Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
                        options, std::move(image));
   mesh.notes = std::move(notes);
   return mesh;
+}
+
+}  // namespace
+
+Mesh read_gltf(std::string bytes, FileFormat format, const std::string& name,
+               const ReadOptions& options) {
+  try {
+    return read_gltf_document(std::move(bytes), format, name, options);
+  } catch (const nlohmann::json::exception& e) {
+    // A member of the wrong type that a check above did not catch first.
+    fail(name, 0, fmt::format("a JSON member has the wrong type: {}", e.what()));
+  }
 }
 
 }  // namespace meshmark::detail

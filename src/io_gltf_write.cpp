@@ -159,8 +159,6 @@ struct Patch {
   std::string where() const { return mesh.source_path.empty() ? "the mesh" : mesh.source_path; }
 
   void positions() {
-    std::vector<int> users(g.accessor_counts.size(), 0);
-    for (const GltfInstance& inst : g.instances) ++users[static_cast<std::size_t>(inst.accessor)];
     for (const GltfInstance& inst : g.instances) {
       const Eigen::Matrix4d inverse = inst.world.inverse();
       const std::size_t csize = gltf_component_size(inst.component);
@@ -179,11 +177,6 @@ struct Patch {
           moved |= !same;
         }
         if (!moved) continue;
-        if (users[static_cast<std::size_t>(inst.accessor)] > 1)
-          throw InvalidArgumentError(fmt::format(
-              "{}: accessors[{}] is drawn by {} nodes (instanced); its vertices cannot move "
-              "differently in each, so a marked copy cannot be written",
-              where(), inst.accessor, users[static_cast<std::size_t>(inst.accessor)]));
         const Eigen::Vector4d local = inverse * w;
         if (inst.draco >= 0) {
           const auto d = static_cast<std::size_t>(inst.draco);
@@ -429,6 +422,15 @@ std::string write_gltf(const Mesh& mesh, FileFormat format, const WriteOptions& 
     edits.push_back({it->second, nlohmann::json(uri).dump()});
   }
   return apply_json_edits(g->json, edits);
+}
+
+std::vector<std::string> gltf_source_files(const Mesh& mesh) {
+  std::vector<std::string> out;
+  const auto* g = mesh.image ? dynamic_cast<const GltfImage*>(mesh.image->extra.get()) : nullptr;
+  if (g)
+    for (const GltfBuffer& b : g->buffers)
+      if (b.kind == GltfBuffer::Kind::External) out.push_back(b.path);
+  return out;
 }
 
 }  // namespace meshmark::detail

@@ -102,7 +102,9 @@ struct Scanner {
 
 std::unordered_map<std::string, JsonSpan> json_spans(std::string_view text, int max_depth) {
   std::unordered_map<std::string, JsonSpan> out;
-  Scanner scanner{text, max_depth, 0, &out};
+  // A UTF-8 byte-order mark before the JSON text is not part of any value.
+  const std::size_t start = text.starts_with("\xEF\xBB\xBF") ? 3 : 0;
+  Scanner scanner{text, max_depth, start, &out};
   scanner.value("", 0);
   return out;
 }

@@ -155,9 +155,12 @@ WrittenCheck write_marked_mesh(const std::string& path, const Mesh& mesh,
   if (!check.carried) {
     check.message = fmt::format(
         "the {} file as it would be written does not carry the mark: {} of {} bits wrong, "
-        "smallest margin {:.3g} (at least {:.3g} needed); nothing written (a larger strength, "
-        "or more precise coordinates: --float32 off, binary PLY)",
-        format_name(format), check.bit_errors, bins.size(), check.min_margin, min_margin);
+        "smallest margin {:.3g} (at least {:.3g} needed); nothing written ({})",
+        format_name(format), check.bit_errors, bins.size(), check.min_margin, min_margin,
+        format == FileFormat::Glb || format == FileFormat::Gltf || format == FileFormat::Draco
+            ? "its positions are quantized or compressed: a larger strength, or an output with "
+              "float positions such as a .glb converted from a PLY"
+            : "a larger strength, or more precise coordinates: --float32 off, binary PLY");
     return check;
   }
   write_mesh_files_atomically(path, files);

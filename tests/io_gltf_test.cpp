@@ -390,6 +390,33 @@ TEST(Gltf, GltfWithExternalBufferWritesItsOwnBufferBesideIt) {
   EXPECT_EQ(validator_errors(out, &report), 0) << report;
 }
 
+TEST(Gltf, AnOutputNeverReplacesTheInputsBuffer) {
+  const std::string obj = spot_obj();
+  MESHMARK_REQUIRE(obj, "spot.obj");
+  if (!have("gltfpack")) GTEST_SKIP() << "skipped: gltfpack is not installed";
+  const Packed p = pack(obj, "-noq", "a2.gltf");  // buffer a2.bin
+  std::filesystem::rename(p.path, p.dir + "/a.gltf");
+  const std::string before = slurp(p.dir + "/a2.bin");
+  // a2.gltf's buffer would be a2.bin: the input's own buffer.
+  const test::CliRun e = test::run_cli("embed '" + p.dir + "/a.gltf' '" + p.dir +
+                                       "/a2.gltf' --payload deadbeefcafef00d --bits 64");
+  EXPECT_NE(e.code, 0) << e.out;
+  EXPECT_NE(e.out.find("refusing to overwrite"), std::string::npos) << e.out;
+  EXPECT_EQ(slurp(p.dir + "/a2.bin"), before);
+  EXPECT_FALSE(std::filesystem::exists(p.dir + "/a2.gltf"));
+  // A directory where OUT's buffer goes: refused before anything is written.
+  std::filesystem::create_directory(p.dir + "/b.bin");
+  const test::CliRun d = test::run_cli("embed '" + p.dir + "/a.gltf' '" + p.dir +
+                                       "/b.gltf' --payload deadbeefcafef00d --bits 64");
+  EXPECT_NE(d.code, 0) << d.out;
+  EXPECT_FALSE(std::filesystem::exists(p.dir + "/b.gltf"));
+  // A .gltf that starts with a byte-order mark is marked, and keeps it.
+  std::ofstream(p.dir + "/bom.gltf", std::ios::binary)
+      << "\xEF\xBB\xBF" << slurp(p.dir + "/a.gltf");
+  const std::string out = mark(p.dir + "/bom.gltf", p.dir + "/bom-marked.gltf");
+  EXPECT_EQ(slurp(out).substr(0, 3), "\xEF\xBB\xBF");
+}
+
 TEST(Gltf, EmbeddedDataUriBufferIsPatchedInPlace) {
   const std::string obj = spot_obj();
   MESHMARK_REQUIRE(obj, "spot.obj");
@@ -591,13 +618,29 @@ TEST(Gltf, SampleAssetsFromDebianReadOrFailClearly) {
   const Mesh engine = read_mesh(root + "/2CylinderEngine-glTF-Binary/2CylinderEngine.glb");
   EXPECT_GT(engine.F.rows(), 100000 / 10);
   bool instanced = false;
-  for (const auto& n : engine.notes) instanced |= n.find("drawn by 2 nodes") != std::string::npos;
+  for (const auto& n : engine.notes) instanced |= n.find("instanced") != std::string::npos;
   EXPECT_TRUE(instanced);
+  // Instanced geometry is read once per stored primitive: the triangles are those of the
+  // distinct (POSITION, indices) pairs of the JSON, counted by the test.
+  {
+    const Glb g = split_glb(slurp(root + "/2CylinderEngine-glTF-Binary/2CylinderEngine.glb"));
+    std::set<std::pair<int, int>> distinct;
+    for (const Json& m : g.json["meshes"])
+      for (const Json& p : m["primitives"])
+        distinct.insert({p["attributes"]["POSITION"].get<int>(), p["indices"].get<int>()});
+    long triangles = 0;
+    for (const auto& [pos, ind] : distinct)
+      triangles += g.json["accessors"][static_cast<std::size_t>(ind)]["count"].get<long>() / 3;
+    EXPECT_EQ(engine.F.rows(), triangles);
+  }
+  // ... and marked once: every instance shows the marked stored vertices.
+  const std::string engine_out = test::scratch_dir() + "/engine.glb";
   const test::CliRun e =
       test::run_cli("embed " + root + "/2CylinderEngine-glTF-Binary/2CylinderEngine.glb " +
-                    test::scratch_dir() + "/engine.glb --payload ab --bits 8");
-  EXPECT_NE(e.code, 0);
-  EXPECT_NE(e.out.find("instanced"), std::string::npos) << e.out;
+                    engine_out + " --payload a5c3 --bits 16");
+  EXPECT_EQ(e.code, 0) << e.out;
+  EXPECT_NE(test::run_cli("extract " + engine_out + " --bits 16").out.find("payload a5c3"),
+            std::string::npos);
   const Mesh morph =
       read_mesh(root + "/glTF-Sample-Models/AnimatedMorphCube-glTF/AnimatedMorphCube.gltf");
   EXPECT_FALSE(morph.notes.empty());
@@ -675,6 +718,23 @@ TEST(Gltf, MalformedContainersAndJsonAreRefusedByName) {
                  FileFormat::Gltf, "not a relative path below");
   expect_refused(edited([](Json& j) { j["nodes"][0]["children"] = {0}; }), FileFormat::Gltf,
                  "reached twice");
+  expect_refused(edited([](Json& j) { j["accessors"][0]["count"] = "many"; }), FileFormat::Gltf,
+                 "accessors[0]");
+  expect_refused(edited([](Json& j) { j["accessors"][0]["type"] = 3; }), FileFormat::Gltf,
+                 "wrong type");
+  expect_refused(edited([](Json& j) { j["bufferViews"][0]["byteStride"] = 4; }), FileFormat::Gltf,
+                 "shorter than an element");
+  expect_refused(edited([](Json& j) { j["accessors"][0]["normalized"] = true; }), FileFormat::Gltf,
+                 "'normalized'");
+  expect_refused(edited([](Json& j) {
+                   j["nodes"][0]["matrix"] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+                   j["nodes"][0]["translation"] = {1, 2, 3};
+                 }),
+                 FileFormat::Gltf, "both 'matrix'");
+  expect_refused(edited([](Json& j) {
+                   j["nodes"][0]["rotation"] = {0, 0, 0, 0};
+                 }),
+                 FileFormat::Gltf, "unit quaternion");
 }
 
 }  // namespace

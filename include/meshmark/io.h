@@ -20,6 +20,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "meshmark/mesh.h"
 
@@ -78,15 +79,21 @@ void write_mesh(const std::string& path, const Mesh& mesh, const WriteOptions& o
 /// buffers, named after the output: OUT.bin, or OUT_k.bin for buffer k when there are several).
 struct MeshFiles {
   FileFormat format = FileFormat::Obj;
-  std::string bytes;                              ///< the file itself
+  std::string bytes;                             ///< the file itself
   std::map<std::string, std::string> resources;  ///< file name (beside it) -> bytes
+  /// The files the mesh was read from (the source and its external buffers): never written.
+  std::vector<std::string> inputs;
 };
 
 /// What write_mesh would write to path (without touching the disk).
 MeshFiles write_mesh_files(const std::string& path, const Mesh& mesh,
                            const WriteOptions& options = {});
 
-/// Writes the resources, then the file, each atomically (write_file_atomically).
+/// Writes the resources, then the file, each atomically (write_file_atomically), after
+/// checking every target first: none may be one of files.inputs (InvalidArgumentError) or
+/// exist as anything but a regular file (IOError), so a refusal writes nothing. Two writers of
+/// the same .gltf at once may still pair one's file with the other's buffer: the pair is not
+/// one atomic rename.
 void write_mesh_files_atomically(const std::string& path, const MeshFiles& files);
 
 /// The bytes write_mesh would write (without touching the disk); a .gltf's external buffers
