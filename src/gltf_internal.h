@@ -71,8 +71,8 @@ struct GltfDraco {
   DracoMesh mesh;
 };
 
-/// What a glTF writer needs besides FileImage::bytes and slots (a slot's offset is
-/// 3 * file vertex + axis, its original the world coordinate as read).
+/// What a glTF writer needs besides FileImage's V and slots (one slot per file vertex: its
+/// offset the file vertex, its vertex the mesh row it was welded into).
 struct GltfImage : FormatImage {
   bool binary = false;                ///< GLB
   std::string file;                   ///< the whole source file (FileImage::bytes stays empty)
@@ -83,6 +83,9 @@ struct GltfImage : FormatImage {
   std::vector<GltfInstance> instances;
   std::vector<GltfDraco> dracos;
   std::vector<std::size_t> accessor_counts;  ///< elements of every accessor (for min/max)
+  /// World positions of the file vertices as read, 3 each, kept only when a weld tolerance
+  /// merged distinct positions (otherwise a file vertex sits exactly at its row's position).
+  std::vector<double> world_as_read;
 };
 
 /// The value of one stored component as glTF defines it (normalized integers mapped to

@@ -553,15 +553,11 @@ Mesh read_gltf_document(std::string bytes, FileFormat format, const std::string&
 
   // File vertex f at world position w: its coordinates, and a slot per axis for the writer.
   auto add_vertex = [&](std::size_t f, const Eigen::Vector4d& w) {
-    for (int c = 0; c < 3; ++c) {
-      parsed.xyz.push_back(w[c]);
-      CoordSlot slot;
-      slot.offset = 3 * f + static_cast<std::uint64_t>(c);
-      slot.original = w[c];
-      slot.vertex = static_cast<std::int32_t>(f);
-      slot.axis = static_cast<std::uint8_t>(c);
-      parsed.slots.push_back(slot);
-    }
+    for (int c = 0; c < 3; ++c) parsed.xyz.push_back(w[c]);
+    CoordSlot slot;  // only to learn f's row once welded
+    slot.offset = f;
+    slot.vertex = static_cast<std::int32_t>(f);
+    parsed.slots.push_back(slot);
   };
 
   // A Draco-compressed primitive: its points in world space, its triangles.
@@ -671,7 +667,7 @@ Mesh read_gltf_document(std::string bytes, FileFormat format, const std::string&
       inst.offset = acc.offset;
       const std::size_t csize = gltf_component_size(acc.component);
       parsed.xyz.reserve(parsed.xyz.size() + 3 * acc.count);
-      parsed.slots.reserve(parsed.slots.size() + 3 * acc.count);
+      parsed.slots.reserve(parsed.slots.size() + acc.count);
       for (std::size_t k = 0; k < acc.count; ++k) {
         const char* e = acc.data + k * acc.stride;
         Eigen::Vector4d p(gltf_component_value(e, acc.component, acc.normalized),
@@ -819,6 +815,7 @@ Mesh read_gltf_document(std::string bytes, FileFormat format, const std::string&
          fmt::format("no triangle primitive in the default scene ({} point or line "
                      "primitives)",
                      skipped_primitives));
+  if (options.weld_tolerance > 0) img.world_as_read = parsed.xyz;
   Mesh mesh = assemble(std::move(parsed), std::string(), format, Encoding::BinaryLittleEndian, name,
                        options, std::move(image));
   mesh.notes = std::move(notes);

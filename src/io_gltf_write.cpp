@@ -169,11 +169,13 @@ struct Patch {
         const std::size_t f = inst.first + k;
         Eigen::Vector4d w(0, 0, 0, 1);
         bool moved = false;
+        const Eigen::Index row = image.slots[f].vertex;
         for (int c = 0; c < 3; ++c) {
-          const CoordSlot& s = image.slots[3 * f + static_cast<std::size_t>(c)];
-          const double now = mesh.V(s.vertex, c), then = image.V(s.vertex, c);
+          const double now = mesh.V(row, c), then = image.V(row, c);
           const bool same = now == then && std::signbit(now) == std::signbit(then);
-          w[c] = same ? s.original : s.original + (now - then);
+          const double original =
+              g.world_as_read.empty() ? then : g.world_as_read[3 * f + static_cast<std::size_t>(c)];
+          w[c] = same ? original : original + (now - then);
           moved |= !same;
         }
         if (!moved) continue;

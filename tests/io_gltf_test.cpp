@@ -417,6 +417,60 @@ TEST(Gltf, AnOutputNeverReplacesTheInputsBuffer) {
   EXPECT_EQ(slurp(out).substr(0, 3), "\xEF\xBB\xBF");
 }
 
+TEST(Gltf, WeldToleranceMarksEveryStoredVertexByItsVertexDisplacement) {
+  const std::string obj = spot_obj();
+  MESHMARK_REQUIRE(obj, "spot.obj");
+  if (!have("gltfpack")) GTEST_SKIP() << "skipped: gltfpack is not installed";
+  const Packed p = pack(obj, "-noq", "w.glb");
+  const std::string out = p.dir + "/w-marked.glb";
+  const std::string args = " --bits 64 --weld-tolerance 1e-4";
+  ASSERT_EQ(
+      test::run_cli("embed '" + p.path + "' '" + out + "' --payload deadbeefcafef00d" + args).code,
+      0);
+  EXPECT_NE(test::run_cli("extract '" + out + "'" + args).out.find("payload deadbeefcafef00d"),
+            std::string::npos);
+  // Every stored vertex moved by the displacement of the vertex it was welded into (found by
+  // the test as the welded vertex nearest to it in the source, within the tolerance), to
+  // float32 rounding (1e-6 of the extent).
+  ReadOptions ro;
+  ro.weld_tolerance = 1e-4;
+  const Mesh a = read_mesh(p.path, ro), b = read_mesh(out, ro);
+  ASSERT_EQ(a.V.rows(), b.V.rows());
+  const std::vector<Eigen::Vector3d> pa = tinygltf_positions(p.path), pb = tinygltf_positions(out);
+  ASSERT_EQ(pa.size(), pb.size());
+  const double extent = (a.V.colwise().maxCoeff() - a.V.colwise().minCoeff()).norm();
+  std::map<std::array<long long, 3>, std::vector<Eigen::Index>> grid;
+  auto cell = [](const Eigen::Vector3d& q) {
+    return std::array<long long, 3>{std::llround(std::floor(q[0] / 1e-3)),
+                                    std::llround(std::floor(q[1] / 1e-3)),
+                                    std::llround(std::floor(q[2] / 1e-3))};
+  };
+  for (Eigen::Index i = 0; i < a.V.rows(); ++i) grid[cell(a.V.row(i).transpose())].push_back(i);
+  double worst = 0;
+  std::size_t checked = 0;
+  for (std::size_t i = 0; i < pa.size(); ++i) {
+    const auto c = cell(pa[i]);
+    Eigen::Index best = -1;
+    double best_d = 1e-4;
+    for (long long dx = -1; dx <= 1; ++dx)
+      for (long long dy = -1; dy <= 1; ++dy)
+        for (long long dz = -1; dz <= 1; ++dz) {
+          const auto it = grid.find({c[0] + dx, c[1] + dy, c[2] + dz});
+          if (it == grid.end()) continue;
+          for (const Eigen::Index r : it->second) {
+            const double d = (a.V.row(r).transpose() - pa[i]).norm();
+            if (d <= best_d) best_d = d, best = r;
+          }
+        }
+    if (best < 0) continue;  // unreferenced: not welded, not moved
+    ++checked;
+    const Eigen::Vector3d expected = (b.V.row(best) - a.V.row(best)).transpose();
+    worst = std::max(worst, ((pb[i] - pa[i]) - expected).norm());
+  }
+  EXPECT_GT(checked, pa.size() / 2);
+  EXPECT_LT(worst, 1e-6 * extent);
+}
+
 TEST(Gltf, EmbeddedDataUriBufferIsPatchedInPlace) {
   const std::string obj = spot_obj();
   MESHMARK_REQUIRE(obj, "spot.obj");
