@@ -17,11 +17,14 @@ packages=(
   librsvg2-bin                                     # campaign figures: SVG to PNG
   chromium libpng-dev                              # the trace report's rendering test
   libtinygltf-dev libmeshoptimizer-dev libdraco-dev lib3mf-dev libzip-dev   # glTF, meshopt, Draco, 3MF
-  gltfpack draco npm assimp-testmodels             # third-party tools and glTF sample files for the format tests
+  gltfpack draco assimp-testmodels                 # third-party tools and glTF sample files for the format tests
   libcgal-dev libcgal-demo                         # CGAL, and its real meshes (data.tar.gz)
   clang libclang-rt-14-dev                         # libFuzzer and sanitizers (scripts/fuzz.sh)
   python3                                          # small helper scripts
 )
+# Node.js and npm for the glTF validator: Debian's, unless a node with its own npm (such as
+# NodeSource's, whose nodejs conflicts with Debian's npm package) is already installed.
+command -v npm >/dev/null || packages+=(nodejs npm)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
