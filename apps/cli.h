@@ -49,6 +49,7 @@ struct OutputOptions {
   std::string format;    // "" = from the extension
   std::string encoding;  // "" = keep
   bool float32 = false;
+  bool float_positions = false;
 };
 void add_output_options(CLI::App& app, OutputOptions& options);
 

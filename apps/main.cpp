@@ -37,6 +37,9 @@ void add_output_options(CLI::App& app, OutputOptions& options) {
                  "PLY/STL output encoding (default: keep the input's)")
       ->check(CLI::IsMember({"ascii", "binary_little_endian", "binary_big_endian"}));
   app.add_flag("--float32", options.float32, "PLY written from scratch: store float32 coordinates");
+  app.add_flag("--float-positions", options.float_positions,
+               "glTF written back: store quantized positions as float32 (a new buffer view; "
+               "KHR_mesh_quantization dropped when no other attribute needs it)");
 }
 
 Mesh read_input(const std::string& path, const InputOptions& options) {
@@ -94,6 +97,7 @@ WriteOptions write_options(const OutputOptions& options) {
   if (options.encoding == "binary_little_endian") wo.encoding = Encoding::BinaryLittleEndian;
   if (options.encoding == "binary_big_endian") wo.encoding = Encoding::BinaryBigEndian;
   wo.single_precision = options.float32;
+  wo.float_positions = options.float_positions;
   return wo;
 }
 

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <set>
 
 #include <fmt/format.h>
 #include <meshoptimizer.h>
@@ -143,6 +144,13 @@ struct Patch {
   std::vector<std::string> views;          // patched decoded bytes of compressed views
   std::vector<std::uint8_t> view_changed;  // compressed views to re-encode
   std::vector<std::uint8_t> accessor_changed;
+  bool float_positions = false;
+  struct Converted {
+    int accessor, buffer;
+    std::string floats;  // count x 3 float32, local
+    double lo[3], hi[3];
+  };
+  std::vector<Converted> converted;                  // quantized accessors stored as float32
   std::vector<std::vector<double>> draco_positions;  // per Draco primitive, local, 3 per point
   std::vector<std::uint8_t> draco_changed;
 
@@ -165,6 +173,10 @@ struct Patch {
       char* base = inst.draco >= 0
                        ? nullptr
                        : view_data(inst.view).data() + view_start(inst.view) + inst.offset;
+      if (float_positions && inst.draco < 0 && inst.component != kGltfFloat) {
+        to_float(inst, inverse, base);
+        continue;
+      }
       for (std::size_t k = 0; k < inst.count; ++k) {
         const std::size_t f = inst.first + k;
         Eigen::Vector4d w(0, 0, 0, 1);
@@ -200,6 +212,137 @@ struct Patch {
           view_changed[static_cast<std::size_t>(inst.view)] = 1;
       }
     }
+  }
+
+  // A quantized instance stored as float32: moved vertices at their new local position, the
+  // others at their exact dequantized value.
+  void to_float(const GltfInstance& inst, const Eigen::Matrix4d& inverse, const char* base) {
+    const GltfView& view = g.views[static_cast<std::size_t>(inst.view)];
+    Converted c{inst.accessor, view.compressed ? view.meshopt.buffer : view.buffer, {}, {}, {}};
+    for (int a = 0; a < 3; ++a) {
+      c.lo[a] = std::numeric_limits<double>::infinity();
+      c.hi[a] = -c.lo[a];
+    }
+    const std::size_t csize = gltf_component_size(inst.component);
+    c.floats.reserve(12 * inst.count);
+    for (std::size_t k = 0; k < inst.count; ++k) {
+      const Eigen::Index row = image.slots[inst.first + k].vertex;
+      Eigen::Vector4d local(0, 0, 0, 1);
+      for (int a = 0; a < 3; ++a)
+        local[a] =
+            gltf_component_value(base + k * inst.stride + static_cast<std::size_t>(a) * csize,
+                                 inst.component, inst.normalized);
+      bool moved = false;
+      Eigen::Vector4d w(0, 0, 0, 1);
+      for (int a = 0; a < 3; ++a) {
+        const double now = mesh.V(row, a), then = image.V(row, a);
+        const bool same = now == then && std::signbit(now) == std::signbit(then);
+        const double original =
+            g.world_as_read.empty()
+                ? then
+                : g.world_as_read[3 * (inst.first + k) + static_cast<std::size_t>(a)];
+        w[a] = same ? original : original + (now - then);
+        moved |= !same;
+      }
+      if (moved) local = inverse * w;
+      for (int a = 0; a < 3; ++a) {
+        const auto f = static_cast<float>(local[a]);
+        if (!std::isfinite(f))
+          throw InvalidArgumentError(fmt::format(
+              "{}: vertex {} of accessors[{}] does not fit in float32", where(), k, inst.accessor));
+        c.floats.append(reinterpret_cast<const char*>(&f), 4);
+        c.lo[a] = std::min(c.lo[a], static_cast<double>(f));
+        c.hi[a] = std::max(c.hi[a], static_cast<double>(f));
+      }
+    }
+    converted.push_back(std::move(c));
+  }
+
+  // Appends the float32 views and points the converted accessors at them.
+  void append_floats(const std::unordered_map<std::string, JsonSpan>& spans,
+                     std::vector<JsonEdit>& edits) {
+    if (converted.empty()) return;
+    const nlohmann::json doc = nlohmann::json::parse(g.json);
+    std::string views_text;
+    std::set<int> grown;
+    for (std::size_t i = 0; i < converted.size(); ++i) {
+      const Converted& c = converted[i];
+      std::string& buffer = buffers[static_cast<std::size_t>(c.buffer)];
+      buffer.append(round4(buffer.size()) - buffer.size(), '\0');
+      views_text +=
+          fmt::format(",{{\"buffer\":{},\"byteOffset\":{},\"byteLength\":{},\"target\":34962}}",
+                      c.buffer, buffer.size(), c.floats.size());
+      buffer += c.floats;
+      grown.insert(c.buffer);
+      nlohmann::ordered_json acc = nlohmann::ordered_json::parse(
+          doc["accessors"][static_cast<std::size_t>(c.accessor)].dump());
+      acc["bufferView"] = g.views.size() + i;
+      acc.erase("byteOffset");
+      acc.erase("normalized");
+      acc["componentType"] = kGltfFloat;
+      acc["min"] = {static_cast<float>(c.lo[0]), static_cast<float>(c.lo[1]),
+                    static_cast<float>(c.lo[2])};
+      acc["max"] = {static_cast<float>(c.hi[0]), static_cast<float>(c.hi[1]),
+                    static_cast<float>(c.hi[2])};
+      edits.push_back({spans.at(fmt::format("/accessors/{}", c.accessor)), acc.dump()});
+    }
+    const JsonSpan list = spans.at("/bufferViews");
+    edits.push_back({{list.end - 1, list.end - 1}, views_text});
+    for (const int b : grown) {
+      const JsonSpan length = spans.at(fmt::format("/buffers/{}/byteLength", b));
+      std::erase_if(edits, [&](const JsonEdit& e) { return e.span.begin == length.begin; });
+      edits.push_back({length, std::to_string(buffers[static_cast<std::size_t>(b)].size())});
+    }
+    // KHR_mesh_quantization stays declared while some vertex attribute is still not float.
+    std::set<int> now_float;
+    for (const Converted& c : converted) now_float.insert(c.accessor);
+    bool needed = false;
+    for (const auto& m : doc.value("meshes", nlohmann::json::array()))
+      for (const auto& p : m.value("primitives", nlohmann::json::array())) {
+        std::vector<nlohmann::json> sets = {p.value("attributes", nlohmann::json::object())};
+        for (const auto& t : p.value("targets", nlohmann::json::array())) sets.push_back(t);
+        for (const auto& set : sets)
+          for (const auto& [name, a] : set.items())
+            if (a.is_number_unsigned() && !now_float.count(a.get<int>()) &&
+                doc["accessors"][a.get<std::size_t>()].value("componentType", kGltfFloat) !=
+                    kGltfFloat)
+              needed = true;
+      }
+    if (!needed)
+      for (const char* list_name : {"extensionsUsed", "extensionsRequired"})
+        drop_extension(doc, spans, edits, list_name);
+  }
+
+  // Removes KHR_mesh_quantization from the root list `key`, or the whole member when it was
+  // the list's only entry (an empty extensionsRequired is not allowed).
+  void drop_extension(const nlohmann::json& doc,
+                      const std::unordered_map<std::string, JsonSpan>& spans,
+                      std::vector<JsonEdit>& edits, const char* key) const {
+    const auto it = spans.find(std::string("/") + key);
+    if (it == spans.end() || !doc.contains(key)) return;
+    nlohmann::json rest = nlohmann::json::array();
+    for (const auto& e : doc[key])
+      if (e != "KHR_mesh_quantization") rest.push_back(e);
+    if (rest.size() == doc[key].size()) return;
+    if (!rest.empty()) {
+      edits.push_back({it->second, rest.dump()});
+      return;
+    }
+    // The member "key": [...] and one comma beside it.
+    const std::string quoted = std::string("\"") + key + "\"";
+    std::size_t begin = g.json.rfind(quoted, it->second.begin);
+    std::size_t end = it->second.end;
+    std::size_t after = end;
+    while (after < g.json.size() && std::isspace(static_cast<unsigned char>(g.json[after])))
+      ++after;
+    if (after < g.json.size() && g.json[after] == ',') {
+      end = after + 1;
+    } else {
+      std::size_t before = begin;
+      while (before > 0 && std::isspace(static_cast<unsigned char>(g.json[before - 1]))) --before;
+      if (before > 0 && g.json[before - 1] == ',') begin = before - 1;
+    }
+    edits.push_back({{begin, end}, ""});
   }
 
   // min and max of every changed POSITION accessor, as the JSON holds them.
@@ -373,6 +516,7 @@ std::string write_gltf(const Mesh& mesh, FileFormat format, const WriteOptions& 
   for (const GltfBuffer& b : g->buffers) p.buffers.emplace_back(b.data);
   for (const GltfView& v : g->views) p.views.push_back(v.decoded);
   p.view_changed.assign(g->views.size(), 0);
+  p.float_positions = options.float_positions;
   for (const GltfDraco& d : g->dracos) p.draco_positions.push_back(d.mesh.positions);
   p.draco_changed.assign(g->dracos.size(), 0);
   p.accessor_changed.assign(g->accessor_counts.size(), 0);
@@ -381,6 +525,7 @@ std::string write_gltf(const Mesh& mesh, FileFormat format, const WriteOptions& 
   std::vector<JsonEdit> edits;
   p.bounds(spans, edits);
   p.recompress(spans, edits);
+  p.append_floats(spans, edits);
 
   if (format == FileFormat::Glb) {
     const bool same_layout =

@@ -363,6 +363,48 @@ TEST(Gltf, QuantizedGlbMarkedAtItsPrecisionSurvivesASecondGltfpackPass) {
   EXPECT_NE(x.out.find("payload deadbeefcafef00d"), std::string::npos) << x.out;
 }
 
+TEST(Gltf, FloatPositionsOptionDropsTheQuantization) {
+  const std::string obj = spot_obj();
+  MESHMARK_REQUIRE(obj, "spot.obj");
+  if (!have("gltfpack")) GTEST_SKIP() << "skipped: gltfpack is not installed";
+  REQUIRE_VALIDATOR();
+  const Packed p = pack(obj, "", "q.glb");
+  const std::string out = p.dir + "/float.glb";
+  const test::CliRun e = test::run_cli("embed '" + p.path + "' '" + out +
+                                       "' --payload deadbeefcafef00d --bits 64 --float-positions");
+  ASSERT_EQ(e.code, 0) << e.out;
+  EXPECT_NE(test::run_cli("extract '" + out + "' --bits 64").out.find("payload deadbeefcafef00d"),
+            std::string::npos);
+  std::string report;
+  if (validator_installed()) EXPECT_EQ(validator_errors(out, &report), 0) << report;
+  const Glb g = split_glb(slurp(out));
+  const int a = g.json["meshes"][0]["primitives"][0]["attributes"]["POSITION"].get<int>();
+  EXPECT_EQ(g.json["accessors"][static_cast<std::size_t>(a)]["componentType"], 5126);
+  // spot has positions only: nothing needs KHR_mesh_quantization any more.
+  EXPECT_EQ(g.json_text.find("KHR_mesh_quantization"), std::string::npos);
+  // The positions (tinygltf's reading, node transform applied) moved by the mark only: less
+  // than 1 % of the extent, and not snapped back to the 14-bit grid (some local coordinate is
+  // not an integer).
+  const auto before = tinygltf_positions(p.path), after = tinygltf_positions(out);
+  ASSERT_EQ(before.size(), after.size());
+  double worst = 0, extent = 0;
+  for (std::size_t i = 0; i < before.size(); ++i) {
+    worst = std::max(worst, (after[i] - before[i]).norm());
+    extent = std::max(extent, (before[i] - before[0]).norm());
+  }
+  EXPECT_GT(worst, 0);
+  EXPECT_LT(worst, 0.01 * extent);
+  const Json& acc = g.json["accessors"][static_cast<std::size_t>(a)];
+  const Json& bv = g.json["bufferViews"][acc["bufferView"].get<std::size_t>()];
+  bool off_grid = false;
+  for (std::size_t k = 0; k < 3 * acc["count"].get<std::size_t>() && !off_grid; ++k) {
+    float f;
+    std::memcpy(&f, g.bin.data() + bv.value("byteOffset", std::size_t{0}) + 4 * k, 4);
+    off_grid = f != std::nearbyint(f);
+  }
+  EXPECT_TRUE(off_grid);
+}
+
 TEST(Gltf, GltfWithExternalBufferWritesItsOwnBufferBesideIt) {
   const std::string obj = spot_obj();
   MESHMARK_REQUIRE(obj, "spot.obj");

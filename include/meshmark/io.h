@@ -64,6 +64,13 @@ struct WriteOptions {
   bool single_precision = false;
   /// Use the file image when it applies (same format, encoding, vertex count and faces).
   bool keep_source = true;
+  /// glTF written back: quantized POSITION accessors (KHR_mesh_quantization) are stored as
+  /// float32 in a new buffer view appended to their buffer (the accessor's bufferView,
+  /// byteOffset, componentType, normalized and min/max rewritten; the old view stays, unused),
+  /// so the mark is not requantized; KHR_mesh_quantization is removed from extensionsUsed and
+  /// extensionsRequired when every vertex attribute is then float. Draco primitives and float
+  /// accessors are unaffected.
+  bool float_positions = false;
   /// PLY only: per-vertex colors (#V x 3, 0-255) written as red, green, blue uchar properties
   /// (the mesh is then written from scratch). Not owned; null for none.
   const Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3>* vertex_colors = nullptr;
