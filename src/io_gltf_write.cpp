@@ -166,6 +166,23 @@ struct Patch {
 
   std::string where() const { return mesh.source_path.empty() ? "the mesh" : mesh.source_path; }
 
+  // The world position file vertex f must take (homogeneous, in w): its position as read moved
+  // by the displacement of the mesh vertex it was welded into. False when that did not move.
+  bool world_now(std::size_t f, Eigen::Vector4d& w) const {
+    const Eigen::Index row = image.slots[f].vertex;
+    bool moved = false;
+    w = Eigen::Vector4d(0, 0, 0, 1);
+    for (int c = 0; c < 3; ++c) {
+      const double now = mesh.V(row, c), then = image.V(row, c);
+      const bool same = now == then && std::signbit(now) == std::signbit(then);
+      const double original =
+          g.world_as_read.empty() ? then : g.world_as_read[3 * f + static_cast<std::size_t>(c)];
+      w[c] = same ? original : original + (now - then);
+      moved |= !same;
+    }
+    return moved;
+  }
+
   void positions() {
     for (const GltfInstance& inst : g.instances) {
       const Eigen::Matrix4d inverse = inst.world.inverse();
@@ -179,17 +196,8 @@ struct Patch {
       }
       for (std::size_t k = 0; k < inst.count; ++k) {
         const std::size_t f = inst.first + k;
-        Eigen::Vector4d w(0, 0, 0, 1);
-        bool moved = false;
-        const Eigen::Index row = image.slots[f].vertex;
-        for (int c = 0; c < 3; ++c) {
-          const double now = mesh.V(row, c), then = image.V(row, c);
-          const bool same = now == then && std::signbit(now) == std::signbit(then);
-          const double original =
-              g.world_as_read.empty() ? then : g.world_as_read[3 * f + static_cast<std::size_t>(c)];
-          w[c] = same ? original : original + (now - then);
-          moved |= !same;
-        }
+        Eigen::Vector4d w;
+        const bool moved = world_now(f, w);
         if (!moved) continue;
         const Eigen::Vector4d local = inverse * w;
         if (inst.draco >= 0) {
@@ -226,24 +234,13 @@ struct Patch {
     const std::size_t csize = gltf_component_size(inst.component);
     c.floats.reserve(12 * inst.count);
     for (std::size_t k = 0; k < inst.count; ++k) {
-      const Eigen::Index row = image.slots[inst.first + k].vertex;
       Eigen::Vector4d local(0, 0, 0, 1);
       for (int a = 0; a < 3; ++a)
         local[a] =
             gltf_component_value(base + k * inst.stride + static_cast<std::size_t>(a) * csize,
                                  inst.component, inst.normalized);
-      bool moved = false;
-      Eigen::Vector4d w(0, 0, 0, 1);
-      for (int a = 0; a < 3; ++a) {
-        const double now = mesh.V(row, a), then = image.V(row, a);
-        const bool same = now == then && std::signbit(now) == std::signbit(then);
-        const double original =
-            g.world_as_read.empty()
-                ? then
-                : g.world_as_read[3 * (inst.first + k) + static_cast<std::size_t>(a)];
-        w[a] = same ? original : original + (now - then);
-        moved |= !same;
-      }
+      Eigen::Vector4d w;
+      const bool moved = world_now(inst.first + k, w);
       if (moved) local = inverse * w;
       for (int a = 0; a < 3; ++a) {
         const auto f = static_cast<float>(local[a]);
