@@ -80,9 +80,17 @@ std::vector<int> weld(const std::vector<double>& xyz, double tolerance,
   std::vector<int> unique_of(nc);
   std::vector<int> unique_corner;
   const KeyHash hash;
+  // Table slots hashed first, and each prefetched 16 corners ahead of its lookup: the lookups
+  // of a million corners are cache misses, this overlaps them.
+  constexpr std::size_t kAhead = 16;
+  std::vector<std::size_t> slot_of(nc);
+  for (std::size_t c = 0; c < nc; ++c)
+    slot_of[c] = hash(Key{xyz[3 * c], xyz[3 * c + 1], xyz[3 * c + 2]}) & (slots - 1);
+  unique_corner.reserve(nc);
   for (std::size_t c = 0; c < nc; ++c) {
+    if (c + kAhead < nc) __builtin_prefetch(&table[slot_of[c + kAhead]]);
     const Key key{xyz[3 * c], xyz[3 * c + 1], xyz[3 * c + 2]};
-    std::size_t s = hash(key) & (slots - 1);
+    std::size_t s = slot_of[c];
     while (true) {
       const int u = table[s];
       if (u < 0) {
