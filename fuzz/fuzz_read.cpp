@@ -12,8 +12,8 @@
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 1) return 0;
   using meshmark::FileFormat;
-  const FileFormat formats[] = {FileFormat::Off,  FileFormat::Obj, FileFormat::Ply,
-                                FileFormat::Stl,  FileFormat::Gltf, FileFormat::Glb,
+  const FileFormat formats[] = {FileFormat::Off,   FileFormat::Obj,    FileFormat::Ply,
+                                FileFormat::Stl,   FileFormat::Gltf,   FileFormat::Glb,
                                 FileFormat::Draco, FileFormat::ThreeMf};
   const FileFormat format = formats[data[0] % 8];
   std::string bytes(reinterpret_cast<const char*>(data) + 1, size - 1);

@@ -21,8 +21,8 @@ TEST(FuzzRegressions, EveryKeptInputReadsOrFailsCleanly) {
     const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     if (bytes.empty()) continue;
     // The first byte picks the format as fuzz/fuzz_read.cpp does.
-    const FileFormat formats[] = {FileFormat::Off,  FileFormat::Obj,   FileFormat::Ply,
-                                  FileFormat::Stl,  FileFormat::Gltf,  FileFormat::Glb,
+    const FileFormat formats[] = {FileFormat::Off,   FileFormat::Obj,    FileFormat::Ply,
+                                  FileFormat::Stl,   FileFormat::Gltf,   FileFormat::Glb,
                                   FileFormat::Draco, FileFormat::ThreeMf};
     SCOPED_TRACE(entry.path().string());
     try {
