@@ -9,6 +9,7 @@
 
 #include <optional>
 
+#include "meshmark/calibrate.h"
 #include "meshmark/carrier_check.h"
 #include "meshmark/coding.h"
 #include "meshmark/embed.h"
@@ -138,6 +139,9 @@ struct BatchSettings {
   int id_bits = 32;            ///< recorded with each coded copy
   double strength_spread = 0;  ///< keyed per-bit strengths
   std::string registry;        ///< record coded copies there (one transaction), or ""
+  /// Fidelity limits: each copy gets the strongest mark within them (calibrate.h), or none:
+  /// every copy at options.strength.
+  std::optional<CalibrateOptions> limits;
 };
 
 /// embed --batch: runs every line of the manifest (INPUT OUTPUT PAYLOAD, or INPUT OUTPUT id:N

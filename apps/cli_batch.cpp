@@ -192,12 +192,19 @@ int run_batch(const std::string& manifest, const BatchSettings& settings) {
   for (const Job& job : jobs)
     if (job.coded && !job.refused && !code) code.emplace(settings.code);
   // Each distinct input is read once, before the work is shared out.
-  std::map<std::string, std::shared_ptr<const Mesh>> meshes;
+  // Each with its embedder prepared once for every copy made from it.
+  struct Input {
+    Mesh mesh;
+    PreparedEmbedder embedder;
+  };
+  std::map<std::string, std::shared_ptr<const Input>> meshes;
   std::map<std::string, std::string> unreadable;
   for (const Job& job : jobs) {
     if (job.refused || meshes.count(job.input) || unreadable.count(job.input)) continue;
     try {
-      meshes[job.input] = std::make_shared<const Mesh>(read_input(job.input, in_options));
+      Mesh mesh = read_input(job.input, in_options);
+      PreparedEmbedder embedder(mesh.V, mesh.F, options);
+      meshes[job.input] = std::make_shared<const Input>(Input{std::move(mesh), std::move(embedder)});
     } catch (const std::exception& e) {
       unreadable[job.input] = e.what();
     }
@@ -216,17 +223,32 @@ int run_batch(const std::string& manifest, const BatchSettings& settings) {
         EmbedOptions o = options;
         o.strengths = mark_strengths(settings.key, bits, job.coded, options.strength,
                                      settings.strength_spread);
-        const EmbedResult r = embed(it->second->V, it->second->F, payload, o);
+        EmbedResult r;
+        std::string fidelity;
+        if (settings.limits) {
+          CalibrateOptions co = *settings.limits;
+          co.strengths = [&](double alpha) {
+            return mark_strengths(settings.key, bits, job.coded, alpha, settings.strength_spread);
+          };
+          CalibrateResult c = calibrate_strength(it->second->embedder, payload, o, co);
+          if (c.status == CalibrateStatus::BelowMinimum) throw Error(c.message);
+          o.strength = c.strength, o.bin_offset = c.bin_offset, o.strengths = c.strengths;
+          records[k].strength = o.strength, records[k].bin_offset = o.bin_offset;
+          fidelity = fmt::format(", strength {:.5f}, MSDM {:.4f}", c.strength, c.msdm);
+          r = std::move(c.embedding);
+        } else {
+          r = it->second->embedder.embed(payload, o);
+        }
         if (r.status != EmbedStatus::Embedded) throw Error(r.message);
-        Mesh out = *it->second;
+        Mesh out = it->second->mesh;
         out.V = r.V;
         const WrittenCheck written =
             write_marked_output(job.output, job.input, out, out_options, in_options, payload,
-                                options.variant.center, options.strength);
+                                options.variant.center, o.strength);
         if (!written.carried) throw Error(written.message);
         job.ok = true;
-        job.outcome = fmt::format("{} rounds, RMS {:.5f} %, {:.1f} ms", r.rounds, r.rms_percent,
-                                  1e3 * r.seconds);
+        job.outcome = fmt::format("{} rounds, RMS {:.5f} %{}, {:.1f} ms", r.rounds,
+                                  r.rms_percent, fidelity, 1e3 * r.seconds);
         if (r.check.status == CarrierHealth::Weak)
           job.outcome += fmt::format(" (warning: {})", r.check.summary());
       } catch (const std::exception& e) {

@@ -24,7 +24,8 @@ namespace fs = std::filesystem;
 namespace {
 
 struct CalibrateArgs {
-  std::string input, variant = "DRS", cache;
+  std::string input, variant = "DRS", cache, bin_offset_rule = "at-most-strength";
+  double bin_offset = 0.05;
   int bits = 64;
   CalibrateOptions options;
   InputOptions in;
@@ -55,10 +56,14 @@ std::string file_hash(const std::string& path) {
 
 int run(const CalibrateArgs& a) {
   const Variant variant = parse_variant(a.variant);
-  const std::string key =
-      fmt::format("{}|{}|{}|rms {}|msdm {}|range {} {}|steps {}|v1", file_hash(a.input),
-                  variant.name(), a.bits, a.options.max_rms_percent, a.options.max_msdm,
-                  a.options.min_strength, a.options.max_strength, a.options.iterations);
+  CalibrateOptions options = a.options;
+  options.bin_offset =
+      a.bin_offset_rule == "fixed" ? BinOffsetRule::Fixed : BinOffsetRule::AtMostStrength;
+  const std::string key = fmt::format(
+      "{}|{}|{}|rms {}|msdm {}|range {} {}|steps {}|precision {}|G {} {}|v2", file_hash(a.input),
+      variant.name(), a.bits, options.max_rms_percent, options.max_msdm, options.min_strength,
+      options.max_strength, options.iterations, options.precision, a.bin_offset,
+      bin_offset_rule_name(options.bin_offset));
   const std::string cache = a.cache.empty() ? default_cache() : a.cache;
   nlohmann::json found;
   if (!a.no_cache && fs::exists(cache)) {
@@ -76,14 +81,19 @@ int run(const CalibrateArgs& a) {
     const Mesh mesh = read_input(a.input, a.in);
     EmbedOptions eo;
     eo.variant = variant;
+    eo.bin_offset = a.bin_offset;
     const CalibrateResult r =
-        calibrate_strength(mesh.V, mesh.F, calibration_payload(a.bits, 1), eo, a.options);
+        calibrate_strength(mesh.V, mesh.F, calibration_payload(a.bits, 1), eo, options);
     found = {{"key", key},
              {"input", a.input},
              {"variant", variant.name()},
              {"bits", a.bits},
              {"status", calibrate_status_name(r.status)},
              {"strength", r.strength},
+             {"bin_offset", r.bin_offset},
+             {"bin_offset_rule", bin_offset_rule_name(options.bin_offset)},
+             {"cause", calibrate_cause_name(r.cause)},
+             {"diagnostics", r.diagnostics},
              {"rms_percent", r.rms_percent},
              {"msdm", r.msdm},
              {"evaluations", r.evaluations},
@@ -107,11 +117,13 @@ int run(const CalibrateArgs& a) {
     fmt::print("{}\n", j.dump(2));
   } else {
     fmt::print(
-        "strength {:.5f}  ({}: RMS {:.5f} % of the diagonal, MSDM {:.4f}; limits {} % and "
-        "{}){}\n",
-        strength, found["status"].get<std::string>(), found["rms_percent"].get<double>(),
-        found["msdm"].get<double>(), a.options.max_rms_percent, a.options.max_msdm,
-        cached ? " [cached]" : "");
+        "strength {:.5f}  bin offset {:.4f}  ({}: RMS {:.5f} % of the diagonal, MSDM {:.4f}; "
+        "limits {} % and {}){}\n",
+        strength, found.value("bin_offset", 0.0), found["status"].get<std::string>(),
+        found["rms_percent"].get<double>(), found["msdm"].get<double>(),
+        options.max_rms_percent, options.max_msdm, cached ? " [cached]" : "");
+    for (const auto& line : found.value("diagnostics", nlohmann::json::array()))
+      fmt::print("  {}\n", line.get<std::string>());
     if (!a.no_cache) fmt::print("cache    {}\n", cache);
   }
   return strength > 0 ? kOk : kNotEmbedded;
@@ -131,8 +143,19 @@ void register_calibrate(CLI::App& app, int& exit_code) {
       ->check(CLI::PositiveNumber);
   sub->add_option("--max-msdm", args->options.max_msdm, "MSDM limit (default 0.25)")
       ->check(CLI::PositiveNumber);
-  sub->add_option("--iterations", args->options.iterations, "bisection steps (default 12)")
+  sub->add_option("--iterations", args->options.iterations,
+                  "search steps at most after the first two (default 12)")
       ->check(CLI::Range(1, 60));
+  sub->add_option("--precision", args->options.precision,
+                  "stop when the strength is known to this ratio, or the distortion is this "
+                  "close to a limit (default 0.01)")
+      ->check(CLI::Range(1e-4, 0.49));
+  sub->add_option("--bin-offset", args->bin_offset,
+                  "G in [0, 1/2): vertices stay in [G, 1-G] of their bin (default 0.05)")
+      ->check(CLI::Range(0.0, 0.4999));
+  sub->add_option("--bin-offset-rule", args->bin_offset_rule,
+                  "at-most-strength (G = min(G, alpha), the default) or fixed (the paper's)")
+      ->check(CLI::IsMember({"fixed", "at-most-strength"}));
   sub->add_option("--cache", args->cache,
                   "cache file (default $XDG_CACHE_HOME or ~/.cache/meshmark/calibration.jsonl)");
   sub->add_flag("--no-cache", args->no_cache, "neither read nor write the cache");

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
+#include "meshmark/calibrate.h"
 #include "meshmark/embed.h"
 #include "meshmark/error.h"
 #include "meshmark/registry.h"
@@ -16,7 +17,8 @@ namespace {
 
 struct EmbedArgs {
   std::string input, output, payload, id, variant = "DRS", solver = "native", batch;
-  std::string x_step = "cg", registry, buyer;
+  std::string x_step = "cg", registry, buyer, fidelity, bin_offset_rule = "at-most-strength";
+  double max_rms = 0, max_msdm = 0;  // 0: not given
   KeyArgs keys;
   int bits = 64;
   double strength_spread = 0.25;
@@ -26,8 +28,29 @@ struct EmbedArgs {
   bool json = false;
 };
 
-int run(const EmbedArgs& a) {
+// The limits of --fidelity, --max-rms and --max-msdm, or none (a fixed --strength).
+std::optional<CalibrateOptions> fidelity_limits(const EmbedArgs& a, bool strength_given) {
+  if (a.fidelity.empty() && a.max_rms == 0 && a.max_msdm == 0) return std::nullopt;
+  if (strength_given)
+    throw InvalidArgumentError(
+        "--strength fixes the strength; --fidelity, --max-rms and --max-msdm search it: give one");
+  CalibrateOptions c;
+  if (a.fidelity == "paper") {
+    c.max_rms_percent = kPaperMaxRmsPercent;
+    c.max_msdm = kPaperMaxMsdm;
+  } else if (!a.fidelity.empty()) {
+    throw InvalidArgumentError(fmt::format("unknown fidelity '{}' (known: paper)", a.fidelity));
+  }
+  if (a.max_rms > 0) c.max_rms_percent = a.max_rms;
+  if (a.max_msdm > 0) c.max_msdm = a.max_msdm;
+  c.bin_offset =
+      a.bin_offset_rule == "fixed" ? BinOffsetRule::Fixed : BinOffsetRule::AtMostStrength;
+  return c;
+}
+
+int run(const EmbedArgs& a, bool strength_given) {
   EmbedOptions options = a.embed;
+  const std::optional<CalibrateOptions> limits = fidelity_limits(a, strength_given);
   options.variant = parse_variant(a.variant);
   options.backend = a.solver == "ipopt" ? SolverBackend::Ipopt : SolverBackend::Native;
   options.admm.x_step =
@@ -49,6 +72,7 @@ int run(const EmbedArgs& a) {
     b.id_bits = a.keys.id_bits;
     b.strength_spread = a.strength_spread;
     b.registry = a.registry;
+    b.limits = limits;
     return run_batch(a.batch, b);
   }
   if (!a.payload.empty() && !a.id.empty())
@@ -91,9 +115,31 @@ int run(const EmbedArgs& a) {
     throw InvalidArgumentError("--buyer is recorded in a registry: give --registry DB");
   }
   Mesh mesh = read_input(a.input, a.in);
-  EmbedResult r = embed(mesh.V, mesh.F, bins, options);
+  EmbedResult r;
+  std::optional<CalibrateResult> calibration;
+  if (limits) {
+    CalibrateOptions co = *limits;
+    co.strengths = [&](double alpha) {
+      return mark_strengths(key, a.bits, coded, alpha, a.strength_spread);
+    };
+    calibration = calibrate_strength(mesh.V, mesh.F, bins, options, co);
+    options.strength = calibration->strength > 0 ? calibration->strength : co.min_strength;
+    options.bin_offset = calibration->bin_offset;
+    options.strengths = calibration->strengths;
+    r = std::move(calibration->embedding);
+    if (calibration->status == CalibrateStatus::BelowMinimum) {
+      r.status = EmbedStatus::NotConverged;
+      r.message = calibration->message;
+    }
+    copy.strength = options.strength;
+    copy.bin_offset = options.bin_offset;
+  } else {
+    r = embed(mesh.V, mesh.F, bins, options);
+  }
   if (r.check.status == CarrierHealth::Weak) report_carrier(a.input, r.check);
   std::string status = embed_status_name(r.status);
+  if (calibration && calibration->status == CalibrateStatus::BelowMinimum)
+    status = "not within the fidelity limits";
   if (r.status == EmbedStatus::Embedded) {
     mesh.V = r.V;
     const WrittenCheck written = write_marked_output(a.output, a.input, mesh, a.out, a.in, bins,
@@ -130,7 +176,21 @@ int run(const EmbedArgs& a) {
                         {"rms_displacement", r.rms_displacement},
                         {"rms_percent_of_diagonal", r.rms_percent},
                         {"center_drift_bins", r.center_drift},
-                        {"seconds", r.seconds},
+                        {"seconds", calibration ? calibration->seconds : r.seconds},
+                        {"fidelity",
+                         calibration ? nlohmann::json{{"status", calibrate_status_name(
+                                                                     calibration->status)},
+                                                      {"cause", calibrate_cause_name(
+                                                                    calibration->cause)},
+                                                      {"max_rms_percent", limits->max_rms_percent},
+                                                      {"max_msdm", limits->max_msdm},
+                                                      {"rms_percent", calibration->rms_percent},
+                                                      {"msdm", calibration->msdm},
+                                                      {"bin_offset_rule",
+                                                       bin_offset_rule_name(limits->bin_offset)},
+                                                      {"evaluations", calibration->evaluations},
+                                                      {"diagnostics", calibration->diagnostics}}
+                                     : nlohmann::json(nullptr)},
                         {"carrier",
                          {{"status", carrier_health_name(r.check.status)},
                           {"positions", r.check.positions},
@@ -149,6 +209,13 @@ int run(const EmbedArgs& a) {
                r.solver_iterations, r.kkt_residual);
     fmt::print("  smallest margin  {:.6f} (target {})\n", r.min_margin, options.strength);
     fmt::print("  RMS displacement {:.6f} % of the bounding-box diagonal\n", r.rms_percent);
+    if (calibration)
+      fmt::print(
+          "  fidelity         {}: RMS {:.5f} % (limit {}), MSDM {:.4f} (limit {}); {} "
+          "embeddings\n",
+          calibrate_status_name(calibration->status), calibration->rms_percent,
+          limits->max_rms_percent, calibration->msdm, limits->max_msdm,
+          calibration->evaluations);
     fmt::print("  center drift     {:.3g} bin widths\n", r.center_drift);
     fmt::print("  time             {:.2f} ms (without file I/O)\n", 1e3 * r.seconds);
     if (!r.infeasible_bits.empty())
@@ -157,6 +224,9 @@ int run(const EmbedArgs& a) {
       fmt::print("  written          {} (read back: every bit decodes)\n", printable(a.output));
   }
   if (!ok) fmt::print(stderr, "meshmark: error: {}: {}\n", a.input, r.message);
+  if (!ok && calibration)
+    for (std::size_t k = 1; k < calibration->diagnostics.size(); ++k)
+      fmt::print(stderr, "meshmark:   {}\n", calibration->diagnostics[k]);
   return ok ? kOk : kNotEmbedded;
 }
 
@@ -180,8 +250,24 @@ void register_embed(CLI::App& app, int& exit_code) {
                   "center (D S V), direction (R N S), cost (S Q L); default DRS");
   sub->add_option("--lambda", args->embed.lambda,
                   "costs Q and L: weight of the squared error, in [0, 1]");
-  sub->add_option("--strength", args->embed.strength,
-                  "alpha in (0, 1/2): target distance of bin means from 1/2");
+  CLI::Option* strength = sub->add_option(
+      "--strength", args->embed.strength,
+      "alpha in (0, 1/2): target distance of bin means from 1/2 (default 0.05)");
+  sub->add_option("--fidelity", args->fidelity,
+                  "search the strongest mark within named limits for this payload: paper (vertex "
+                  "RMS 0.04 % of the diagonal and MSDM 0.25, TIFS 2014)")
+      ->check(CLI::IsMember({"paper"}));
+  sub->add_option("--max-rms", args->max_rms,
+                  "search the strongest mark whose vertex RMS stays within this % of the "
+                  "bounding-box diagonal (with --max-msdm; default 0.04 with either)")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--max-msdm", args->max_msdm,
+                  "search the strongest mark whose MSDM stays within this (default 0.25)")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--bin-offset-rule", args->bin_offset_rule,
+                  "with a fidelity search: at-most-strength (G = min(--bin-offset, alpha), the "
+                  "default) or fixed (G = --bin-offset, the paper's)")
+      ->check(CLI::IsMember({"fixed", "at-most-strength"}));
   sub->add_option("--strength-spread", args->strength_spread,
                   "keyed or coded marks: bit j's strength is alpha (1 + spread u_j), u_j drawn "
                   "from the key in [0, 1), so the histogram does not show alpha; 0 = uniform")
@@ -205,7 +291,8 @@ void register_embed(CLI::App& app, int& exit_code) {
   add_key_options(*sub, args->keys);
   add_input_options(*sub, args->in);
   add_output_options(*sub, args->out);
-  sub->callback([args, &exit_code] { exit_code = run(*args); });
+  sub->callback(
+      [args, strength, &exit_code] { exit_code = run(*args, strength->count() > 0); });
 }
 
 }  // namespace meshmark::cli

@@ -60,13 +60,11 @@ void measure(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referen
   res.rms_percent = diag > 0 ? 100.0 * res.rms_displacement / diag : 0;
 }
 
-// Everything the rounds share: groups, adjacency (L), the roughness field (S), the center.
-detail::EmbedContext make_context(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
-                                  const Payload& payload, const EmbedOptions& o) {
-  detail::EmbedContext ctx;
+// Everything that depends on the mesh and the variant only: groups, adjacency (L), the
+// roughness field (S), the center.
+void make_context(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const EmbedOptions& o,
+                  detail::EmbedContext& ctx) {
   ctx.F = &F;
-  ctx.payload = &payload;
-  ctx.options = &o;
   ctx.referenced = carrier_vertices(V, F);
   ctx.groups = group_identical_positions(V, ctx.referenced);
   if (o.variant.cost == CostKind::Laplacian) {
@@ -81,7 +79,11 @@ detail::EmbedContext make_context(const Eigen::MatrixX3d& V, const Eigen::Matrix
     ctx.smooth_threshold = field.smooth_threshold;
   }
   ctx.original_center = center_of_mass(V, F, ctx.referenced, o.variant.center).point;
-  return ctx;
+}
+
+bool same_roughness(const RoughnessOptions& a, const RoughnessOptions& b) {
+  return a.curvature_radius == b.curvature_radius && a.smoothing_sigma == b.smoothing_sigma &&
+         a.window_sigma == b.window_sigma && a.outlier_quantile == b.outlier_quantile;
 }
 
 }  // namespace
@@ -100,18 +102,62 @@ const char* embed_status_name(EmbedStatus status) {
   return "?";
 }
 
+struct PreparedEmbedder::Impl {
+  Eigen::MatrixX3d V;
+  Eigen::MatrixX3i F;
+  EmbedOptions prepared;  // the variant, roughness and backend the context was built for
+  detail::EmbedContext ctx;
+};
+
+PreparedEmbedder::PreparedEmbedder(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                                   const EmbedOptions& options) {
+  auto impl = std::make_shared<Impl>();
+  impl->V = V;
+  impl->F = F;
+  impl->prepared = options;
+  make_context(impl->V, impl->F, options, impl->ctx);
+  impl_ = std::move(impl);
+}
+
+bool PreparedEmbedder::accepts(const EmbedOptions& o) const {
+  const EmbedOptions& p = impl_->prepared;
+  return o.variant == p.variant && same_roughness(o.roughness, p.roughness) &&
+         o.backend == p.backend && o.admm.x_step == p.admm.x_step;
+}
+
+const Eigen::MatrixX3d& PreparedEmbedder::V() const { return impl_->V; }
+
+const Eigen::MatrixX3i& PreparedEmbedder::F() const { return impl_->F; }
+
+CarrierCheck PreparedEmbedder::check(int nb) const {
+  const detail::EmbedContext& ctx = impl_->ctx;
+  return check_carrier(ctx.referenced,
+                       build_histogram(impl_->V, ctx.referenced, ctx.original_center, nb));
+}
+
 EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Payload& payload,
                   const EmbedOptions& options) {
   check_options(payload, options);
+  return PreparedEmbedder(V, F, options).embed(payload, options);
+}
+
+EmbedResult PreparedEmbedder::embed(const Payload& payload, const EmbedOptions& options) const {
+  check_options(payload, options);
+  if (!accepts(options))
+    throw InvalidArgumentError(fmt::format(
+        "the embedder was prepared for variant {} (and its roughness constants and backend), "
+        "not for variant {} with these settings",
+        impl_->prepared.variant.name(), options.variant.name()));
+  const Eigen::MatrixX3d& V = impl_->V;
+  const Eigen::MatrixX3i& F = impl_->F;
+  const detail::EmbedContext& ctx = impl_->ctx;
   const auto start = std::chrono::steady_clock::now();
   auto elapsed = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   };
   EmbedResult res;
   res.V = V;
-  const detail::EmbedContext ctx = make_context(V, F, payload, options);
-  res.check = check_carrier(
-      ctx.referenced, build_histogram(V, ctx.referenced, ctx.original_center, payload.size()));
+  res.check = check(payload.size());
   if (res.check.status == CarrierHealth::Unusable) {
     res.status = EmbedStatus::InvalidMesh;
     res.message = res.check.summary();
@@ -121,7 +167,7 @@ EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Pa
   detail::RoundProblem round;
   AdmmQpSolver admm;
   for (int k = 0; k < options.max_rounds; ++k) {
-    if (!detail::build_round(ctx, res.V, round, res.message)) {
+    if (!detail::build_round(ctx, payload, options, res.V, round, res.message)) {
       res.status = EmbedStatus::InvalidMesh;
       res.V = V;
       res.seconds = elapsed();

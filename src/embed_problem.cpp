@@ -14,9 +14,9 @@ namespace meshmark::detail {
 namespace {
 
 // The variant's direction for group g (first member `first`), before any fallback.
-Eigen::Vector3d group_direction(const EmbedContext& ctx, const Eigen::MatrixX3d& N, int g,
-                                int first, const Eigen::Vector3d& rhohat) {
-  const DirectionKind kind = ctx.options->variant.direction;
+Eigen::Vector3d group_direction(const EmbedContext& ctx, DirectionKind kind,
+                                const Eigen::MatrixX3d& N, int g, int first,
+                                const Eigen::Vector3d& rhohat) {
   if (kind == DirectionKind::Radial) return rhohat;
   Eigen::Vector3d n = Eigen::Vector3d::Zero();
   for (int k = ctx.groups.offsets[g]; k < ctx.groups.offsets[g + 1]; ++k)
@@ -166,11 +166,11 @@ Eigen::SparseMatrix<double> laplacian_hessian(const EmbedContext& ctx, const Eig
 // A bin whose vertices' directions cannot move its mean to the target (directions nearly
 // tangent to the spheres, as normals on flat CAD panels) is given radial directions, as a
 // single vertex is in case C1 of Algorithm 1. Counted in radial_fallbacks.
-void fall_back_where_bins_cannot_reach(const EmbedContext& ctx, const Eigen::MatrixX3d& V,
+void fall_back_where_bins_cannot_reach(const EmbedContext& ctx, const Payload& payload,
+                                       const EmbedOptions& o, const Eigen::MatrixX3d& V,
                                        const Histogram& h, const std::vector<int>& counts,
                                        RoundProblem& round) {
   SeparableQp& qp = round.qp;
-  const EmbedOptions& o = *ctx.options;
   const Eigen::Index m = qp.b.size();
   Eigen::VectorXd reach = Eigen::VectorXd::Zero(m);
   for (Eigen::Index g = 0; g < qp.lo.size(); ++g)
@@ -182,7 +182,7 @@ void fall_back_where_bins_cannot_reach(const EmbedContext& ctx, const Eigen::Mat
     const Eigen::Vector3d rhohat = (V.row(first).transpose() - h.center) / h.rho(first);
     const Eigen::Vector3d u = round.U.row(g).transpose();
     if (u == rhohat) continue;
-    qp.a(g) = (ctx.payload->bits[j] ? 1.0 : -1.0) / counts[j];  // cos(psi) = 1
+    qp.a(g) = (payload.bits[j] ? 1.0 : -1.0) / counts[j];  // cos(psi) = 1
     qp.lo(g) = o.bin_offset - h.t(first);
     qp.hi(g) = 1 - o.bin_offset - h.t(first);
     round.U.row(g) = rhohat.transpose();
@@ -192,10 +192,8 @@ void fall_back_where_bins_cannot_reach(const EmbedContext& ctx, const Eigen::Mat
 
 }  // namespace
 
-bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProblem& round,
-                 std::string& message) {
-  const EmbedOptions& o = *ctx.options;
-  const Payload& payload = *ctx.payload;
+bool build_round(const EmbedContext& ctx, const Payload& payload, const EmbedOptions& o,
+                 const Eigen::MatrixX3d& V, RoundProblem& round, std::string& message) {
   const Eigen::MatrixX3i& F = *ctx.F;
   const int nb = payload.size(), ng = ctx.groups.count();
   // Distances are measured from the original center, where this round puts the center back:
@@ -236,7 +234,7 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
     const double rho = h.rho(first), t = h.t(first);
     const int bin = h.bin[first];
     const Eigen::Vector3d rhohat = (V.row(first).transpose() - ctx.original_center) / rho;
-    Eigen::Vector3d u = group_direction(ctx, N, g, first, rhohat);
+    Eigen::Vector3d u = group_direction(ctx, o.variant.direction, N, g, first, rhohat);
     const bool extreme = rho == h.rho_min || rho == h.rho_max;
     if (extreme) {
       u = rhohat;
@@ -265,7 +263,7 @@ bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProble
     }
     qp.h(g) = 1;  // the position's squared displacement, once however many vertices share it
   }
-  fall_back_where_bins_cannot_reach(ctx, V, h, counts, round);
+  fall_back_where_bins_cannot_reach(ctx, payload, o, V, h, counts, round);
   // The center rows: e_g = sum over the group's vertices of J_i u_g, and the center itself.
   // When every vertex is referenced and alone at its position (the common case), group g is
   // vertex g and the per-vertex directions are the groups'.

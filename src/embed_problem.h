@@ -43,7 +43,8 @@ class LaplacianOperator {
   mutable std::vector<double> s_;                   // scratch: per vertex, its share of B^T B x
 };
 
-/// What stays the same over the rounds of one embedding.
+/// What depends on the mesh and the variant only: the same over the rounds of one embedding and
+/// over every payload, strength and bin offset (PreparedEmbedder keeps one).
 struct EmbedContext {
   const Eigen::MatrixX3i* F = nullptr;
   std::vector<std::uint8_t> referenced;
@@ -54,8 +55,6 @@ struct EmbedContext {
   Eigen::VectorXd smoothness;                      // direction S only
   double smooth_threshold = 0.8;
   Eigen::Vector3d original_center = Eigen::Vector3d::Zero();
-  const Payload* payload = nullptr;
-  const EmbedOptions* options = nullptr;
 };
 
 /// One round's problem.
@@ -80,9 +79,9 @@ inline bool needs_assembled_hessian(const EmbedOptions& o) {
          (o.backend == SolverBackend::Ipopt || o.admm.x_step == AdmmXStep::Cholesky);
 }
 
-/// Builds the round's problem at positions V. Returns false when the histogram or the center
-/// is not defined (the message says which).
-bool build_round(const EmbedContext& ctx, const Eigen::MatrixX3d& V, RoundProblem& round,
-                 std::string& message);
+/// Builds the round's problem for payload under options o at positions V. Returns false when
+/// the histogram or the center is not defined (the message says which).
+bool build_round(const EmbedContext& ctx, const Payload& payload, const EmbedOptions& o,
+                 const Eigen::MatrixX3d& V, RoundProblem& round, std::string& message);
 
 }  // namespace meshmark::detail

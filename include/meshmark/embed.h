@@ -7,6 +7,7 @@
 /// Rounds of linearized solves repeat until every bit decodes with its margin.
 
 #include <Eigen/Core>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -90,6 +91,33 @@ struct EmbedResult {
 /// \throw InvalidArgumentError for an empty payload or options out of range.
 EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Payload& payload,
                   const EmbedOptions& options = {});
+
+/// What embed computes from the mesh and the variant alone (the carrier and its groups of
+/// identical positions, the one-ring structure of cost L, the roughness field of direction S,
+/// the original center), computed once and reused for every payload, strength and bin offset:
+/// calibration, batches of copies of one original and campaigns embed through one. It keeps
+/// its own copy of V and F. Safe to use from several threads at once (embed() is const).
+class PreparedEmbedder {
+ public:
+  /// Prepares V, F (#V x 3, #F x 3) for options' variant, roughness constants and backend.
+  PreparedEmbedder(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                   const EmbedOptions& options = {});
+  /// The same as embed(V, F, payload, options) on the prepared mesh.
+  /// \throw InvalidArgumentError as embed, or when options ask for another variant, roughness
+  ///        or backend than prepared (accepts() is false).
+  EmbedResult embed(const Payload& payload, const EmbedOptions& options) const;
+  /// Whether options can use this preparation: the same variant, roughness constants,
+  /// backend and x-step.
+  bool accepts(const EmbedOptions& options) const;
+  const Eigen::MatrixX3d& V() const;  ///< the prepared positions
+  const Eigen::MatrixX3i& F() const;  ///< the prepared faces
+  /// The carrier check for nb bits (carrier_check.h), as embed reports it.
+  CarrierCheck check(int nb) const;
+
+ private:
+  struct Impl;
+  std::shared_ptr<const Impl> impl_;
+};
 
 /// Bit j's target strength under options: strengths[j], or strength when there are none.
 double bit_strength(const EmbedOptions& options, int j);
