@@ -9,16 +9,20 @@
 #include <numeric>
 
 #include "parallel.h"
+#include "sphere_walk.h"
 
 namespace meshmark {
 
 namespace {
 
 // Unique undirected edges with their signed dihedral angle (0 on boundary and non-manifold
-// edges).
+// edges), the faces around each (compressed rows) and the edge of each face's side c (from
+// corner c to c + 1; -1 for a degenerate side).
 struct EdgeTable {
   std::vector<std::array<int, 2>> ends;
   std::vector<double> beta;
+  std::vector<int> face_offsets{0}, faces;
+  std::vector<std::array<int, 3>> face_edges;
 };
 
 EdgeTable dihedral_edges(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
@@ -32,14 +36,14 @@ EdgeTable dihedral_edges(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
       if (a != b) ++start[std::min(a, b) + 1];
     }
   std::partial_sum(start.begin(), start.end(), start.begin());
-  std::vector<std::array<int, 4>> half(static_cast<std::size_t>(start[nv]));
+  std::vector<std::array<int, 5>> half(static_cast<std::size_t>(start[nv]));
   std::vector<int> fill(start.begin(), start.end() - 1);
   for (Eigen::Index t = 0; t < F.rows(); ++t)
     for (int c = 0; c < 3; ++c) {
       const int a = F(t, c), b = F(t, (c + 1) % 3);
       if (a != b)
         half[fill[std::min(a, b)]++] = {std::min(a, b), std::max(a, b), static_cast<int>(t),
-                                        a < b ? 1 : -1};
+                                        a < b ? 1 : -1, c};
     }
   for (std::size_t v = 0; v < nv; ++v)
     std::sort(half.begin() + start[v], half.begin() + start[v + 1]);
@@ -50,6 +54,7 @@ EdgeTable dihedral_edges(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
     return len > 0 ? Eigen::Vector3d(n / len) : Eigen::Vector3d::Zero();
   };
   EdgeTable table;
+  table.face_edges.assign(static_cast<std::size_t>(F.rows()), {-1, -1, -1});
   for (std::size_t k = 0; k < half.size();) {
     std::size_t e = k;
     while (e < half.size() && half[e][0] == half[k][0] && half[e][1] == half[k][1]) ++e;
@@ -63,11 +68,110 @@ EdgeTable dihedral_edges(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
       const double len = dir.norm();
       if (len > 0) beta = std::atan2(n1.cross(n2).dot(dir / len), n1.dot(n2));
     }
+    for (std::size_t h = k; h < e; ++h) {
+      table.faces.push_back(half[h][2]);
+      table.face_edges[static_cast<std::size_t>(half[h][2])][half[h][4]] =
+          static_cast<int>(table.ends.size());
+    }
+    table.face_offsets.push_back(static_cast<int>(table.faces.size()));
     table.ends.push_back({half[k][0], half[k][1]});
     table.beta.push_back(beta);
     k = e;
   }
   return table;
+}
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Per undirected edge, its tensor beta / |e| e e^T (6 distinct entries: the whole edge's
+// contribution divided by its length, so that a piece of fraction t of the edge contributes t
+// times it; zero without a dihedral angle); per adjacency slot, its edge; the edge table.
+struct EdgeTensors {
+  EdgeTable table;
+  std::vector<std::array<double, 6>> tensor;
+  std::vector<int> edge_of_slot;
+};
+
+EdgeTensors edge_tensors(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                         const Adjacency& adj) {
+  EdgeTensors out;
+  out.table = dihedral_edges(V, F);
+  const EdgeTable& table = out.table;
+  out.edge_of_slot.assign(adj.indices.size(), -1);
+  out.tensor.assign(table.ends.size(), {0, 0, 0, 0, 0, 0});
+  auto slot = [&](int from, int to) {
+    const auto first = adj.indices.begin() + adj.offsets[from],
+               last = adj.indices.begin() + adj.offsets[from + 1];
+    const auto it = std::lower_bound(first, last, to);
+    return it != last && *it == to ? static_cast<int>(it - adj.indices.begin()) : -1;
+  };
+  for (std::size_t k = 0; k < table.ends.size(); ++k) {
+    const int a = table.ends[k][0], b = table.ends[k][1];
+    for (int s : {slot(a, b), slot(b, a)})
+      if (s >= 0) out.edge_of_slot[static_cast<std::size_t>(s)] = static_cast<int>(k);
+    const Eigen::Vector3d d = (V.row(b) - V.row(a)).transpose();
+    const double length = d.norm();
+    if (table.beta[k] == 0 || length == 0) continue;
+    const double w = table.beta[k] / length;
+    out.tensor[k] = {w * d(0) * d(0), w * d(0) * d(1), w * d(0) * d(2),
+                     w * d(1) * d(1), w * d(1) * d(2), w * d(2) * d(2)};
+  }
+  return out;
+}
+
+// Fraction of the segment a -> b inside the ball of squared radius r2 around o.
+double fraction_inside(const Eigen::RowVector3d& o, double r2, const Eigen::RowVector3d& a,
+                       const Eigen::RowVector3d& b) {
+  const Eigen::RowVector3d p = a - o, d = b - a;
+  const double A = d.squaredNorm(), B = d.dot(p), C = p.squaredNorm() - r2;
+  if (A == 0) return 0;
+  const double disc = B * B - A * C;
+  if (disc <= 0) return 0;
+  const double root = std::sqrt(disc);
+  return std::max(0.0, std::min(1.0, (-B + root) / A) - std::max(0.0, (-B - root) / A));
+}
+
+// Exact clipping: faces flooded from those around `center` across every edge that meets the
+// ball; each edge seen once, for its fraction inside. visit(edge, fraction).
+template <class Points, class Visit>
+void flood_ball(const Points& P, const Adjacency& adj, const EdgeTensors& edges, int center,
+                double radius, std::vector<int>& face_stamp, std::vector<int>& edge_stamp,
+                std::vector<int>& queue, int mark, Visit&& visit) {
+  const EdgeTable& table = edges.table;
+  const Eigen::RowVector3d o = P.row(center);
+  const double r2 = radius * radius;
+  queue.clear();
+  auto push_faces = [&](int e) {
+    for (int k = table.face_offsets[e]; k < table.face_offsets[e + 1]; ++k)
+      if (face_stamp[table.faces[k]] != mark) {
+        face_stamp[table.faces[k]] = mark;
+        queue.push_back(table.faces[k]);
+      }
+  };
+  for (int s = adj.offsets[center]; s < adj.offsets[center + 1]; ++s)
+    if (edges.edge_of_slot[s] >= 0) push_faces(edges.edge_of_slot[s]);
+  for (std::size_t q = 0; q < queue.size(); ++q)
+    for (int e : table.face_edges[static_cast<std::size_t>(queue[q])]) {
+      if (e < 0 || edge_stamp[e] == mark) continue;
+      edge_stamp[e] = mark;
+      const double f = fraction_inside(o, r2, P.row(table.ends[e][0]), P.row(table.ends[e][1]));
+      if (f <= 0) continue;
+      visit(e, f);
+      push_faces(e);
+    }
+}
+
+// The two eigenvalues of largest magnitude of the symmetric tensor t (6 entries) / area,
+// smaller magnitude first; the smallest belongs to the normal.
+Eigen::Vector2d principal_pair(const std::array<double, 6>& t, double area) {
+  Eigen::Matrix3d T;
+  T << t[0], t[1], t[2], t[1], t[3], t[4], t[2], t[4], t[5];
+  T /= area;
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+  eig.computeDirect(T, Eigen::EigenvaluesOnly);  // closed form for 3 x 3
+  Eigen::Vector3d ev = eig.eigenvalues();
+  std::sort(ev.data(), ev.data() + 3, [](double x, double y) { return std::abs(x) < std::abs(y); });
+  return {ev(1), ev(2)};
 }
 
 }  // namespace
@@ -100,68 +204,43 @@ Neighborhoods ball_neighborhoods(const Eigen::MatrixX3d& V, const Adjacency& adj
 }
 
 CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
-                                      double radius) {
-  return normal_cycle_curvature(V, F, radius,
-                                ball_neighborhoods(V, vertex_adjacency(F, V.rows()), radius));
+                                      double radius, BallEdges which) {
+  return normal_cycle_curvature(V, F, vertex_adjacency(F, V.rows()), radius, which);
 }
 
 CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
-                                      double radius, const Neighborhoods& near) {
+                                      const Adjacency& adj, double radius, BallEdges which) {
   const Eigen::Index nv = V.rows();
   CurvatureField field;
   field.kmin = Eigen::VectorXd::Zero(nv);
   field.kmax = Eigen::VectorXd::Zero(nv);
-  const EdgeTable edges = dihedral_edges(V, F);
-  // A third of the incident triangle areas per vertex: the ball's surface area is the sum over
-  // the vertices inside it.
-  Eigen::VectorXd vertex_area = Eigen::VectorXd::Zero(nv);
-  for (Eigen::Index t = 0; t < F.rows(); ++t) {
-    const Eigen::Vector3d p0 = V.row(F(t, 0)), p1 = V.row(F(t, 1)), p2 = V.row(F(t, 2));
-    const double a = 0.5 * (p1 - p0).cross(p2 - p0).norm() / 3;
-    for (int c = 0; c < 3; ++c) vertex_area(F(t, c)) += a;
-  }
+  if (!(radius > 0)) return field;
+  const EdgeTensors edges = edge_tensors(V, F, adj);
   const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> P =
-      V;  // one cache line per point
-  const double r2 = radius * radius;
-  // Edges count the way the area does, by vertices: half an edge per endpoint inside the ball,
-  // so that their ratio carries no bias. The ball's tensor is then half the sum, over the
-  // vertices inside, of each vertex's sum of its edges' tensors beta / |d| d d^T (6 distinct
-  // entries), which is computed once: no edge is visited per ball.
-  std::vector<std::array<double, 6>> tensor(static_cast<std::size_t>(nv), {0, 0, 0, 0, 0, 0});
-  for (std::size_t e = 0; e < edges.ends.size(); ++e) {
-    if (edges.beta[e] == 0) continue;
-    const Eigen::Vector3d d = (P.row(edges.ends[e][1]) - P.row(edges.ends[e][0])).transpose();
-    const double length = d.norm();
-    if (length == 0) continue;
-    const double w = 0.5 * edges.beta[e] / length;
-    const std::array<double, 6> te = {w * d(0) * d(0), w * d(0) * d(1), w * d(0) * d(2),
-                                      w * d(1) * d(1), w * d(1) * d(2), w * d(2) * d(2)};
-    for (int v : edges.ends[e])
-      for (int c = 0; c < 6; ++c) tensor[v][c] += te[c];
-  }
-  // Vertices are independent: chunks of them on separate threads.
+      V;                                      // one cache line per point
+  const double area = kPi * radius * radius;  // the disc's, as MEPP divides by
+  // Vertices are independent: chunks of them on separate threads, each with its own scratch.
   detail::parallel_chunks(nv, [&](int, std::int64_t begin, std::int64_t end) {
+    detail::WalkScratch scratch(nv);
+    std::vector<int> face_stamp(static_cast<std::size_t>(F.rows()), -1),
+        edge_stamp(edges.tensor.size(), -1), queue;
     for (Eigen::Index i = begin; i < end; ++i) {
-      double area = 0;
-      double t[6] = {0, 0, 0, 0, 0, 0};
-      for (auto k = near.offsets[i]; k < near.offsets[i + 1]; ++k) {
-        const int v = near.indices[k];
-        if ((P.row(v) - P.row(i)).squaredNorm() > r2) continue;
-        area += vertex_area(v);
-        for (int c = 0; c < 6; ++c) t[c] += tensor[v][c];
-      }
-      if (area <= 0) continue;
-      Eigen::Matrix3d T;
-      T << t[0], t[1], t[2], t[1], t[3], t[4], t[2], t[4], t[5];
-      T /= area;
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
-      eig.computeDirect(T, Eigen::EigenvaluesOnly);  // closed form for 3 x 3
-      Eigen::Vector3d ev = eig.eigenvalues();
-      std::sort(ev.data(), ev.data() + 3,
-                [](double x, double y) { return std::abs(x) < std::abs(y); });
-      // The smallest magnitude belongs to the normal; the other two are the principal curvatures.
-      field.kmin(i) = ev(1);
-      field.kmax(i) = ev(2);
+      std::array<double, 6> t = {0, 0, 0, 0, 0, 0};
+      auto add = [&](int e, double fraction) {
+        for (int c = 0; c < 6; ++c) t[c] += fraction * edges.tensor[e][c];
+      };
+      if (which == BallEdges::kReferenceWalk)
+        detail::walk_sphere(P, adj, static_cast<int>(i), radius, scratch,
+                            [&](int, int slot, int, const detail::Clip& clip, bool) {
+                              if (edges.edge_of_slot[slot] >= 0)
+                                add(edges.edge_of_slot[slot], clip.t);
+                            });
+      else
+        flood_ball(P, adj, edges, static_cast<int>(i), radius, face_stamp, edge_stamp, queue,
+                   static_cast<int>(i), add);
+      const Eigen::Vector2d k = principal_pair(t, area);
+      field.kmin(i) = k(0);
+      field.kmax(i) = k(1);
     }
   });
   return field;

@@ -58,15 +58,16 @@ RoughnessField roughness_field(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i
                                const RoughnessOptions& o) {
   const auto used = referenced_vertices(F, V.rows());
   const double D = bounding_box_diagonal(V, used);
-  // One set of neighborhoods, at the largest radius, serves every ball of the construction.
-  const double reach =
-      D * std::max({o.curvature_radius, 2 * o.smoothing_sigma, 2 * o.window_sigma});
-  const Neighborhoods near = ball_neighborhoods(V, vertex_adjacency(F, V.rows()), reach);
+  // One set of neighborhoods, at the largest Gaussian reach, serves every average; the
+  // curvature walks its own balls over the same adjacency.
+  const Adjacency adj = vertex_adjacency(F, V.rows());
+  const Neighborhoods near =
+      ball_neighborhoods(V, adj, D * std::max(2 * o.smoothing_sigma, 2 * o.window_sigma));
   const Eigen::VectorXd area = vertex_areas(V, F);
-  const Eigen::VectorXd c = normal_cycle_curvature(V, F, o.curvature_radius * D, near).magnitude();
+  const Eigen::VectorXd c = normal_cycle_curvature(V, F, adj, o.curvature_radius * D).magnitude();
   const Eigen::MatrixX3d smoothed = gaussian_average(V, near, area, V, o.smoothing_sigma * D);
   const Eigen::VectorXd cs =
-      normal_cycle_curvature(smoothed, F, o.curvature_radius * D, near).magnitude();
+      normal_cycle_curvature(smoothed, F, adj, o.curvature_radius * D).magnitude();
   RoughnessField field;
   field.roughness =
       D * gaussian_average(V, near, area, (c - cs).cwiseAbs(), o.window_sigma * D).col(0);

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "meshmark/attack.h"
+#include "meshmark/error.h"
 #include "meshmark/io.h"
 #include "meshmark/metrics.h"
 #include "test_data.h"
@@ -123,4 +124,38 @@ TEST(Metrics, Msdm2IsSymmetricAndBlindToVertexOrder) {
   const Mesh shuffled = attack_reorder(n, 4);
   EXPECT_NEAR(msdm2(m.V, m.F, shuffled.V, shuffled.F).global, ab, 1e-9);
   EXPECT_GT(ab, 0.0);
+}
+
+TEST(Metrics, PreparedMsdmEqualsTheOneCall) {
+  const std::string path = shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(path, "spot.obj");
+  const Mesh m = read_mesh(path);
+  const MsdmReference reference(m.V, m.F);
+  for (double amplitude : {0.0005, 0.002}) {  // one reference, several candidates
+    const Mesh n = attack_noise(m, amplitude, NoiseReference::Diagonal, 5);
+    const PerceptualDistance once = msdm(m.V, n.V, m.F), prepared = reference.compare(n.V);
+    EXPECT_EQ(prepared.global, once.global) << amplitude;
+    EXPECT_EQ((prepared.local - once.local).cwiseAbs().maxCoeff(), 0.0) << amplitude;
+  }
+  EXPECT_THROW(reference.compare(m.V.topRows(10)), InvalidArgumentError);
+}
+
+// MSDM's radii are fractions of the bounding box's longest side D and its curvature is scaled
+// by D: a scaling and a shift of both meshes leave every value unchanged (up to rounding,
+// which may move an edge across a window's sphere). A rotation would not: it changes the
+// axis-aligned box, hence D.
+TEST(Metrics, MsdmIsBlindToScaleAndShiftOfBothMeshes) {
+  const std::string path = cgal_mesh("cow.off");
+  MESHMARK_REQUIRE(path, "libcgal-demo cow.off");
+  const Mesh m = read_mesh(path);
+  const Mesh n = attack_noise(m, 0.001, NoiseReference::Diagonal, 2);
+  const Eigen::RowVector3d shift(4, -2, 9);
+  auto move = [&](const Eigen::MatrixX3d& V) {
+    return Eigen::MatrixX3d(((37.5 * V).rowwise() + shift).eval());
+  };
+  const double before = msdm(m.V, n.V, m.F).global, after = msdm(move(m.V), move(n.V), m.F).global;
+  EXPECT_GT(before, 0.0);
+  EXPECT_NEAR(after, before, 1e-6 * before);
+  const double before2 = msdm2(m.V, m.F, n.V, n.F).global;
+  EXPECT_NEAR(msdm2(move(m.V), m.F, move(n.V), n.F).global, before2, 1e-6 * before2);
 }

@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <memory>
 
 namespace meshmark {
 
@@ -44,9 +45,9 @@ SurfaceDistance surface_distance(const Eigen::MatrixX3d& VA, const Eigen::Matrix
                                  const Eigen::MatrixX3d& VB, const Eigen::MatrixX3i& FB,
                                  const SurfaceDistanceOptions& options = {});
 
-/// MSDM's constants, fractions of the bounding box's longest side D.
+/// MSDM's constants, fractions of the bounding box's longest side D (of the first mesh).
 struct MsdmOptions {
-  double curvature_radius = 0.005;  ///< normal-cycle disc
+  double curvature_radius = 0.005;  ///< normal-cycle ball
   double window_radius = 0.015;     ///< local window
   double window_sigma = 0.008;      ///< its Gaussian
 };
@@ -57,7 +58,45 @@ struct PerceptualDistance {
   Eigen::VectorXd local;  ///< per vertex of the first mesh
 };
 
-/// MSDM between two meshes with the same connectivity F (positions A and B).
+/// MSDM (Lavoue et al., SPIE 2006) as its reference implementation, MEPP's MSDM component,
+/// computes it. Curvature c = (|kmax| + |kmin|) D / 2 from the normal cycle over balls of
+/// curvature_radius D (curvature.h). Around each vertex, each mesh is walked on its own
+/// geometry over the window's ball (the walk of curvature.h): every edge seen gives a sample
+/// at its far end or where it leaves the sphere, its curvature interpolated along the edge.
+/// Gaussian weights of the distance to the vertex give each mesh's mean and deviation; the
+/// covariance pairs each sample with the nearest sample of the other window (by index when
+/// both walks saw the same edges), weighted by the distance to the second mesh's vertex, and
+/// averages both directions (MEPP's ProcessCovariance). Local value
+/// ((L^3 + C^3 + 0.5 S^3) / 2.5)^(1/3), global (mean of local^3)^(1/3) over the referenced
+/// vertices; unreferenced vertices score 0.
+///
+/// This class is the first mesh's side, computed once: D, the adjacency, A's curvature and
+/// A's window statistics. compare(B) computes B's curvature and walks, and walks A's windows
+/// again for the pairing (storing A's samples would take ~150 samples per vertex). B's
+/// windows are not A's reused: B may see other edges near the sphere, and MEPP walks each mesh
+/// on its own, so reusing A's would change the value. msdm(A, B, F, o) equals
+/// MsdmReference(A, F, o).compare(B). Copies share the state; compare is const and may run
+/// concurrently.
+class MsdmReference {
+ public:
+  /// A: #V x 3 positions of the original, F: #F x 3 its triangles (kept, copied).
+  MsdmReference(const Eigen::MatrixX3d& A, const Eigen::MatrixX3i& F,
+                const MsdmOptions& options = {});
+  /// MSDM from the original to B (#V x 3, same connectivity). \throw InvalidArgumentError
+  /// when B's vertex count differs.
+  PerceptualDistance compare(const Eigen::MatrixX3d& B) const;
+  /// D, the longest side of the original's bounding box (model units).
+  double longest_side() const;
+  /// The original's curvature per vertex as MSDM compares it, (|kmax| + |kmin|) D / 2.
+  const Eigen::VectorXd& curvature() const;
+
+ private:
+  struct State;
+  std::shared_ptr<const State> state_;
+};
+
+/// MSDM between two meshes with the same connectivity F (positions A and B): see
+/// MsdmReference. \throw InvalidArgumentError when the vertex counts differ.
 PerceptualDistance msdm(const Eigen::MatrixX3d& A, const Eigen::MatrixX3d& B,
                         const Eigen::MatrixX3i& F, const MsdmOptions& options = {});
 
@@ -68,9 +107,19 @@ struct Msdm2Options {
   double sigma_factor = 2.5;                 ///< Gaussian sigma = 2.5 h
 };
 
-/// MSDM2 between meshes of any connectivity: each vertex is matched to the closest point of
-/// the other surface, whose curvature is interpolated there; three scales averaged; pooled
-/// with exponent 3; made symmetric by averaging both directions. `local` is A -> B.
+/// MSDM2 (Lavoue, SGP 2011) between meshes of any connectivity, as MEPP2's msdm2.h computes
+/// it in each direction: each vertex of X is matched to the closest point of Y, whose
+/// curvature (interpolated there) and position stand for it on Y's side. At each scale h,
+/// curvature (|kmax| + |kmin|) D / 2 over balls of h D on both meshes; X's window of radius
+/// 5 h D walked as in msdm (curvature.h's walk), sampling the center, each newly reached
+/// vertex and each point where an edge leaves the sphere (X's curvature and the matched one
+/// interpolated along the edge); Gaussian weights (sigma 2.5 h D) of the distance to the
+/// vertex on X's side and to its match on Y's; local value (L + C + 0.5 S) / 2.5 averaged over
+/// the three scales, pooled with exponent 3. Made symmetric by averaging both directions
+/// (MEPP2 computes one). D is the larger of both meshes' longest sides, the same both ways.
+/// The matched curvature uses the closest point's barycentric coordinates (MEPP2 weighs by
+/// triangle areas to the unprojected vertex: the same for a vertex on the surface).
+/// `local` is A -> B.
 PerceptualDistance msdm2(const Eigen::MatrixX3d& VA, const Eigen::MatrixX3i& FA,
                          const Eigen::MatrixX3d& VB, const Eigen::MatrixX3i& FB,
                          const Msdm2Options& options = {});
