@@ -218,6 +218,7 @@ CalibrateResult calibrate_strength(const PreparedEmbedder& embedder, const Paylo
   CalibrateResult result;
   const Eigen::MatrixX3d& V = embedder.V();
   const Eigen::MatrixX3i& F = embedder.F();
+  std::optional<MsdmReference> reference;
   auto evaluate = [&](double alpha) {
     Trial t;
     t.alpha = alpha;
@@ -236,7 +237,8 @@ CalibrateResult calibrate_strength(const PreparedEmbedder& embedder, const Paylo
     t.ratio = t.rms / o.max_rms_percent;
     // MSDM only when RMS passes: it is the expensive one.
     if (t.rms <= o.max_rms_percent) {
-      t.msdm = msdm(V, t.result.V, F).global;
+      if (!reference) reference.emplace(V, F);  // the original's side, once
+      t.msdm = reference->compare(t.result.V).global;
       t.ratio = std::max(t.ratio, t.msdm / o.max_msdm);
     }
     t.ok = t.ratio <= 1;
