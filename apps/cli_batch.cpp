@@ -204,7 +204,8 @@ int run_batch(const std::string& manifest, const BatchSettings& settings) {
     try {
       Mesh mesh = read_input(job.input, in_options);
       PreparedEmbedder embedder(mesh.V, mesh.F, options);
-      meshes[job.input] = std::make_shared<const Input>(Input{std::move(mesh), std::move(embedder)});
+      meshes[job.input] =
+          std::make_shared<const Input>(Input{std::move(mesh), std::move(embedder)});
     } catch (const std::exception& e) {
       unreadable[job.input] = e.what();
     }
@@ -247,8 +248,8 @@ int run_batch(const std::string& manifest, const BatchSettings& settings) {
                                 options.variant.center, o.strength);
         if (!written.carried) throw Error(written.message);
         job.ok = true;
-        job.outcome = fmt::format("{} rounds, RMS {:.5f} %{}, {:.1f} ms", r.rounds,
-                                  r.rms_percent, fidelity, 1e3 * r.seconds);
+        job.outcome = fmt::format("{} rounds, RMS {:.5f} %{}, {:.1f} ms", r.rounds, r.rms_percent,
+                                  fidelity, 1e3 * r.seconds);
         if (r.check.status == CarrierHealth::Weak)
           job.outcome += fmt::format(" (warning: {})", r.check.summary());
       } catch (const std::exception& e) {

@@ -59,11 +59,11 @@ int run(const CalibrateArgs& a) {
   CalibrateOptions options = a.options;
   options.bin_offset =
       a.bin_offset_rule == "fixed" ? BinOffsetRule::Fixed : BinOffsetRule::AtMostStrength;
-  const std::string key = fmt::format(
-      "{}|{}|{}|rms {}|msdm {}|range {} {}|steps {}|precision {}|G {} {}|v2", file_hash(a.input),
-      variant.name(), a.bits, options.max_rms_percent, options.max_msdm, options.min_strength,
-      options.max_strength, options.iterations, options.precision, a.bin_offset,
-      bin_offset_rule_name(options.bin_offset));
+  const std::string key =
+      fmt::format("{}|{}|{}|rms {}|msdm {}|range {} {}|steps {}|precision {}|G {} {}|v2",
+                  file_hash(a.input), variant.name(), a.bits, options.max_rms_percent,
+                  options.max_msdm, options.min_strength, options.max_strength, options.iterations,
+                  options.precision, a.bin_offset, bin_offset_rule_name(options.bin_offset));
   const std::string cache = a.cache.empty() ? default_cache() : a.cache;
   nlohmann::json found;
   if (!a.no_cache && fs::exists(cache)) {
@@ -120,8 +120,8 @@ int run(const CalibrateArgs& a) {
         "strength {:.5f}  bin offset {:.4f}  ({}: RMS {:.5f} % of the diagonal, MSDM {:.4f}; "
         "limits {} % and {}){}\n",
         strength, found.value("bin_offset", 0.0), found["status"].get<std::string>(),
-        found["rms_percent"].get<double>(), found["msdm"].get<double>(),
-        options.max_rms_percent, options.max_msdm, cached ? " [cached]" : "");
+        found["rms_percent"].get<double>(), found["msdm"].get<double>(), options.max_rms_percent,
+        options.max_msdm, cached ? " [cached]" : "");
     for (const auto& line : found.value("diagnostics", nlohmann::json::array()))
       fmt::print("  {}\n", line.get<std::string>());
     if (!a.no_cache) fmt::print("cache    {}\n", cache);

@@ -150,52 +150,50 @@ int run(const EmbedArgs& a, bool strength_given) {
   }
   const bool ok = r.status == EmbedStatus::Embedded;
   if (a.json) {
-    nlohmann::json j = {{"status", status},
-                        {"message", r.message},
-                        {"input", a.input},
-                        {"output", ok ? a.output : ""},
-                        {"variant", a.variant},
-                        {"solver", a.solver},
-                        {"payload", payload_to_hex(payload)},
-                        {"id", coded ? nlohmann::json(parse_id(a.id)) : nlohmann::json(nullptr)},
-                        {"keyed", key.has_value()},
-                        {"bits", a.bits},
-                        {"strength", options.strength},
-                        {"strength_spread", key || coded ? a.strength_spread : 0.0},
-                        {"bin_offset", options.bin_offset},
-                        {"vertices", mesh.V.rows()},
-                        {"rounds", r.rounds},
-                        {"solver_iterations", r.solver_iterations},
-                        {"radial_fallbacks", r.radial_fallbacks},
-                        {"solver_status", qp_status_name(r.solver_status)},
-                        {"kkt_residual", r.kkt_residual},
-                        {"min_margin", r.min_margin},
-                        {"margins", r.margins},
-                        {"infeasible_bits", r.infeasible_bits},
-                        {"squared_displacement", r.squared_displacement},
-                        {"rms_displacement", r.rms_displacement},
-                        {"rms_percent_of_diagonal", r.rms_percent},
-                        {"center_drift_bins", r.center_drift},
-                        {"seconds", calibration ? calibration->seconds : r.seconds},
-                        {"fidelity",
-                         calibration ? nlohmann::json{{"status", calibrate_status_name(
-                                                                     calibration->status)},
-                                                      {"cause", calibrate_cause_name(
-                                                                    calibration->cause)},
-                                                      {"max_rms_percent", limits->max_rms_percent},
-                                                      {"max_msdm", limits->max_msdm},
-                                                      {"rms_percent", calibration->rms_percent},
-                                                      {"msdm", calibration->msdm},
-                                                      {"bin_offset_rule",
-                                                       bin_offset_rule_name(limits->bin_offset)},
-                                                      {"evaluations", calibration->evaluations},
-                                                      {"diagnostics", calibration->diagnostics}}
-                                     : nlohmann::json(nullptr)},
-                        {"carrier",
-                         {{"status", carrier_health_name(r.check.status)},
-                          {"positions", r.check.positions},
-                          {"vertices", r.check.carrier},
-                          {"diagnostics", r.check.diagnostics}}}};
+    nlohmann::json j = {
+        {"status", status},
+        {"message", r.message},
+        {"input", a.input},
+        {"output", ok ? a.output : ""},
+        {"variant", a.variant},
+        {"solver", a.solver},
+        {"payload", payload_to_hex(payload)},
+        {"id", coded ? nlohmann::json(parse_id(a.id)) : nlohmann::json(nullptr)},
+        {"keyed", key.has_value()},
+        {"bits", a.bits},
+        {"strength", options.strength},
+        {"strength_spread", key || coded ? a.strength_spread : 0.0},
+        {"bin_offset", options.bin_offset},
+        {"vertices", mesh.V.rows()},
+        {"rounds", r.rounds},
+        {"solver_iterations", r.solver_iterations},
+        {"radial_fallbacks", r.radial_fallbacks},
+        {"solver_status", qp_status_name(r.solver_status)},
+        {"kkt_residual", r.kkt_residual},
+        {"min_margin", r.min_margin},
+        {"margins", r.margins},
+        {"infeasible_bits", r.infeasible_bits},
+        {"squared_displacement", r.squared_displacement},
+        {"rms_displacement", r.rms_displacement},
+        {"rms_percent_of_diagonal", r.rms_percent},
+        {"center_drift_bins", r.center_drift},
+        {"seconds", calibration ? calibration->seconds : r.seconds},
+        {"fidelity",
+         calibration ? nlohmann::json{{"status", calibrate_status_name(calibration->status)},
+                                      {"cause", calibrate_cause_name(calibration->cause)},
+                                      {"max_rms_percent", limits->max_rms_percent},
+                                      {"max_msdm", limits->max_msdm},
+                                      {"rms_percent", calibration->rms_percent},
+                                      {"msdm", calibration->msdm},
+                                      {"bin_offset_rule", bin_offset_rule_name(limits->bin_offset)},
+                                      {"evaluations", calibration->evaluations},
+                                      {"diagnostics", calibration->diagnostics}}
+                     : nlohmann::json(nullptr)},
+        {"carrier",
+         {{"status", carrier_health_name(r.check.status)},
+          {"positions", r.check.positions},
+          {"vertices", r.check.carrier},
+          {"diagnostics", r.check.diagnostics}}}};
     fmt::print("{}\n", j.dump(2));
   } else {
     fmt::print("{}: {}\n", ok ? "embedded" : "NOT embedded", r.message);
@@ -214,10 +212,11 @@ int run(const EmbedArgs& a, bool strength_given) {
           "  fidelity         {}: RMS {:.5f} % (limit {}), MSDM {:.4f} (limit {}); {} "
           "embeddings\n",
           calibrate_status_name(calibration->status), calibration->rms_percent,
-          limits->max_rms_percent, calibration->msdm, limits->max_msdm,
-          calibration->evaluations);
+          limits->max_rms_percent, calibration->msdm, limits->max_msdm, calibration->evaluations);
     fmt::print("  center drift     {:.3g} bin widths\n", r.center_drift);
-    fmt::print("  time             {:.2f} ms (without file I/O)\n", 1e3 * r.seconds);
+    fmt::print("  time             {:.2f} ms (without file I/O{})\n",
+               1e3 * (calibration ? calibration->seconds : r.seconds),
+               calibration ? ", with the strength search" : "");
     if (!r.infeasible_bits.empty())
       fmt::print("  infeasible bits  {}\n", fmt::join(r.infeasible_bits, " "));
     if (ok)
@@ -250,9 +249,9 @@ void register_embed(CLI::App& app, int& exit_code) {
                   "center (D S V), direction (R N S), cost (S Q L); default DRS");
   sub->add_option("--lambda", args->embed.lambda,
                   "costs Q and L: weight of the squared error, in [0, 1]");
-  CLI::Option* strength = sub->add_option(
-      "--strength", args->embed.strength,
-      "alpha in (0, 1/2): target distance of bin means from 1/2 (default 0.05)");
+  CLI::Option* strength =
+      sub->add_option("--strength", args->embed.strength,
+                      "alpha in (0, 1/2): target distance of bin means from 1/2 (default 0.05)");
   sub->add_option("--fidelity", args->fidelity,
                   "search the strongest mark within named limits for this payload: paper (vertex "
                   "RMS 0.04 % of the diagonal and MSDM 0.25, TIFS 2014)")
@@ -291,8 +290,7 @@ void register_embed(CLI::App& app, int& exit_code) {
   add_key_options(*sub, args->keys);
   add_input_options(*sub, args->in);
   add_output_options(*sub, args->out);
-  sub->callback(
-      [args, strength, &exit_code] { exit_code = run(*args, strength->count() > 0); });
+  sub->callback([args, strength, &exit_code] { exit_code = run(*args, strength->count() > 0); });
 }
 
 }  // namespace meshmark::cli

@@ -89,8 +89,7 @@ class Search {
 };
 
 // Per-bit strengths for alpha: the caller's rule, or the given ones scaled.
-std::vector<double> strengths_for(const CalibrateOptions& o, const EmbedOptions& eo,
-                                  double alpha) {
+std::vector<double> strengths_for(const CalibrateOptions& o, const EmbedOptions& eo, double alpha) {
   if (o.strengths) return o.strengths(alpha);
   std::vector<double> s = eo.strengths;
   for (double& x : s) x = std::min(x * alpha / eo.strength, 0.499);
@@ -98,9 +97,8 @@ std::vector<double> strengths_for(const CalibrateOptions& o, const EmbedOptions&
 }
 
 // Why not even min_strength fits, and what would: one line each.
-void explain(const PreparedEmbedder& embedder, const Payload& payload,
-             const EmbedOptions& eo, const CalibrateOptions& o, const Trial& weakest,
-             CalibrateResult& result) {
+void explain(const PreparedEmbedder& embedder, const Payload& payload, const EmbedOptions& eo,
+             const CalibrateOptions& o, const Trial& weakest, CalibrateResult& result) {
   const int nb = payload.size();
   auto& d = result.diagnostics;
   const EmbedResult& r = weakest.result;
@@ -143,8 +141,7 @@ void explain(const PreparedEmbedder& embedder, const Payload& payload,
         "the weakest mark (strength {}, bin offset G = {}) already costs RMS {:.5f} % (limit {}) "
         "and MSDM {} (limit {})",
         weakest.alpha, weakest.bin_offset, weakest.rms, o.max_rms_percent,
-        rms_over ? std::string("not measured") : fmt::format("{:.4f}", weakest.msdm),
-        o.max_msdm));
+        rms_over ? std::string("not measured") : fmt::format("{:.4f}", weakest.msdm), o.max_msdm));
     if (o.bin_offset == BinOffsetRule::Fixed && eo.bin_offset > weakest.alpha)
       d.push_back(fmt::format(
           "way out: let G follow the strength (G <= alpha, the default search): G = {} keeps "
@@ -161,8 +158,8 @@ void explain(const PreparedEmbedder& embedder, const Payload& payload,
     d.push_back("way out: " + fewer_bits());
     const std::vector<std::string> centers = other_centers();
     if (!centers.empty())
-      d.push_back(fmt::format("way out: another center gives a healthy carrier for {} bits: {}",
-                              nb, fmt::join(centers, ", ")));
+      d.push_back(fmt::format("way out: another center gives a healthy carrier for {} bits: {}", nb,
+                              fmt::join(centers, ", ")));
   }
 }
 
@@ -251,9 +248,14 @@ CalibrateResult calibrate_strength(const PreparedEmbedder& embedder, const Paylo
   for (;;) {
     Trial t = evaluate(alpha);
     search.add(t);
-    if (t.ok && (!best || t.alpha > best->alpha)) best = std::move(t);
+    if (t.ok && (!best || t.alpha > best->alpha))
+      best = std::move(t);
     else if (!t.ok && (!weakest_failure || t.alpha < weakest_failure->alpha))
       weakest_failure = std::move(t);
+    if (weakest_failure && weakest_failure->result.status == EmbedStatus::InvalidMesh) {
+      status = CalibrateStatus::BelowMinimum;  // no strength helps: the carrier is the cause
+      break;
+    }
     if (search.at_maximum()) {
       status = CalibrateStatus::AtMaximum;
       break;
@@ -284,12 +286,11 @@ CalibrateResult calibrate_strength(const PreparedEmbedder& embedder, const Paylo
     result.bin_offset = w.bin_offset;
     result.embedding = w.result;
     explain(embedder, payload, embed_options, o, w, result);
-    result.message = fmt::format("no strength from {} fits RMS {} % and MSDM {}: {}",
-                                 o.min_strength, o.max_rms_percent, o.max_msdm,
-                                 result.diagnostics.front());
+    result.message =
+        fmt::format("no strength from {} fits RMS {} % and MSDM {}: {}", o.min_strength,
+                    o.max_rms_percent, o.max_msdm, result.diagnostics.front());
   }
-  result.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
 
@@ -297,8 +298,8 @@ CalibrateResult calibrate_strength(const Eigen::MatrixX3d& V, const Eigen::Matri
                                    const Payload& payload, const EmbedOptions& embed_options,
                                    const CalibrateOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  CalibrateResult r = calibrate_strength(PreparedEmbedder(V, F, embed_options), payload,
-                                         embed_options, options);
+  CalibrateResult r =
+      calibrate_strength(PreparedEmbedder(V, F, embed_options), payload, embed_options, options);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
 }

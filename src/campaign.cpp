@@ -281,8 +281,11 @@ CalibrationRecord calibrate_for_campaign(const CampaignConfig& c, int model, int
   }
   EmbedOptions eo;
   eo.variant = parse_variant(r.variant);
+  // The trials embed with the default G: calibrate with it fixed, as the paper does.
+  CalibrateOptions co = c.calibration;
+  co.bin_offset = BinOffsetRule::Fixed;
   const CalibrateResult k =
-      calibrate_strength(mesh.V, mesh.F, calibration_payload(c.bits, c.seed), eo, c.calibration);
+      calibrate_strength(mesh.V, mesh.F, calibration_payload(c.bits, c.seed), eo, co);
   r.status = calibrate_status_name(k.status);
   r.strength = k.strength;
   r.rms_percent = k.rms_percent;

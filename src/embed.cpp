@@ -125,9 +125,13 @@ bool PreparedEmbedder::accepts(const EmbedOptions& o) const {
          o.backend == p.backend && o.admm.x_step == p.admm.x_step;
 }
 
-const Eigen::MatrixX3d& PreparedEmbedder::V() const { return impl_->V; }
+const Eigen::MatrixX3d& PreparedEmbedder::V() const {
+  return impl_->V;
+}
 
-const Eigen::MatrixX3i& PreparedEmbedder::F() const { return impl_->F; }
+const Eigen::MatrixX3i& PreparedEmbedder::F() const {
+  return impl_->F;
+}
 
 CarrierCheck PreparedEmbedder::check(int nb) const {
   const detail::EmbedContext& ctx = impl_->ctx;

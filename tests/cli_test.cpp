@@ -199,3 +199,50 @@ TEST(Cli, MessagesQuotingInputOrArgumentsCarryNoEscapeSequences) {
     EXPECT_NE(r.out.find("\\x1b"), std::string::npos) << r.out;
   }
 }
+
+// The distortion `compare --json` reports for key (a number after "key": ).
+double reported(const std::string& json, const std::string& key) {
+  const std::size_t at = json.find("\"" + key + "\": ");
+  EXPECT_NE(at, std::string::npos) << key << " in " << json;
+  return at == std::string::npos ? -1 : std::stod(json.substr(at + key.size() + 4));
+}
+
+TEST(Cli, EmbedAtThePapersFidelityMeetsItsLimitsForEveryCopy) {
+  // Each copy, its own ID, its own strongest mark: compare (an independent command) measures
+  // the written files within the paper's limits, and extract reads each ID back.
+  const std::string in = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(in, "spot.obj");
+  const std::string dir = test::scratch_dir();
+  // Text output keeps 17 significant digits: the file's distortion equals the computed one
+  // to rounding.
+  constexpr double kFileRounding = 1e-9;
+  {
+    std::ofstream manifest(dir + "/copies.txt");
+    for (int id = 41; id < 44; ++id)
+      manifest << in << " " << dir << "/c" << id << ".obj id:" << id << " buyer" << id << "\n";
+  }
+  const CliRun b = run("embed --batch " + dir + "/copies.txt --fidelity paper");
+  ASSERT_EQ(b.code, 0) << b.out;
+  const CliRun one = run("embed " + in + " " + dir + "/c44.obj --id 44 --fidelity paper --json");
+  ASSERT_EQ(one.code, 0) << one.out;
+  EXPECT_NE(one.out.find("\"fidelity\": {"), std::string::npos) << one.out;
+  for (int id = 41; id < 45; ++id) {
+    const std::string copy = dir + "/c" + std::to_string(id) + ".obj";
+    const CliRun c = run("compare " + in + " " + copy + " --json");
+    ASSERT_EQ(c.code, 0) << c.out;
+    EXPECT_LE(reported(c.out, "vertex_rms_percent"), 0.04 + kFileRounding) << id;
+    EXPECT_LE(reported(c.out, "msdm"), 0.25 + kFileRounding) << id;
+    const CliRun x = run("extract " + copy + " --coded");
+    EXPECT_EQ(x.code, 0) << x.out;
+    EXPECT_NE(x.out.find("id " + std::to_string(id) + " "), std::string::npos) << x.out;
+  }
+  // A fixed strength and a searched one exclude each other.
+  EXPECT_EQ(run("embed " + in + " " + dir + "/x.obj --id 3 --strength 0.03 --fidelity paper").code,
+            1);
+  // Limits no mark can meet: exit 4, the cause named, nothing written.
+  const CliRun tight =
+      run("embed " + in + " " + dir + "/t.obj --id 3 --max-rms 0.0000001 --max-msdm 0.25");
+  EXPECT_EQ(tight.code, 4) << tight.out;
+  EXPECT_NE(tight.out.find("RMS"), std::string::npos) << tight.out;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/t.obj"));
+}

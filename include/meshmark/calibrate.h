@@ -54,11 +54,11 @@ enum class CalibrateStatus {
 /// Why not even the smallest strength fits (BelowMinimum), or None.
 enum class CalibrateCause {
   None,
-  Carrier,        ///< too few distinct positions or empty bins for nb bits (carrier check)
-  Infeasible,     ///< some bits cannot reach their targets inside their bins
-  NotConverged,   ///< the embedding does not converge even at the smallest strength
-  RmsLimit,       ///< the vertex RMS at the smallest strength is beyond its limit
-  MsdmLimit,      ///< the MSDM at the smallest strength is beyond its limit
+  Carrier,       ///< too few distinct positions or empty bins for nb bits (carrier check)
+  Infeasible,    ///< some bits cannot reach their targets inside their bins
+  NotConverged,  ///< the embedding does not converge even at the smallest strength
+  RmsLimit,      ///< the vertex RMS at the smallest strength is beyond its limit
+  MsdmLimit,     ///< the MSDM at the smallest strength is beyond its limit
 };
 
 /// What calibrate_strength found.
