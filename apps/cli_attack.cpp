@@ -1,5 +1,6 @@
-// meshmark attack KIND IN OUT [--strength X] [--seed N]; KIND may be a chain such as
-// "noise:0.001,quant:10".
+// meshmark attack KIND IN OUT [--strength X] [--seed N] [--lambda L] [--mu M]
+// [--fixed-boundary] [--weighting W] [--convention C]; KIND may be a chain such as
+// "noise:0.001,quant:10" (the parameters go to every step that reads them).
 
 #include <fmt/format.h>
 
@@ -18,6 +19,8 @@ struct AttackArgs {
   std::string kind, input, output;
   double strength = 0;
   std::uint64_t seed = 1;
+  AttackParams params;
+  std::string weighting = "uniform", convention = "levels";
   InputOptions in;
   OutputOptions out;
 };
@@ -34,6 +37,10 @@ int run(const AttackArgs& a) {
     if (!std::isfinite(s.strength))
       throw InvalidArgumentError(
           fmt::format("attack '{}': strength {} is not a finite number", s.kind, s.strength));
+  AttackParams params = a.params;
+  params.weighting = parse_smooth_weighting(a.weighting);
+  params.convention = parse_quantize_convention(a.convention);
+  set_chain_params(steps, params);
   const Mesh mesh = read_input(a.input, a.in);
   Mesh attacked = apply_attack_chain(mesh, steps, a.seed);
   attacked.source_path = a.input;  // what a failed write (float32 range) names
@@ -63,6 +70,21 @@ void register_attack(CLI::App& app, int& exit_code) {
   sub->add_option("OUT", args->output, "output mesh")->required();
   sub->add_option("--strength", args->strength, "the attack's strength (see the kinds below)");
   sub->add_option("--seed", args->seed, "random seed");
+  sub->add_option("--lambda", args->params.lambda,
+                  "smooth, taubin: the deformation factor per step (default 0.3 for smooth, the "
+                  "TIFS 2014 paper's; 0.5 for taubin; the LIRIS benchmark smooths with 0.03)");
+  sub->add_option("--mu", args->params.mu,
+                  "taubin: the inflating factor, negative (default from k_pb 0.1: -0.526)");
+  sub->add_flag("--fixed-boundary", args->params.fixed_boundary,
+                "smooth, taubin: vertices on a boundary edge stay (the LIRIS benchmark's)");
+  sub->add_option("--weighting", args->weighting,
+                  "smooth, taubin: neighbour weights, 'uniform' (1/degree; default, the "
+                  "benchmark's) or 'inverse-distance' (1/length, Open3D's)")
+      ->check(CLI::IsMember({"uniform", "inverse-distance"}));
+  sub->add_option("--convention", args->convention,
+                  "quant: grid step (max - min) / (2^b - 1) 'levels' (default) or / 2^b "
+                  "'benchmark' (the LIRIS benchmark's)")
+      ->check(CLI::IsMember({"levels", "benchmark"}));
   add_input_options(*sub, args->in);
   add_output_options(*sub, args->out);
   sub->callback([args, &exit_code] { exit_code = run(*args); });

@@ -336,32 +336,35 @@ int run(const BenchArgs& a) {
     for (const std::string& line : journal_lines(calib_path)) {
       try {
         const CalibrationRecord r = calibration_from_json(line);
-        calibrations.emplace(r.model + "|" + r.variant, r);
+        calibrations.emplace(r.model + "|" + r.variant + "|" + r.protocol, r);
       } catch (const InvalidInputError&) {
       }
     }
   };
   read_calibrations();
   {
+    // Calibration i: model, variant and protocol, protocol-minor.
+    const int nv = static_cast<int>(config.variants.size());
+    const int np = static_cast<int>(config.protocols.size());
+    auto name_of = [&](int i) {
+      return config.models[i / (nv * np)].name + "|" + config.variants[i / np % nv] + "|" +
+             config.protocols[i % np].name;
+    };
     std::vector<int> mine;
-    const int pairs = static_cast<int>(config.models.size() * config.variants.size());
-    for (int i = 0; i < pairs; ++i) {
-      const int m = i / static_cast<int>(config.variants.size());
-      const int v = i % static_cast<int>(config.variants.size());
-      if (i % world.size() == world.rank() &&
-          !calibrations.count(config.models[m].name + "|" + config.variants[v]))
-        mine.push_back(i);
-    }
+    const int pairs = static_cast<int>(config.models.size()) * nv * np;
+    for (int i = 0; i < pairs; ++i)
+      if (i % world.size() == world.rank() && !calibrations.count(name_of(i))) mine.push_back(i);
     if (!mine.empty()) {
       Journal journal(calib_path);
       Progress progress("calibrating", static_cast<long>(mine.size()), mode, prefix);
       run_parallel(mine, jobs, [&](int i) {
-        const int m = i / static_cast<int>(config.variants.size());
-        const int v = i % static_cast<int>(config.variants.size());
-        const CalibrationRecord r = calibrate_for_campaign(config, m, v, models.get(m));
+        const int m = i / (nv * np);
+        const CalibrationRecord r =
+            calibrate_for_campaign(config, m, i / np % nv, models.get(m), i % np);
         journal.append(calibration_to_json(r));
         progress.step(
-            1, fmt::format("{} {}: alpha {:.4f}, {}", r.model, r.variant, r.strength, r.status));
+            1, fmt::format("{} {}{}: alpha {:.4f}, {}", r.model, r.variant,
+                           r.protocol.empty() ? "" : " " + r.protocol, r.strength, r.status));
       });
       progress.finish();
     }
@@ -392,7 +395,8 @@ int run(const BenchArgs& a) {
     Progress progress("trials", todo, mode, prefix);
     run_parallel(mine, jobs, [&](int i) {
       const CampaignUnit& u = units[i];
-      const std::string key = config.models[u.model].name + "|" + config.variants[u.variant];
+      const std::string key = config.models[u.model].name + "|" + config.variants[u.variant] + "|" +
+                              config.protocols[u.protocol].name;
       const auto it = calibrations.find(key);
       if (it == calibrations.end()) throw Error(fmt::format("no calibration for {} (a bug)", key));
       long n = 0;
@@ -469,8 +473,9 @@ int run(const BenchArgs& a) {
   }
   for (const SummaryRow& s : summarize(config, rows))
     if (s.attack != "none")
-      fmt::print("  {} {:<12} {:<8g} median BER {:.3f} ({} trials)\n", s.variant, s.attack,
-                 s.attack_strength, s.median_ber, s.trials);
+      fmt::print("  {}{} {:<12} {:<8g} median BER {:.3f} ({} trials)\n", s.variant,
+                 s.protocol.empty() ? "" : " " + s.protocol, s.attack, s.attack_strength,
+                 s.median_ber, s.trials);
   return kOk;
 }
 

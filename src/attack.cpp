@@ -1,6 +1,7 @@
-// Attacks that need no CGAL: similarity, reordering, noise, quantization, smoothing, triangle
-// soup, cropping, format conversion, and the chain parser. Simplification and subdivision
-// live in cgal_simplify.cpp, cgal_remesh.cpp and cgal_subdivide.cpp.
+// Attacks that need no CGAL: similarity, reordering, noise, quantization, triangle soup,
+// cropping, format conversion, and the chain parser. Smoothing lives in attack_smooth.cpp, the
+// parameters' names in attack_params.cpp; simplification and subdivision in cgal_simplify.cpp,
+// cgal_remesh.cpp and cgal_subdivide.cpp.
 
 #include "meshmark/attack.h"
 
@@ -113,52 +114,27 @@ Mesh attack_noise(const Mesh& mesh, double amplitude, NoiseReference reference,
   return out;
 }
 
-Mesh attack_quantize(const Mesh& mesh, int bits) {
+Mesh attack_quantize(const Mesh& mesh, int bits, QuantizeConvention convention) {
   if (bits < 1 || bits > 52)
     throw InvalidArgumentError(fmt::format("quantization to {} bits (expected 1 to 52)", bits));
   Mesh out = mesh;
   if (mesh.V.rows() == 0) return out;
-  const double levels = std::ldexp(1.0, bits) - 1;
+  const bool benchmark = convention == QuantizeConvention::Benchmark;
+  const double intervals = benchmark ? std::ldexp(1.0, bits) : std::ldexp(1.0, bits) - 1;
   for (int a = 0; a < 3; ++a) {
     const double lo = mesh.V.col(a).minCoeff(), hi = mesh.V.col(a).maxCoeff();
-    const double step = (hi - lo) / levels;
+    const double step = (hi - lo) / intervals;
     if (step <= 0) continue;
-    for (Eigen::Index i = 0; i < out.V.rows(); ++i)
-      out.V(i, a) = lo + std::round((mesh.V(i, a) - lo) / step) * step;
-  }
-  return out;
-}
-
-namespace {
-// One umbrella step p_i += factor (mean of neighbors - p_i).
-void umbrella_step(const Adjacency& adj, double factor, Eigen::MatrixX3d& V) {
-  const Eigen::MatrixX3d P = V;
-  for (Eigen::Index i = 0; i < V.rows(); ++i) {
-    const int d = adj.degree(static_cast<int>(i));
-    if (d == 0) continue;
-    Eigen::RowVector3d mean = Eigen::RowVector3d::Zero();
-    for (int k = adj.offsets[i]; k < adj.offsets[i + 1]; ++k) mean += P.row(adj.indices[k]);
-    V.row(i) += factor * (mean / d - P.row(i));
-  }
-}
-}  // namespace
-
-Mesh attack_smooth_laplacian(const Mesh& mesh, int iterations, double lambda) {
-  if (iterations < 0) throw InvalidArgumentError("smoothing iterations must be >= 0");
-  const Adjacency adj = vertex_adjacency(mesh.F, mesh.V.rows());
-  Mesh out = mesh;
-  for (int k = 0; k < iterations; ++k) umbrella_step(adj, lambda, out.V);
-  return out;
-}
-
-Mesh attack_smooth_taubin(const Mesh& mesh, int iterations, double lambda, double k_pb) {
-  if (iterations < 0) throw InvalidArgumentError("smoothing iterations must be >= 0");
-  const double mu = 1.0 / (k_pb - 1.0 / lambda);
-  const Adjacency adj = vertex_adjacency(mesh.F, mesh.V.rows());
-  Mesh out = mesh;
-  for (int k = 0; k < iterations; ++k) {
-    umbrella_step(adj, lambda, out.V);
-    umbrella_step(adj, mu, out.V);
+    for (Eigen::Index i = 0; i < out.V.rows(); ++i) {
+      const double t = (mesh.V(i, a) - lo) / step;
+      if (!benchmark) {
+        out.V(i, a) = lo + std::round(t) * step;
+        continue;
+      }
+      // MEPP's rule: the grid point below, or the next one when more than half a step above.
+      const double below = lo + std::floor(t) * step;
+      out.V(i, a) = mesh.V(i, a) - below <= 0.5 * step ? below : below + step;
+    }
   }
   return out;
 }
@@ -244,9 +220,15 @@ const std::vector<std::pair<std::string, std::string>>& attack_kinds() {
       {"noise", "uniform noise, amplitude STRENGTH x bounding-box diagonal (paper)"},
       {"noise-radius",
        "uniform noise, amplitude STRENGTH x mean vertex-to-center distance (benchmark)"},
-      {"quant", "coordinates quantized to STRENGTH bits over the bounding box"},
-      {"smooth", "Laplacian smoothing, lambda 0.3, STRENGTH iterations"},
-      {"taubin", "Taubin smoothing (0.5, k_pb 0.1), STRENGTH iterations"},
+      {"quant",
+       "coordinates quantized to STRENGTH bits over the bounding box, step (max - min) / "
+       "(2^b - 1) (--convention benchmark: / 2^b)"},
+      {"smooth",
+       "Laplacian smoothing, STRENGTH iterations, lambda 0.3 (--lambda), uniform weights, "
+       "boundary moving (--fixed-boundary)"},
+      {"taubin",
+       "Taubin smoothing, STRENGTH iterations, lambda 0.5, mu -0.526 (k_pb 0.1), uniform "
+       "weights (--weighting inverse-distance: Open3D's)"},
       {"soup", "triangle soup, edges rescaled by STRENGTH, 0.01 % noise"},
       {"simplify", "Lindstrom-Turk edge collapse down to STRENGTH x the faces"},
       {"qsimplify", "Garland-Heckbert (quadric) edge collapse down to STRENGTH x the faces"},
@@ -296,8 +278,28 @@ int whole(const AttackStep& s, int fallback) {
 }
 }  // namespace
 
+namespace {
+LaplacianOptions laplacian_options(const AttackParams& p) {
+  LaplacianOptions o;
+  if (p.lambda != 0) o.lambda = p.lambda;
+  o.fixed_boundary = p.fixed_boundary;
+  o.weighting = p.weighting;
+  return o;
+}
+
+TaubinOptions taubin_options(const AttackParams& p) {
+  TaubinOptions o;
+  if (p.lambda != 0) o.lambda = p.lambda;
+  o.mu = p.mu;
+  o.fixed_boundary = p.fixed_boundary;
+  o.weighting = p.weighting;
+  return o;
+}
+}  // namespace
+
 Mesh apply_attack(const Mesh& mesh, const AttackStep& s, std::uint64_t seed) {
   const std::string& k = s.kind;
+  check_attack_params(k, s.params);
   if (k == "reorder") return attack_reorder(mesh, seed);
   if (k == "similarity") {
     SimilarityOptions o;
@@ -306,9 +308,9 @@ Mesh apply_attack(const Mesh& mesh, const AttackStep& s, std::uint64_t seed) {
   }
   if (k == "noise") return attack_noise(mesh, s.strength, NoiseReference::Diagonal, seed);
   if (k == "noise-radius") return attack_noise(mesh, s.strength, NoiseReference::MeanRadius, seed);
-  if (k == "quant") return attack_quantize(mesh, whole(s, 0));
-  if (k == "smooth") return attack_smooth_laplacian(mesh, whole(s, 0));
-  if (k == "taubin") return attack_smooth_taubin(mesh, whole(s, 0));
+  if (k == "quant") return attack_quantize(mesh, whole(s, 0), s.params.convention);
+  if (k == "smooth") return attack_smooth_laplacian(mesh, whole(s, 0), laplacian_options(s.params));
+  if (k == "taubin") return attack_smooth_taubin(mesh, whole(s, 0), taubin_options(s.params));
   if (k == "soup") return attack_triangle_soup(mesh, s.strength, seed);
   if (k == "simplify") return attack_simplify(mesh, s.strength);
   if (k == "qsimplify") return attack_simplify(mesh, s.strength, SimplifyCost::GarlandHeckbert);

@@ -98,6 +98,61 @@ void check_series(const std::string& file, const std::string& where, const Attac
     }
 }
 
+// An attack series' parameters (AttackParams) beside its kind.
+void read_series_params(const std::string& file, const std::string& where, const json& a,
+                        AttackSeries& s) {
+  AttackParams& p = s.params;
+  p.lambda = a.value("lambda", 0.0);
+  p.mu = a.value("mu", 0.0);
+  p.fixed_boundary = a.value("fixed_boundary", false);
+  try {
+    if (a.contains("weighting"))
+      p.weighting = parse_smooth_weighting(a["weighting"].get<std::string>());
+    if (a.contains("convention"))
+      p.convention = parse_quantize_convention(a["convention"].get<std::string>());
+    for (const double x : s.strengths) (void)series_chain(s, x);
+  } catch (const InvalidArgumentError& e) {
+    bad(file, fmt::format("{}: {}", where, e.what()));
+  }
+}
+
+// The calibration limits: "calibration", and "protocols" each overriding it.
+void read_protocols(const std::string& file, const json& j, CampaignConfig& c) {
+  auto limits = [&](const json& k, const std::string& where, CalibrateOptions o) {
+    check_keys(file, k, where, {"name", "max_rms", "max_msdm", "iterations", "min", "max"});
+    o.max_rms_percent = k.value("max_rms", o.max_rms_percent);
+    o.max_msdm = k.value("max_msdm", o.max_msdm);
+    o.iterations = k.value("iterations", o.iterations);
+    o.min_strength = k.value("min", o.min_strength);
+    o.max_strength = k.value("max", o.max_strength);
+    return o;
+  };
+  if (j.contains("calibration")) {
+    if (j["calibration"].contains("name")) bad(file, "calibration: unknown key \"name\"");
+    c.calibration = limits(j["calibration"], "calibration", c.calibration);
+  }
+  if (!j.contains("protocols")) {
+    c.protocols = {{"", c.calibration}};
+    return;
+  }
+  if (!c.calibrate) bad(file, "\"protocols\" needs calibration, not a fixed \"strength\"");
+  if (j.value("mode", "blind") == "trace") bad(file, "\"protocols\" needs \"mode\": \"blind\"");
+  const json& list = j["protocols"];
+  if (!list.is_array() || list.empty()) bad(file, "\"protocols\" must be a non-empty array");
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string where = fmt::format("protocols[{}]", i);
+    if (!list[i].is_object()) bad(file, where + " is not an object");
+    CampaignProtocol p{list[i].value("name", ""), limits(list[i], where, c.calibration)};
+    if (p.name.empty() || p.name.find_first_of("|,\"") != std::string::npos)
+      bad(file, where + ": \"name\" must be non-empty, without | , or \"");
+    if (!names.insert(p.name).second)
+      bad(file, fmt::format("{}: the name \"{}\" is used twice", where, p.name));
+    c.protocols.push_back(p);
+  }
+  c.calibration = c.protocols.front().calibration;
+}
+
 // The trace mode's settings ("mode", "copies", "collusion", "spread"), refused in blind mode.
 void read_trace_settings(const std::string& file, const json& j, CampaignConfig& c) {
   const std::string mode = j.value("mode", "blind");
@@ -140,6 +195,17 @@ std::vector<AttackStep> series_chain(const std::string& kind, double x) {
   return parse_attack_chain(fmt::format("{}:{}", kind, x));
 }
 
+std::vector<AttackStep> series_chain(const AttackSeries& series, double x) {
+  std::vector<AttackStep> steps = series_chain(series.kind, x);
+  set_chain_params(steps, series.params);
+  return steps;
+}
+
+std::string series_label(const AttackSeries& series) {
+  const std::string params = attack_params_label(series.params);
+  return params.empty() ? series.kind : fmt::format("{} [{}]", series.kind, params);
+}
+
 CampaignConfig load_campaign(const std::string& path) {
   const std::string text = read_file(path);
   json j;
@@ -149,9 +215,10 @@ CampaignConfig load_campaign(const std::string& path) {
     bad(path, fmt::format("not valid JSON (byte {}): {}", e.byte, e.what()));
   }
   if (!j.is_object()) bad(path, "a campaign is a JSON object");
-  check_keys(path, j, "campaign",
-             {"name", "description", "models", "variants", "bits", "payloads", "draws", "seed",
-              "calibration", "strength", "attacks", "mode", "copies", "collusion", "spread"});
+  check_keys(
+      path, j, "campaign",
+      {"name", "description", "models", "variants", "bits", "payloads", "draws", "seed",
+       "calibration", "protocols", "strength", "attacks", "mode", "copies", "collusion", "spread"});
   const fs::path base = fs::absolute(path).parent_path();
   CampaignConfig c;
   c.source = path;
@@ -205,23 +272,17 @@ CampaignConfig load_campaign(const std::string& path) {
       if (!(c.strength > 0 && c.strength < 0.5))
         bad(path, fmt::format("strength {} is out of (0, 1/2)", c.strength));
     }
-    if (j.contains("calibration")) {
-      const json& k = j["calibration"];
-      check_keys(path, k, "calibration", {"max_rms", "max_msdm", "iterations", "min", "max"});
-      c.calibration.max_rms_percent = k.value("max_rms", c.calibration.max_rms_percent);
-      c.calibration.max_msdm = k.value("max_msdm", c.calibration.max_msdm);
-      c.calibration.iterations = k.value("iterations", c.calibration.iterations);
-      c.calibration.min_strength = k.value("min", c.calibration.min_strength);
-      c.calibration.max_strength = k.value("max", c.calibration.max_strength);
-    }
-    c.attacks.push_back({"none", {0.0}, 1});
+    read_protocols(path, j, c);
+    c.attacks.push_back({"none", {0.0}, 1, {}});
     if (j.contains("attacks")) {
       if (!j["attacks"].is_array()) bad(path, "\"attacks\" must be an array");
       for (std::size_t i = 0; i < j["attacks"].size(); ++i) {
         const json& a = j["attacks"][i];
         const std::string where = fmt::format("attacks[{}]", i);
         if (!a.is_object()) bad(path, where + " is not an object");
-        check_keys(path, a, where, {"kind", "strengths", "draws"});
+        check_keys(path, a, where,
+                   {"kind", "strengths", "draws", "lambda", "mu", "fixed_boundary", "weighting",
+                    "convention"});
         AttackSeries s;
         s.kind = a.value("kind", "");
         if (s.kind == "none") continue;  // always there
@@ -230,6 +291,10 @@ CampaignConfig load_campaign(const std::string& path) {
         s.strengths = a["strengths"].get<std::vector<double>>();
         s.draws = a.value("draws", 0);
         check_series(path, where, s);
+        read_series_params(path, where, a, s);
+        if (std::any_of(c.attacks.begin(), c.attacks.end(),
+                        [&](const AttackSeries& o) { return series_label(o) == series_label(s); }))
+          bad(path, fmt::format("{}: a second series \"{}\"", where, series_label(s)));
         c.attacks.push_back(s);
       }
     }
@@ -244,7 +309,9 @@ std::vector<CampaignUnit> campaign_units(const CampaignConfig& c) {
   std::vector<CampaignUnit> units;
   for (int m = 0; m < static_cast<int>(c.models.size()); ++m)
     for (int v = 0; v < static_cast<int>(c.variants.size()); ++v)
-      for (int p = 0; p < c.payloads; ++p) units.push_back({m, v, p});
+      for (int p = 0; p < c.payloads; ++p)
+        for (int k = 0; k < static_cast<int>(c.protocols.size()); ++k)
+          units.push_back({m, v, p, k});
   return units;
 }
 
@@ -264,16 +331,18 @@ Payload calibration_payload(int bits, std::uint64_t seed) {
 }
 
 std::string trial_key(const std::string& model, const std::string& variant, int payload,
-                      const std::string& attack, double attack_strength, int draw, int colluders) {
-  return fmt::format("{}|{}|{}|{}|{}|{}{}", model, variant, payload, attack, attack_strength, draw,
-                     colluders == 2 ? "|avg2" : "");
+                      const std::string& attack, double attack_strength, int draw, int colluders,
+                      const std::string& protocol) {
+  return fmt::format("{}|{}|{}|{}|{}|{}{}{}", model, variant, payload, attack, attack_strength,
+                     draw, colluders == 2 ? "|avg2" : "", protocol.empty() ? "" : "|" + protocol);
 }
 
 CalibrationRecord calibrate_for_campaign(const CampaignConfig& c, int model, int variant,
-                                         const Mesh& mesh) {
+                                         const Mesh& mesh, int protocol) {
   CalibrationRecord r;
   r.model = c.models[model].name;
   r.variant = c.variants[variant];
+  r.protocol = c.protocols[protocol].name;
   if (!c.calibrate) {
     r.status = "fixed";
     r.strength = c.strength;
@@ -282,7 +351,7 @@ CalibrationRecord calibrate_for_campaign(const CampaignConfig& c, int model, int
   EmbedOptions eo;
   eo.variant = parse_variant(r.variant);
   // The trials embed with the default G: calibrate with it fixed, as the paper does.
-  CalibrateOptions co = c.calibration;
+  CalibrateOptions co = c.protocols[protocol].calibration;
   co.bin_offset = BinOffsetRule::Fixed;
   const CalibrateResult k =
       calibrate_strength(mesh.V, mesh.F, calibration_payload(c.bits, c.seed), eo, co);
@@ -307,16 +376,16 @@ std::vector<detail::PlannedTrial> detail::plan_trials(const CampaignConfig& c,
         for (int d = 0; d < draws_of(c, s); ++d)
           trials.push_back({&s, x, d, n,
                             trial_key(c.models[u.model].name, c.variants[u.variant], u.payload,
-                                      s.kind, x, d, n)});
+                                      series_label(s), x, d, n, c.protocols[u.protocol].name)});
   return trials;
 }
 
 Mesh detail::attack_for_trial(const CampaignConfig& c, const PlannedTrial& t, const Mesh& mesh) {
-  const std::string& kind = t.series->kind;
   const std::uint64_t seed = seed_of(t.key, c.seed);
-  if (kind == "none") return mesh;
-  if (kind.find(',') == std::string::npos) return apply_attack(mesh, {kind, t.strength}, seed);
-  return apply_attack_chain(mesh, series_chain(kind, t.strength), seed);
+  if (t.series->kind == "none") return mesh;
+  const std::vector<AttackStep> steps = series_chain(*t.series, t.strength);
+  if (steps.size() == 1) return apply_attack(mesh, steps[0], seed);
+  return apply_attack_chain(mesh, steps, seed);
 }
 
 std::vector<std::string> unit_trial_keys(const CampaignConfig& c, const CampaignUnit& u) {
@@ -343,6 +412,7 @@ void run_campaign_unit(const CampaignConfig& c, const CampaignUnit& u, const Mes
   base.model = model;
   base.variant = variant;
   base.payload = u.payload;
+  base.protocol = c.protocols[u.protocol].name;
   base.strength = record.strength;
   Mesh marked = mesh;
   bool embedded = record.strength > 0;
@@ -368,7 +438,7 @@ void run_campaign_unit(const CampaignConfig& c, const CampaignUnit& u, const Mes
   for (const detail::PlannedTrial& t : todo) {
     TrialRow row = base;
     row.key = t.key;
-    row.attack = t.series->kind;
+    row.attack = series_label(*t.series);
     row.attack_strength = t.strength;
     row.draw = t.draw;
     row.ber = 0.5;
@@ -409,8 +479,9 @@ std::string row_to_json(const TrialRow& r) {
                   {"embed_seconds", r.embed_seconds},
                   {"attack_seconds", r.attack_seconds},
                   {"extract_seconds", r.extract_seconds}};
-  if (r.colluders == 0) return j.dump();
   json t = j;
+  if (!r.protocol.empty()) t["protocol"] = r.protocol;
+  if (r.colluders == 0) return t.dump();
   t.update({{"colluders", r.colluders},
             {"leakers", r.leakers},
             {"trace_outcome", r.trace_outcome},
@@ -444,6 +515,7 @@ TrialRow row_from_json(const std::string& line) {
     r.embed_seconds = j.at("embed_seconds").get<double>();
     r.attack_seconds = j.at("attack_seconds").get<double>();
     r.extract_seconds = j.at("extract_seconds").get<double>();
+    r.protocol = j.value("protocol", "");
     if (!j.contains("colluders")) return r;
     r.colluders = j.at("colluders").get<int>();
     r.leakers = j.at("leakers").get<std::string>();
@@ -461,10 +533,11 @@ TrialRow row_from_json(const std::string& line) {
 }
 
 std::string calibration_to_json(const CalibrationRecord& r) {
-  return json{{"model", r.model},       {"variant", r.variant},         {"status", r.status},
-              {"strength", r.strength}, {"rms_percent", r.rms_percent}, {"msdm", r.msdm},
-              {"seconds", r.seconds},   {"evaluations", r.evaluations}}
-      .dump();
+  json j{{"model", r.model},       {"variant", r.variant},         {"status", r.status},
+         {"strength", r.strength}, {"rms_percent", r.rms_percent}, {"msdm", r.msdm},
+         {"seconds", r.seconds},   {"evaluations", r.evaluations}};
+  if (!r.protocol.empty()) j["protocol"] = r.protocol;
+  return j.dump();
 }
 
 CalibrationRecord calibration_from_json(const std::string& line) {
@@ -479,6 +552,7 @@ CalibrationRecord calibration_from_json(const std::string& line) {
     r.msdm = j.at("msdm").get<double>();
     r.seconds = j.at("seconds").get<double>();
     r.evaluations = j.at("evaluations").get<int>();
+    r.protocol = j.value("protocol", "");
     return r;
   } catch (const json::exception& e) {
     throw InvalidInputError("calibrations", 0, fmt::format("not a calibration: {}", e.what()));
@@ -488,7 +562,7 @@ CalibrationRecord calibration_from_json(const std::string& line) {
 std::string csv_header(bool trace) {
   return std::string(
              "model,variant,payload,strength,rms_percent,msdm,attack,attack_strength,draw,"
-             "vertices,ber,erasures,status,embed_seconds,attack_seconds,extract_seconds") +
+             "vertices,ber,erasures,status,embed_seconds,attack_seconds,extract_seconds,protocol") +
          (trace ? ",colluders,leakers,trace_outcome,trace_status,trace_named,trace_p,"
                   "blind_outcome,blind_id,trace_seconds"
                 : "");
@@ -500,6 +574,7 @@ std::string row_to_csv(const TrialRow& r, bool trace) {
                   csv_quote(r.variant), r.payload, r.strength, r.rms_percent, r.msdm,
                   csv_quote(r.attack), r.attack_strength, r.draw, r.vertices, r.ber, r.erasures,
                   csv_quote(r.status), r.embed_seconds, r.attack_seconds, r.extract_seconds);
+  line += "," + csv_quote(r.protocol);
   if (trace)
     line += fmt::format(",{},{},{},{},{},{},{},{},{}", r.colluders, csv_quote(r.leakers),
                         r.trace_outcome, r.trace_status, csv_quote(r.trace_named), r.trace_p,
@@ -510,27 +585,30 @@ std::string row_to_csv(const TrialRow& r, bool trace) {
 std::vector<SummaryRow> summarize(const CampaignConfig& c, const std::vector<TrialRow>& rows) {
   std::map<std::string, std::vector<double>> groups;
   for (const TrialRow& r : rows)
-    groups[fmt::format("{}|{}|{}", r.variant, r.attack, r.attack_strength)].push_back(r.ber);
+    groups[fmt::format("{}|{}|{}|{}", r.protocol, r.variant, r.attack, r.attack_strength)]
+        .push_back(r.ber);
   std::vector<SummaryRow> out;
-  for (const std::string& v : c.variants)
-    for (const AttackSeries& s : c.attacks)
-      for (const double x : s.strengths) {
-        auto it = groups.find(fmt::format("{}|{}|{}", v, s.kind, x));
-        if (it == groups.end()) continue;
-        std::vector<double> b = it->second;
-        std::sort(b.begin(), b.end());
-        SummaryRow row;
-        row.variant = v;
-        row.attack = s.kind;
-        row.attack_strength = x;
-        row.trials = static_cast<int>(b.size());
-        const std::size_t n = b.size();
-        row.median_ber = n % 2 ? b[n / 2] : 0.5 * (b[n / 2 - 1] + b[n / 2]);
-        double sum = 0;
-        for (const double e : b) sum += e;
-        row.mean_ber = sum / n;
-        out.push_back(row);
-      }
+  for (const CampaignProtocol& p : c.protocols)
+    for (const std::string& v : c.variants)
+      for (const AttackSeries& s : c.attacks)
+        for (const double x : s.strengths) {
+          auto it = groups.find(fmt::format("{}|{}|{}|{}", p.name, v, series_label(s), x));
+          if (it == groups.end()) continue;
+          std::vector<double> b = it->second;
+          std::sort(b.begin(), b.end());
+          SummaryRow row;
+          row.protocol = p.name;
+          row.variant = v;
+          row.attack = series_label(s);
+          row.attack_strength = x;
+          row.trials = static_cast<int>(b.size());
+          const std::size_t n = b.size();
+          row.median_ber = n % 2 ? b[n / 2] : 0.5 * (b[n / 2 - 1] + b[n / 2]);
+          double sum = 0;
+          for (const double e : b) sum += e;
+          row.mean_ber = sum / n;
+          out.push_back(row);
+        }
   return out;
 }
 

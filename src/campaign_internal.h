@@ -45,6 +45,13 @@ std::string svg_document(double w, double h, const std::string& body);
 /// PNG was written.
 bool write_figure(const std::string& dir, const std::string& name, const std::string& svg);
 
+/// The report's section comparing the campaign with the LIRIS benchmark's published results
+/// (campaign_published.cpp): per protocol, the published columns of equal distortion beside
+/// the variants' mean and median BER, for the series with the benchmark's attack definitions;
+/// "" when the campaign has none of them.
+std::string published_comparison(const CampaignConfig& config,
+                                 const std::vector<SummaryRow>& summary);
+
 /// Trace mode's write_campaign_report.
 std::string write_trace_report(const std::string& dir, const CampaignConfig& config,
                                const std::vector<CalibrationRecord>& calibrations,

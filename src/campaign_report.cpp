@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -97,11 +98,13 @@ std::string panel(double x0, double y0, double w, double h, const std::string& t
   return s;
 }
 
-std::string strength_label(const std::string& kind) {
-  if (kind == "none") return "no attack: the watermarked mesh decoded as it is";
+std::string strength_label(const AttackSeries& a) {
+  if (a.kind == "none") return "no attack: the watermarked mesh decoded as it is";
+  const std::string params = attack_params_label(a.params);
+  const std::string with = params.empty() ? "" : " (here " + params + ")";
   for (const auto& [k, meaning] : attack_kinds())
-    if (k == kind) return meaning;
-  return kind;
+    if (k == a.kind) return meaning + with;
+  return a.kind + with;
 }
 
 double median(std::vector<double> v) {
@@ -111,28 +114,33 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-// Published results for Cho et al.'s method (../shared/spec/WATERMARK.md section 8).
-struct Published {
-  const char* attack;
-  double strength;
-  double ber;
+// A column of the report: a variant under a protocol.
+struct Column {
+  std::string protocol, variant, name;
 };
-const Published kCho[] = {{"noise-radius", 0.0005, 0.01},
-                          {"noise-radius", 0.001, 0.03},
-                          {"noise-radius", 0.003, 0.13},
-                          {"noise-radius", 0.005, 0.28},
-                          {"smooth", 5, 0.10},
-                          {"smooth", 10, 0.23},
-                          {"smooth", 30, 0.38},
-                          {"smooth", 50, 0.45},
-                          {"quant", 11, 0},
-                          {"quant", 10, 0.04},
-                          {"quant", 9, 0.14},
-                          {"quant", 8, 0.26},
-                          {"quant", 7, 0.46},
-                          {"midpoint", 1, 0.04},
-                          {"sqrt3", 1, 0.14},
-                          {"loop", 1, 0.16}};
+
+std::vector<Column> columns_of(const CampaignConfig& c) {
+  std::vector<Column> out;
+  for (const CampaignProtocol& p : c.protocols)
+    for (const std::string& v : c.variants)
+      out.push_back({p.name, v, p.name.empty() ? v : v + " " + p.name});
+  return out;
+}
+
+// A file name for a series label ("smooth [lambda=0.03 fixed_boundary]" ->
+// "smooth-lambda-0.03-fixed_boundary").
+std::string file_slug(const std::string& label) {
+  std::string out;
+  for (const char ch : label) {
+    const bool keep = std::isalnum(static_cast<unsigned char>(ch)) || ch == '.' || ch == '_';
+    if (keep)
+      out += ch;
+    else if (!out.empty() && out.back() != '-')
+      out += '-';
+  }
+  while (!out.empty() && out.back() == '-') out.pop_back();
+  return out;
+}
 
 }  // namespace
 
@@ -163,14 +171,18 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
   if (c.trace) return detail::write_trace_report(out_dir, c, calibrations, rows, wall_seconds);
   const fs::path dir(out_dir);
   const std::vector<SummaryRow> summary = summarize(c, rows);
-  std::string csv = "variant,attack,attack_strength,median_ber,mean_ber,trials\n";
+  std::string csv = "variant,attack,attack_strength,median_ber,mean_ber,trials,protocol\n";
+  auto quote = [](const std::string& t) { return fmt::format("\"{}\"", t); };
   for (const SummaryRow& s : summary)
-    csv += fmt::format("{},{},{},{},{},{}\n", s.variant, s.attack, s.attack_strength, s.median_ber,
-                       s.mean_ber, s.trials);
+    csv += fmt::format("{},{},{},{},{},{},{}\n", s.variant, quote(s.attack), s.attack_strength,
+                       s.median_ber, s.mean_ber, s.trials, s.protocol);
   write_file_atomically((dir / "summary.csv").string(), csv);
-  auto lookup = [&](const std::string& v, const std::string& a, double x) -> const SummaryRow* {
+  const std::vector<Column> columns = columns_of(c);
+  auto lookup = [&](const Column& col, const std::string& a, double x) -> const SummaryRow* {
     for (const SummaryRow& s : summary)
-      if (s.variant == v && s.attack == a && s.attack_strength == x) return &s;
+      if (s.protocol == col.protocol && s.variant == col.variant && s.attack == a &&
+          s.attack_strength == x)
+        return &s;
     return nullptr;
   };
 
@@ -184,10 +196,12 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
     std::vector<Curve> curves;
     std::vector<double> xs = a.strengths;
     std::sort(xs.begin(), xs.end());
-    for (const std::string& v : variants) {
-      Curve curve{v, {}};
+    for (const Column& col : columns) {
+      if (std::find(variants.begin(), variants.end(), col.variant) == variants.end()) continue;
+      Curve curve{col.name, {}};
       for (const double x : xs)
-        if (const SummaryRow* s = lookup(v, a.kind, x)) curve.points.emplace_back(x, s->median_ber);
+        if (const SummaryRow* s = lookup(col, series_label(a), x))
+          curve.points.emplace_back(x, s->median_ber);
       curves.push_back(curve);
     }
     return curves;
@@ -201,7 +215,7 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
     std::string panels;
     for (std::size_t i = 0; i < attacks.size(); ++i)
       panels += panel((i % 3) * pw, (i / 3) * ph, pw, ph,
-                      fmt::format("({}) {}", char('a' + i), attacks[i]->kind),
+                      fmt::format("({}) {}", char('a' + i), series_label(*attacks[i])),
                       attacks[i]->kind + " strength", curves_of(*attacks[i], variants));
     const std::size_t cols = std::min<std::size_t>(3, attacks.size());
     png |=
@@ -211,17 +225,17 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
   std::string md_figures;
   for (std::size_t i = 0; i < plotted.size(); ++i) {
     const AttackSeries& a = *plotted[i];
-    png |= write_figure(
-        dir, "figure-" + a.kind,
-        svg_document(
-            pw, ph, panel(0, 0, pw, ph, a.kind, strength_label(a.kind), curves_of(a, c.variants))));
+    png |= write_figure(dir, "figure-" + file_slug(series_label(a)),
+                        svg_document(pw, ph,
+                                     panel(0, 0, pw, ph, series_label(a), strength_label(a),
+                                           curves_of(a, c.variants))));
   }
   const std::string all = grid("figure-all", plotted, c.variants);
   if (!all.empty()) md_figures += "All attacks, every variant:\n\n![all](figure-all.svg)\n\n";
   std::vector<const AttackSeries*> five;
   for (const char* kind : {"noise", "quant", "smooth", "soup", "simplify"})
     for (const AttackSeries* a : plotted)
-      if (a->kind == kind) five.push_back(a);
+      if (series_label(*a) == kind) five.push_back(a);
   auto has = [&](std::initializer_list<const char*> vs) {
     return std::all_of(vs.begin(), vs.end(), [&](const char* v) {
       return std::find(c.variants.begin(), c.variants.end(), v) != c.variants.end();
@@ -240,22 +254,26 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
       "attacks, seed {}. {} trials in {:.1f} s of wall time (all runs of the campaign).\n\n",
       c.source, c.models.size(), fmt::join(c.variants, ", "), c.bits, c.payloads, c.draws, c.seed,
       rows.size(), wall_seconds);
-  md += c.calibrate
+  for (const CampaignProtocol& p : c.protocols)
+    md +=
+        c.calibrate
             ? fmt::format(
-                  "Strengths calibrated per model and variant: the largest alpha with vertex "
+                  "Strengths calibrated per model and variant{}: the largest alpha with vertex "
                   "RMS <= {} % of the diagonal and MSDM <= {} (bisection, {} steps).\n\n",
-                  c.calibration.max_rms_percent, c.calibration.max_msdm, c.calibration.iterations)
+                  p.name.empty() ? "" : " under protocol `" + p.name + "`",
+                  p.calibration.max_rms_percent, p.calibration.max_msdm, p.calibration.iterations)
             : fmt::format("Fixed strength alpha = {} for every model and variant.\n\n", c.strength);
   md += "## Calibrated strengths\n\nalpha (vertex RMS % of the diagonal, MSDM)\n\n| model |";
-  for (const std::string& v : c.variants) md += " " + v + " |";
+  for (const Column& col : columns) md += " " + col.name + " |";
   md += "\n| --- |";
-  for (std::size_t k = 0; k < c.variants.size(); ++k) md += " ---: |";
+  for (std::size_t k = 0; k < columns.size(); ++k) md += " ---: |";
   md += "\n";
   for (const CampaignModel& m : c.models) {
     md += "| " + m.name + " |";
-    for (const std::string& v : c.variants) {
-      auto it = std::find_if(calibrations.begin(), calibrations.end(),
-                             [&](const auto& r) { return r.model == m.name && r.variant == v; });
+    for (const Column& col : columns) {
+      auto it = std::find_if(calibrations.begin(), calibrations.end(), [&](const auto& r) {
+        return r.model == m.name && r.variant == col.variant && r.protocol == col.protocol;
+      });
       if (it == calibrations.end())
         md += " - |";
       else if (it->strength <= 0)
@@ -270,11 +288,11 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
       "\n## Distortion and time per variant\n\nMedians over the embeddings (one per model "
       "and payload).\n\n| variant | alpha | RMS % | MSDM | embedding s | failed |\n"
       "| --- | ---: | ---: | ---: | ---: | ---: |\n";
-  for (const std::string& v : c.variants) {
+  for (const Column& col : columns) {
     std::vector<double> a, r, m, t;
     int failed = 0;
     for (const TrialRow& row : rows)
-      if (row.variant == v && row.attack == "none") {
+      if (row.variant == col.variant && row.protocol == col.protocol && row.attack == "none") {
         if (row.status != "ok") {
           ++failed;
           continue;
@@ -282,8 +300,8 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
         a.push_back(row.strength), r.push_back(row.rms_percent), m.push_back(row.msdm),
             t.push_back(row.embed_seconds);
       }
-    md += fmt::format("| {} | {:.4f} | {:.5f} | {:.4f} | {:.4f} | {} |\n", v, median(a), median(r),
-                      median(m), median(t), failed);
+    md += fmt::format("| {} | {:.4f} | {:.5f} | {:.4f} | {:.4f} | {} |\n", col.name, median(a),
+                      median(r), median(m), median(t), failed);
   }
 
   md +=
@@ -291,15 +309,15 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
       "embedding or attack failed counts as 0.5.\n\n";
   md += md_figures + "\n";
   for (const AttackSeries& a : c.attacks) {
-    md += fmt::format("### {}\n\n{}\n\n| strength |", a.kind, strength_label(a.kind));
-    for (const std::string& v : c.variants) md += " " + v + " |";
+    md += fmt::format("### {}\n\n{}\n\n| strength |", series_label(a), strength_label(a));
+    for (const Column& col : columns) md += " " + col.name + " |";
     md += "\n| ---: |";
-    for (std::size_t k = 0; k < c.variants.size(); ++k) md += " ---: |";
+    for (std::size_t k = 0; k < columns.size(); ++k) md += " ---: |";
     md += "\n";
     for (const double x : a.strengths) {
       md += fmt::format("| {:g} |", x);
-      for (const std::string& v : c.variants) {
-        const SummaryRow* s = lookup(v, a.kind, x);
+      for (const Column& col : columns) {
+        const SummaryRow* s = lookup(col, series_label(a), x);
         md += s ? fmt::format(" {:.3f} |", s->median_ber) : std::string(" - |");
       }
       md += "\n";
@@ -307,41 +325,26 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
     md += "\n";
   }
   // Table III: Loop subdivision, one iteration.
-  if (lookup(c.variants[0], "loop", 1)) {
+  if (lookup(columns[0], "loop", 1)) {
     md +=
         "## Loop subdivision, one iteration (the paper's Table III)\n\n| variant | median BER |\n"
         "| --- | ---: |\n";
-    for (const std::string& v : c.variants)
-      if (const SummaryRow* s = lookup(v, "loop", 1))
-        md += fmt::format("| {} | {:.3f} |\n", v, s->median_ber);
+    for (const Column& col : columns)
+      if (const SummaryRow* s = lookup(col, "loop", 1))
+        md += fmt::format("| {} | {:.3f} |\n", col.name, s->median_ber);
     md += "\n";
   }
-  // Published results of Cho et al. beside DRS.
-  if (std::find(c.variants.begin(), c.variants.end(), "DRS") != c.variants.end()) {
-    std::string table;
-    for (const Published& p : kCho)
-      if (const SummaryRow* s = lookup("DRS", p.attack, p.strength))
-        table += fmt::format("| {} | {:g} | {:.2f} | {:.3f} | {:.3f} |\n", p.attack, p.strength,
-                             p.ber, s->median_ber, s->mean_ber);
-    if (!table.empty())
-      md +=
-          "## DRS beside the published results for Cho et al.\n\nThe watermarking "
-          "benchmark's results for Cho et al.'s method (Venus, 64 bits, MRMS 0.008 %, MSDM "
-          "0.19, mean BER over 5 trials; ../shared/spec/WATERMARK.md section 8) beside this "
-          "campaign's DRS (its own models and calibration).\n\n"
-          "| attack | strength | Cho et al. BER | DRS median BER | DRS mean BER |\n"
-          "| --- | ---: | ---: | ---: | ---: |\n" +
-          table + "\n";
-  }
+  md += detail::published_comparison(c, summary);
   md +=
       "## Time per trial\n\nMedian seconds of the attack and of the blind extraction, per "
       "attack.\n\n| attack | attack s | extraction s | trials |\n| --- | ---: | ---: | ---: |\n";
   for (const AttackSeries& a : c.attacks) {
     std::vector<double> at, xt;
     for (const TrialRow& row : rows)
-      if (row.attack == a.kind && row.status == "ok")
+      if (row.attack == series_label(a) && row.status == "ok")
         at.push_back(row.attack_seconds), xt.push_back(row.extract_seconds);
-    md += fmt::format("| {} | {:.4f} | {:.5f} | {} |\n", a.kind, median(at), median(xt), at.size());
+    md += fmt::format("| {} | {:.4f} | {:.5f} | {} |\n", series_label(a), median(at), median(xt),
+                      at.size());
   }
   md += fmt::format(
       "\nFiles: `rows.csv` and `rows.jsonl` (one row per trial), `summary.csv`, "

@@ -177,7 +177,7 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
   for (const PlannedTrial& t : todo) {
     TrialRow row = base;
     row.key = t.key;
-    row.attack = t.series->kind;
+    row.attack = series_label(*t.series);
     row.attack_strength = t.strength;
     row.draw = t.draw;
     row.colluders = t.colluders;
@@ -211,10 +211,10 @@ std::vector<TraceSummaryRow> summarize_trace(const CampaignConfig& c,
   for (const int n : {1, 2})
     for (const AttackSeries& s : c.attacks)
       for (const double x : s.strengths) {
-        const auto it = groups.find(fmt::format("{}|{}|{}", s.kind, x, n));
+        const auto it = groups.find(fmt::format("{}|{}|{}", series_label(s), x, n));
         if (it == groups.end()) continue;
         TraceSummaryRow row;
-        row.attack = s.kind;
+        row.attack = series_label(s);
         row.attack_strength = x;
         row.colluders = n;
         std::vector<double> seconds;

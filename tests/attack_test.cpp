@@ -47,6 +47,28 @@ double diagonal(const Eigen::MatrixX3d& V) {
   return (V.colwise().maxCoeff() - V.colwise().minCoeff()).norm();
 }
 
+// An n x n grid of vertices (x, y in 0..n-1, z a fixed bump), two triangles per cell: an open
+// surface whose boundary vertices are those with x or y at 0 or n - 1.
+Mesh bumpy_grid(int n) {
+  Eigen::MatrixX3d V(n * n, 3);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) V.row(y * n + x) << x, y, 0.3 * std::sin(1.7 * x + 0.9 * y * y);
+  Eigen::MatrixX3i F(2 * (n - 1) * (n - 1), 3);
+  int t = 0;
+  for (int y = 0; y + 1 < n; ++y)
+    for (int x = 0; x + 1 < n; ++x) {
+      const int a = y * n + x;
+      F.row(t++) << a, a + 1, a + n + 1;
+      F.row(t++) << a, a + n + 1, a + n;
+    }
+  return make_mesh(V, F);
+}
+
+bool on_grid_border(int i, int n) {
+  const int x = i % n, y = i / n;
+  return x == 0 || y == 0 || x == n - 1 || y == n - 1;
+}
+
 }  // namespace
 
 TEST(Attack, NoiseStaysWithinItsAmplitudeForBothReferences) {
@@ -231,6 +253,131 @@ TEST(Attack, LaplacianSmoothingStepMatchesAHandComputation) {
     for (int j : ring[i]) mean += m.V.row(j) / static_cast<double>(ring[i].size());
     EXPECT_LE((s.V.row(i) - (m.V.row(i) + 0.3 * (mean - m.V.row(i)))).norm(), 1e-14);
   }
+}
+
+TEST(Attack, FixedBoundaryVerticesStayAndTheOthersMove) {
+  const int n = 9;
+  const Mesh m = bumpy_grid(n);
+  const std::vector<std::uint8_t> boundary = boundary_vertices(m.F, m.V.rows());
+  for (int i = 0; i < n * n; ++i) EXPECT_EQ(boundary[i] != 0, on_grid_border(i, n)) << i;
+  LaplacianOptions fixed;
+  fixed.lambda = 0.03;
+  fixed.fixed_boundary = true;
+  TaubinOptions taubin;
+  taubin.fixed_boundary = true;
+  taubin.weighting = SmoothWeighting::InverseDistance;
+  for (const Mesh& s : {attack_smooth_laplacian(m, 50, fixed), attack_smooth_taubin(m, 10, taubin)})
+    for (int i = 0; i < n * n; ++i) {
+      if (on_grid_border(i, n))
+        EXPECT_EQ(s.V.row(i), m.V.row(i)) << i;
+      else
+        EXPECT_GT((s.V.row(i) - m.V.row(i)).norm(), 1e-6) << i;
+    }
+  // Without the option the boundary moves too (a corner toward its two neighbours).
+  EXPECT_GT((attack_smooth_laplacian(m, 1, 0.03).V.row(0) - m.V.row(0)).norm(), 1e-3);
+}
+
+TEST(Attack, LambdaScalesTheFirstStepAndTheBenchmarksIsTenTimesWeaker) {
+  const Mesh m = bumpy_sphere(6, 8, 4);
+  std::vector<std::set<int>> ring(m.V.rows());
+  for (Eigen::Index t = 0; t < m.F.rows(); ++t)
+    for (int c = 0; c < 3; ++c) {
+      ring[m.F(t, c)].insert(m.F(t, (c + 1) % 3));
+      ring[m.F(t, (c + 1) % 3)].insert(m.F(t, c));
+    }
+  AttackStep benchmark{"smooth", 1, {}}, paper{"smooth", 1, {}};
+  benchmark.params.lambda = 0.03;
+  const Mesh a = apply_attack(m, benchmark, 1), b = apply_attack(m, paper, 1);
+  for (Eigen::Index i = 0; i < m.V.rows(); ++i) {
+    Eigen::RowVector3d mean = Eigen::RowVector3d::Zero();
+    for (int j : ring[i]) mean += m.V.row(j) / static_cast<double>(ring[i].size());
+    EXPECT_LE((a.V.row(i) - (m.V.row(i) + 0.03 * (mean - m.V.row(i)))).norm(), 1e-14);
+    EXPECT_NEAR((a.V.row(i) - m.V.row(i)).norm(), 0.1 * (b.V.row(i) - m.V.row(i)).norm(), 1e-14);
+  }
+}
+
+TEST(Attack, InverseDistanceTaubinMatchesAHandComputedIteration) {
+  // A fan: centre 0 and four boundary vertices at distances 2, 1, 1 and sqrt(2) (fixed).
+  Eigen::MatrixX3d V(5, 3);
+  V << 0, 0, 0.5, 2, 0, 0, 0, 1, 0, -1, 0, 0, 1, -1, 0;
+  Eigen::MatrixX3i F(4, 3);
+  F << 0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 1;
+  const Mesh m = make_mesh(V, F);
+  TaubinOptions o;
+  o.lambda = 0.5;
+  o.mu = -0.53;
+  o.fixed_boundary = true;
+  o.weighting = SmoothWeighting::InverseDistance;
+  // By hand: p += f (sum_j w_j p_j / sum_j w_j - p), w_j = 1 / |p_j - p|, with f = lambda,
+  // then again with f = mu from the new centre.
+  auto step = [&](Eigen::RowVector3d p, double f) {
+    Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
+    double total = 0;
+    for (int j = 1; j < 5; ++j) {
+      const double w = 1 / (std::sqrt((V.row(j) - p).squaredNorm()) + 1e-12);
+      sum += w * V.row(j), total += w;
+    }
+    return Eigen::RowVector3d(p + f * (sum / total - p));
+  };
+  const Eigen::RowVector3d expect = step(step(V.row(0), 0.5), -0.53);
+  const Mesh s = attack_smooth_taubin(m, 1, o);
+  EXPECT_LE((s.V.row(0) - expect).norm(), 1e-15);
+  for (int j = 1; j < 5; ++j) EXPECT_EQ(s.V.row(j), V.row(j));
+  // Uniform weights give another point (the far vertex weighs as much as the near ones).
+  o.weighting = SmoothWeighting::Uniform;
+  EXPECT_GT((attack_smooth_taubin(m, 1, o).V.row(0) - expect).norm(), 1e-3);
+}
+
+TEST(Attack, BenchmarkQuantizationStepIsTheRangeOverTwoToTheBits) {
+  // x spans [0, 8]: 3 bits give step 1 (benchmark) or 8/7 (levels).
+  Eigen::MatrixX3d V(6, 3);
+  V << 0, 0, 0, 8, 1, 1, 2.5, 0.5, 0.25, 2.6, 0.2, 0.7, 7.4, 0.9, 0.1, 3.49, 0.3, 0.6;
+  const Mesh m = make_mesh(V, Eigen::MatrixX3i(0, 3));
+  const Mesh b = attack_quantize(m, 3, QuantizeConvention::Benchmark);
+  const Mesh l = attack_quantize(m, 3);
+  const double expect_b[] = {0, 8, 2, 3, 7, 3};  // a tie (2.5) goes down, as in MEPP
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_DOUBLE_EQ(b.V(i, 0), expect_b[i]) << i;
+    EXPECT_NEAR(l.V(i, 0), std::round(V(i, 0) / (8.0 / 7)) * (8.0 / 7), 1e-12) << i;
+  }
+  // On a real mesh: every coordinate within half a step of the input, on the grid.
+  const std::string path = shared_mesh("bunny.ply");
+  MESHMARK_REQUIRE(path, "bunny.ply");
+  const Mesh r = real(path);
+  const Mesh q = attack_quantize(r, 9, QuantizeConvention::Benchmark);
+  for (int c = 0; c < 3; ++c) {
+    const double lo = r.V.col(c).minCoeff(), step = (r.V.col(c).maxCoeff() - lo) / 512;
+    for (Eigen::Index i = 0; i < r.V.rows(); ++i) {
+      const double k = (q.V(i, c) - lo) / step;
+      EXPECT_NEAR(k, std::round(k), 1e-6);
+      EXPECT_LE(std::abs(q.V(i, c) - r.V(i, c)), 0.5 * step * (1 + 1e-9));
+    }
+  }
+}
+
+TEST(Attack, ParametersGoToTheStepsThatReadThemAndNowhereElse) {
+  AttackParams p;
+  EXPECT_TRUE(attack_params_default(p));
+  p.lambda = 0.03;
+  p.fixed_boundary = true;
+  EXPECT_EQ(attack_params_label(p), "lambda=0.03 fixed_boundary");
+  std::vector<AttackStep> steps = parse_attack_chain("noise:0.001,smooth:5");
+  set_chain_params(steps, p);
+  EXPECT_TRUE(attack_params_default(steps[0].params));
+  EXPECT_EQ(steps[1].params.lambda, 0.03);
+  EXPECT_TRUE(steps[1].params.fixed_boundary);
+  AttackParams q;
+  q.convention = QuantizeConvention::Benchmark;
+  EXPECT_THROW(set_chain_params(steps, q), InvalidArgumentError);  // no quant step
+  AttackParams mu;
+  mu.mu = -0.5;
+  EXPECT_THROW(set_chain_params(steps, mu), InvalidArgumentError);  // no taubin step
+  AttackStep noise{"noise", 0.001, p};
+  EXPECT_THROW(apply_attack(bumpy_sphere(5, 5, 1), noise, 1), InvalidArgumentError);
+  EXPECT_EQ(parse_smooth_weighting("inverse-distance"), SmoothWeighting::InverseDistance);
+  EXPECT_EQ(parse_quantize_convention("benchmark"), QuantizeConvention::Benchmark);
+  EXPECT_THROW(parse_smooth_weighting("cotangent"), InvalidArgumentError);
+  EXPECT_THROW(parse_quantize_convention("2^b"), InvalidArgumentError);
 }
 
 TEST(Attack, TaubinShrinksLessThanLaplacian) {

@@ -10,8 +10,10 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 
+#include "campaign_internal.h"
 #include "meshmark/calibrate.h"
 #include "meshmark/campaign.h"
 #include "meshmark/error.h"
@@ -71,7 +73,23 @@ TEST(Campaign, RejectsBadFilesNamingFileAndKey) {
       {head + ", \"mode\": \"trace\", \"copies\": 1}", "copies 1 is out of 2..1000000"},
       {head + ", \"mode\": \"trace\", \"spread\": -1}", "spread -1 is out of [0, 4]"},
       {head + ", \"mode\": \"trace\", \"bits\": 16}", "bits 16 cannot carry a 32-bit ID"},
-      {head + ", \"mode\": \"trace\", \"collusion\": 1}", "wrong type"}};
+      {head + ", \"mode\": \"trace\", \"collusion\": 1}", "wrong type"},
+      // Attack parameters and protocols.
+      {head + ", \"attacks\": [{\"kind\": \"noise\", \"lambda\": 0.03, \"strengths\": [1]}]}",
+       "attacks[0]: no step of the attack reads 'lambda'"},
+      {head +
+           ", \"attacks\": [{\"kind\": \"taubin\", \"weighting\": \"cot\", \"strengths\": [1]}]}",
+       "attacks[0]: weighting 'cot'"},
+      {head + ", \"attacks\": [{\"kind\": \"smooth\", \"strengths\": [1]}, {\"kind\": \"smooth\", "
+              "\"strengths\": [2]}]}",
+       "attacks[1]: a second series \"smooth\""},
+      {head + ", \"strength\": 0.05, \"protocols\": [{\"name\": \"p\"}]}",
+       "\"protocols\" needs calibration"},
+      {head + ", \"protocols\": [{\"name\": \"p\"}, {\"name\": \"p\"}]}",
+       "protocols[1]: the name \"p\" is used twice"},
+      {head + ", \"protocols\": [{\"max_rms\": 0.01}]}", "protocols[0]: \"name\" must be"},
+      {head + ", \"protocols\": [{\"name\": \"p\", \"limit\": 1}]}",
+       "protocols[0]: unknown key \"limit\""}};
   for (std::size_t i = 0; i < cases.size(); ++i) {
     const std::string path = write_text(dir + "/c" + std::to_string(i) + ".json", cases[i].text);
     const std::string message = error_of(path);
@@ -226,6 +244,75 @@ TEST(Campaign, QuickCampaignWritesCompleteRowsMediansFiguresAndReport) {
   ASSERT_EQ(again.code, 0) << again.out;
   EXPECT_NE(again.out.find("(0 run now"), std::string::npos) << again.out;
   EXPECT_EQ(rows_without_times(dir), rows);
+}
+
+// The benchmark-quick campaign: rows name their protocol, each embedding stays within its
+// protocol's limits, the series' parameters reach the attack, and the report compares with
+// the published results at equal distortion.
+TEST(Campaign, BenchmarkQuickCampaignCalibratesPerProtocolAndPassesAttackParameters) {
+  MESHMARK_REQUIRE(test::shared_mesh("igea.ply"), "igea.ply");
+  const std::string config =
+      std::string(MESHMARK_SOURCE_DIR) + "/bench/campaigns/benchmark-quick.json";
+  const CampaignConfig c = load_campaign(config);
+  ASSERT_EQ(c.protocols.size(), 2u);
+  EXPECT_EQ(c.protocols[0].name, "perceptual");
+  EXPECT_EQ(c.protocols[1].calibration.max_rms_percent, 0.012);
+  EXPECT_EQ(c.protocols[1].calibration.max_msdm, 0.29);
+  EXPECT_EQ(c.protocols[1].calibration.iterations, 8);  // from "calibration"
+  // The smoothing series with lambda 0.03 moves a vertex a tenth as far as lambda 0.3 does in
+  // one step (interior vertices of an open grid; the boundary stays in both).
+  const AttackSeries* smooth = nullptr;
+  for (const AttackSeries& a : c.attacks)
+    if (series_label(a) == "smooth [lambda=0.03 fixed_boundary]") smooth = &a;
+  ASSERT_NE(smooth, nullptr);
+  Eigen::MatrixX3d V(16, 3);
+  for (int i = 0; i < 16; ++i) V.row(i) << i % 4, i / 4, 0.2 * ((i * 7) % 5);
+  Eigen::MatrixX3i F(18, 3);
+  for (int t = 0, y = 0; y < 3; ++y)
+    for (int x = 0; x < 3; ++x, t += 2) {
+      const int a = 4 * y + x;
+      F.row(t) << a, a + 1, a + 5;
+      F.row(t + 1) << a, a + 5, a + 4;
+    }
+  const Mesh grid = make_mesh(V, F);
+  detail::PlannedTrial trial{smooth, 1, 0, 0, "k"};
+  const Mesh weak = detail::attack_for_trial(c, trial, grid);
+  LaplacianOptions paper;
+  paper.fixed_boundary = true;
+  const Mesh strong = attack_smooth_laplacian(grid, 1, paper);
+  EXPECT_GT((strong.V - V).norm(), 1e-3);
+  EXPECT_NEAR((weak.V - V).norm(), 0.1 * (strong.V - V).norm(), 1e-12);
+
+  const std::string dir = test::scratch_dir() + "/benchmark-quick";
+  const test::CliRun run = test::run_cli("bench " + config + " --out " + dir + " --fresh");
+  ASSERT_EQ(run.code, 0) << run.out;
+  const std::map<std::string, std::string> rows = rows_without_times(dir);
+  // 2 payloads x 2 protocols x (none 1 + noise 2 x 2 draws + smooth 2 + smooth 1 + quant 2 +
+  // midpoint 1 = 11).
+  EXPECT_EQ(rows.size(), 2u * 2 * 11);
+  std::set<std::string> protocols, attacks;
+  for (const auto& [key, json] : rows) {
+    const TrialRow r = row_from_json(json);
+    protocols.insert(r.protocol);
+    attacks.insert(r.attack);
+    EXPECT_EQ(key.substr(key.rfind('|') + 1), r.protocol);
+    ASSERT_EQ(r.status, "ok") << key;
+    const CalibrateOptions& limits = c.protocols[r.protocol == "perceptual" ? 0 : 1].calibration;
+    EXPECT_LE(r.rms_percent, limits.max_rms_percent + 1e-12) << key;
+    EXPECT_LE(r.msdm, limits.max_msdm + 1e-12) << key;
+    if (r.attack == "none") EXPECT_EQ(r.ber, 0) << key;
+  }
+  EXPECT_EQ(protocols, (std::set<std::string>{"perceptual", "geometric"}));
+  EXPECT_TRUE(attacks.count("quant [convention=benchmark]"));
+  EXPECT_TRUE(attacks.count("smooth"));
+  const std::string report = read_file(dir + "/report.md");
+  EXPECT_NE(report.find("## Beside the published results of the LIRIS benchmark"),
+            std::string::npos);
+  EXPECT_NE(report.find("At the published distortion of Cho et al., perceptual"),
+            std::string::npos);
+  EXPECT_NE(report.find("| Cho et al., geometric | DRS |"), std::string::npos);
+  // The paper's smoothing (lambda 0.3) is another definition: not compared.
+  EXPECT_EQ(report.find("| smooth (umbrella"), std::string::npos);
 }
 
 // A campaign on the horse, long enough to be killed in the middle.

@@ -41,17 +41,62 @@ enum class NoiseReference {
 /// reference length. Keeps the file image.
 Mesh attack_noise(const Mesh& mesh, double amplitude, NoiseReference reference, std::uint64_t seed);
 
-/// Rounds every coordinate onto a grid of 2^bits levels per axis spanning the bounding box
-/// (step (max - min) / (2^bits - 1)). 1 <= bits <= 52. Keeps the file image.
-Mesh attack_quantize(const Mesh& mesh, int bits);
+/// The grid step of coordinate quantization to b bits over [min, max] of each axis.
+enum class QuantizeConvention {
+  Levels,     ///< step (max - min) / (2^b - 1): 2^b values, min and max on the grid (default)
+  Benchmark,  ///< step (max - min) / 2^b, ties rounded down: the LIRIS benchmark's (MEPP's
+              ///< Various_Processing, Wang et al. 2010); 2^b + 1 values
+};
 
-/// Laplacian smoothing, `iterations` times p_i += lambda (mean of the one-ring - p_i), all
-/// vertices (boundary included; vertices without neighbors stay). Keeps the file image.
-Mesh attack_smooth_laplacian(const Mesh& mesh, int iterations, double lambda = 0.3);
+/// Rounds every coordinate onto the grid of `convention` spanning the bounding box, from the
+/// minimum of each axis. 1 <= bits <= 52. Keeps the file image.
+/// \throw InvalidArgumentError for bits outside 1..52.
+Mesh attack_quantize(const Mesh& mesh, int bits,
+                     QuantizeConvention convention = QuantizeConvention::Levels);
 
-/// Taubin smoothing (lambda | mu), `iterations` pairs of steps; mu from the pass-band
-/// frequency k_pb: 1/lambda + 1/mu = k_pb. Keeps the file image.
-Mesh attack_smooth_taubin(const Mesh& mesh, int iterations, double lambda = 0.5, double k_pb = 0.1);
+/// How an umbrella (Laplacian) step weights the neighbours of a vertex.
+enum class SmoothWeighting {
+  Uniform,          ///< each neighbour 1 / degree (Taubin 1995; the LIRIS benchmark's; default)
+  InverseDistance,  ///< neighbour j weighted 1 / (|p_j - p_i| + 1e-12), normalized to sum 1
+                    ///< (Open3D's filter_smooth_laplacian and filter_smooth_taubin)
+};
+
+/// Laplacian smoothing: every iteration p_i += lambda (weighted mean of the one-ring - p_i),
+/// all vertices updated together from the previous positions.
+struct LaplacianOptions {
+  double lambda = 0.3;          ///< deformation factor (the TIFS 2014 paper's 0.3; LIRIS: 0.03)
+  bool fixed_boundary = false;  ///< vertices on a boundary edge (one face) stay (LIRIS: true)
+  SmoothWeighting weighting = SmoothWeighting::Uniform;  ///< neighbour weights
+};
+
+/// Laplacian smoothing, `iterations` steps (vertices without neighbours stay). Keeps the file
+/// image. \throw InvalidArgumentError for iterations < 0.
+Mesh attack_smooth_laplacian(const Mesh& mesh, int iterations,
+                             const LaplacianOptions& options = {});
+
+/// The same with lambda alone (uniform weights, boundary moving).
+Mesh attack_smooth_laplacian(const Mesh& mesh, int iterations, double lambda);
+
+/// Taubin smoothing (Taubin, ICCV 1995): each iteration a step of lambda, then one of mu
+/// (negative: inflating), both umbrella steps with `weighting`.
+struct TaubinOptions {
+  double lambda = 0.5;  ///< shrinking factor, > 0
+  double mu = 0;        ///< inflating factor, < 0; 0: from k_pb, 1/lambda + 1/mu = k_pb
+  double k_pb = 0.1;    ///< pass-band frequency, used when mu is 0 (lambda 0.5: mu = -0.526)
+  bool fixed_boundary = false;                           ///< boundary vertices stay
+  SmoothWeighting weighting = SmoothWeighting::Uniform;  ///< neighbour weights
+};
+
+/// Taubin smoothing, `iterations` pairs of steps. Keeps the file image.
+/// \throw InvalidArgumentError for iterations < 0, lambda <= 0 or mu > 0.
+Mesh attack_smooth_taubin(const Mesh& mesh, int iterations, const TaubinOptions& options = {});
+
+/// The same with lambda and k_pb alone (uniform weights, boundary moving).
+Mesh attack_smooth_taubin(const Mesh& mesh, int iterations, double lambda, double k_pb = 0.1);
+
+/// 1 for every vertex on a boundary edge of F (an edge of exactly one triangle), else 0.
+/// Size nv.
+std::vector<std::uint8_t> boundary_vertices(const Eigen::MatrixX3i& F, Eigen::Index nv);
 
 /// Triangle soup (TIFS 2014, sec. V-B): faces disconnected (three new vertices each), each
 /// triangle scaled about its centroid by `ratio` (every edge rescaled, opening holes or making
@@ -100,11 +145,47 @@ enum class Subdivision { Loop, Midpoint, Sqrt3 };
 /// \throw InvalidInputError (Loop, sqrt(3)) when no triangle of non-zero area remains.
 Mesh attack_subdivide(const Mesh& mesh, Subdivision scheme, int iterations);
 
-/// One step of an attack chain: a kind and its strength.
+/// Parameters of the attacks whose definition the literature varies. Each kind reads the ones
+/// that concern it and refuses the others (check_attack_params); a default AttackParams gives
+/// the attack as attack_kinds() describes it.
+struct AttackParams {
+  double lambda = 0;            ///< smooth, taubin: lambda; 0 = the kind's default (0.3, 0.5)
+  double mu = 0;                ///< taubin: mu (< 0); 0 = from k_pb 0.1
+  bool fixed_boundary = false;  ///< smooth, taubin: boundary vertices stay
+  SmoothWeighting weighting = SmoothWeighting::Uniform;        ///< smooth, taubin
+  QuantizeConvention convention = QuantizeConvention::Levels;  ///< quant
+};
+
+/// True when every parameter has its default value.
+bool attack_params_default(const AttackParams& params);
+
+/// The non-default parameters as "lambda=0.03 mu=-0.53 fixed_boundary
+/// weighting=inverse-distance convention=benchmark" ("" when all are default), numbers as {:g}.
+std::string attack_params_label(const AttackParams& params);
+
+/// Refuses parameters that `kind` (one step, not a chain) does not read, and out-of-range ones.
+/// \throw InvalidArgumentError naming the kind and the parameter.
+void check_attack_params(const std::string& kind, const AttackParams& params);
+
+/// "uniform", "inverse-distance"; and back (\throw InvalidArgumentError for another name).
+const char* smooth_weighting_name(SmoothWeighting weighting);
+SmoothWeighting parse_smooth_weighting(const std::string& name);
+
+/// "levels", "benchmark"; and back (\throw InvalidArgumentError for another name).
+const char* quantize_convention_name(QuantizeConvention convention);
+QuantizeConvention parse_quantize_convention(const std::string& name);
+
+/// One step of an attack chain: a kind, its strength and its parameters.
 struct AttackStep {
   std::string kind;  ///< see attack_kinds()
   double strength = 0;
+  AttackParams params;  ///< defaults: the kind as attack_kinds() describes it
 };
+
+/// Gives every step of a chain the parameters of `params` that its kind reads (the others
+/// keep their own). \throw InvalidArgumentError when a non-default parameter is read by no
+/// step (a "lambda" for a chain without smoothing), naming it.
+void set_chain_params(std::vector<AttackStep>& steps, const AttackParams& params);
 
 /// The kinds apply_attack knows, with the meaning of their strength, one line each.
 const std::vector<std::pair<std::string, std::string>>& attack_kinds();
@@ -112,7 +193,8 @@ const std::vector<std::pair<std::string, std::string>>& attack_kinds();
 /// Parses "noise:0.001,quant:10" into steps. \throw InvalidArgumentError naming the bad step.
 std::vector<AttackStep> parse_attack_chain(const std::string& text);
 
-/// Applies one step (seeded). \throw InvalidArgumentError for an unknown kind or strength.
+/// Applies one step (seeded). \throw InvalidArgumentError for an unknown kind or strength, or
+/// a parameter the kind does not read.
 Mesh apply_attack(const Mesh& mesh, const AttackStep& step, std::uint64_t seed);
 
 /// Applies a chain, step k seeded with a value derived from seed and k.

@@ -24,6 +24,18 @@
 /// "similarity:2,simplify:0.3" and "similarity:2,simplify:0.5" (the earlier steps carry their
 /// own strengths; a chain is deterministic when all its steps are).
 ///
+/// Attacks whose definition the literature varies take parameters (attack.h, AttackParams)
+/// beside "kind": {"kind": "smooth", "lambda": 0.03, "fixed_boundary": true, "strengths": [5,
+/// 10]}, {"kind": "taubin", "lambda": 0.5, "mu": -0.53, "weighting": "inverse-distance", ...},
+/// {"kind": "quant", "convention": "benchmark", ...}; they go to every step of a chain that
+/// reads them. Rows name such a series by series_label ("smooth [lambda=0.03 fixed_boundary]").
+///
+/// Several calibration protocols (blind mode): "protocols": [{"name": "perceptual", "max_rms":
+/// 0.008, "max_msdm": 0.19}, {"name": "geometric", "max_rms": 0.012, "max_msdm": 0.29}]; each
+/// (model, variant) is calibrated once per protocol (its keys are those of "calibration",
+/// whose values it overrides) and every embedding runs once per protocol; rows, keys (a last
+/// "|NAME") and calibrations name the protocol.
+///
 /// Trace mode ("mode": "trace"; trace.h) measures tracing with the original against the blind
 /// decoder. Per model and variant, "copies" (1000 by default) coded IDs are issued under the
 /// campaign's key (campaign_key) to consecutive IDs from campaign_first_id, as registry
@@ -55,6 +67,17 @@ struct AttackSeries {
   std::string kind;               ///< an attack kind (attack.h), a chain ending in one, or "none"
   std::vector<double> strengths;  ///< at least one
   int draws = 0;                  ///< 0: the campaign's draws (1 for deterministic kinds)
+  AttackParams params;            ///< for every step of the chain that reads them
+};
+
+/// The series' name in rows and reports: its kind, then its non-default parameters in
+/// brackets ("smooth [lambda=0.03 fixed_boundary]").
+std::string series_label(const AttackSeries& series);
+
+/// A calibration protocol: a name (empty for a campaign with one "calibration") and limits.
+struct CampaignProtocol {
+  std::string name;
+  CalibrateOptions calibration;
 };
 
 /// A model of a campaign.
@@ -75,12 +98,13 @@ struct CampaignConfig {
   std::uint64_t seed = 1;
   bool calibrate = true;  ///< calibrate each (model, variant), else use `strength`
   double strength = 0.05;
-  CalibrateOptions calibration;
-  std::vector<AttackSeries> attacks;  ///< "none" (strength 0) is always added first
-  bool trace = false;                 ///< "mode": "trace" (else "blind", the default)
-  int copies = 1000;                  ///< trace: IDs issued per model and variant (>= 2)
-  bool collusion = false;             ///< trace: every attack also on an average of two copies
-  double spread = 0.25;               ///< trace: keyed strength spread (watermark.h)
+  CalibrateOptions calibration;             ///< the first protocol's
+  std::vector<CampaignProtocol> protocols;  ///< at least one (the unnamed "calibration")
+  std::vector<AttackSeries> attacks;        ///< "none" (strength 0) is always added first
+  bool trace = false;                       ///< "mode": "trace" (else "blind", the default)
+  int copies = 1000;                        ///< trace: IDs issued per model and variant (>= 2)
+  bool collusion = false;  ///< trace: every attack also on an average of two copies
+  double spread = 0.25;    ///< trace: keyed strength spread (watermark.h)
 };
 
 /// Reads a campaign file. \throw InvalidInputError naming the file and the bad key or value;
@@ -94,12 +118,15 @@ bool attack_is_deterministic(const std::string& kind);
 /// "similarity:2,simplify:0.3"). \throw InvalidArgumentError naming a bad step.
 std::vector<AttackStep> series_chain(const std::string& kind, double x);
 
-/// An embedding of the campaign: model, variant and payload indices.
+/// The same with the series' parameters set on the steps that read them.
+std::vector<AttackStep> series_chain(const AttackSeries& series, double x);
+
+/// An embedding of the campaign: model, variant, payload and protocol indices.
 struct CampaignUnit {
-  int model = 0, variant = 0, payload = 0;
+  int model = 0, variant = 0, payload = 0, protocol = 0;
 };
 
-/// The units in a fixed order (model-major).
+/// The units in a fixed order (model-major, protocol-minor).
 std::vector<CampaignUnit> campaign_units(const CampaignConfig& config);
 
 /// The payload of index p (random, from the campaign's seed).
@@ -111,7 +138,8 @@ Payload calibration_payload(int bits, std::uint64_t seed);
 /// A calibrated strength of a (model, variant).
 struct CalibrationRecord {
   std::string model, variant;
-  std::string status;  ///< calibrate_status_name, or "fixed"
+  std::string protocol;  ///< its name ("" for the unnamed one)
+  std::string status;    ///< calibrate_status_name, or "fixed"
   double strength = 0, rms_percent = 0, msdm = 0, seconds = 0;
   int evaluations = 0;
 };
@@ -147,8 +175,9 @@ std::vector<IssuedCopy> campaign_copies(const CampaignConfig& config, const std:
 
 /// One trial.
 struct TrialRow {
-  std::string key;  ///< model|variant|payload|attack|attack strength|draw
+  std::string key;  ///< model|variant|payload|attack|attack strength|draw[|protocol]
   std::string model, variant;
+  std::string protocol;  ///< the calibration protocol's name ("" for the unnamed one)
   int payload = 0;
   double strength = 0, rms_percent = 0, msdm = 0;  ///< embedding strength and distortions
   std::string attack;
@@ -172,10 +201,11 @@ struct TrialRow {
   double trace_seconds = 0;   ///< trace(), registration included
 };
 
-/// The key of a trial; colluders 2 (an averaged trial in trace mode) appends "|avg2".
+/// The key of a trial; colluders 2 (an averaged trial in trace mode) appends "|avg2", a named
+/// protocol "|" and its name.
 std::string trial_key(const std::string& model, const std::string& variant, int payload,
                       const std::string& attack, double attack_strength, int draw,
-                      int colluders = 0);
+                      int colluders = 0, const std::string& protocol = "");
 
 /// The keys of a unit's trials, in canonical order (attacks, strengths, draws).
 std::vector<std::string> unit_trial_keys(const CampaignConfig& config, const CampaignUnit& unit);
@@ -187,9 +217,10 @@ void run_campaign_unit(const CampaignConfig& config, const CampaignUnit& unit, c
                        const std::function<bool(const std::string& key)>& done,
                        const std::function<void(const TrialRow&)>& emit);
 
-/// Calibrates one (model, variant) as the campaign says (or records the fixed strength).
+/// Calibrates one (model, variant) to the limits of protocol (an index into config.protocols),
+/// or records the fixed strength.
 CalibrationRecord calibrate_for_campaign(const CampaignConfig& config, int model, int variant,
-                                         const Mesh& mesh);
+                                         const Mesh& mesh, int protocol = 0);
 
 /// One JSON line (no newline) and back. from_json throws InvalidInputError on a bad line.
 std::string row_to_json(const TrialRow& row);
@@ -197,19 +228,21 @@ TrialRow row_from_json(const std::string& line);
 std::string calibration_to_json(const CalibrationRecord& record);
 CalibrationRecord calibration_from_json(const std::string& line);
 
-/// CSV header and one CSV line (no newline) of a row; trace adds the trace mode's columns.
+/// CSV header and one CSV line (no newline) of a row (its protocol last); trace adds the trace
+/// mode's columns.
 std::string csv_header(bool trace = false);
 std::string row_to_csv(const TrialRow& row, bool trace = false);
 
 /// The median bit error rate of one variant, attack and strength, as the paper reports it.
 struct SummaryRow {
-  std::string variant, attack;
+  std::string protocol, variant, attack;  ///< attack: the series' label
   double attack_strength = 0;
   double median_ber = 0, mean_ber = 0;
   int trials = 0;
 };
 
-/// Medians over models, payloads and draws, in the order variants then attacks of the config.
+/// Medians over models, payloads and draws, in the order protocols, variants, then attacks of
+/// the config.
 std::vector<SummaryRow> summarize(const CampaignConfig& config, const std::vector<TrialRow>& rows);
 
 /// Trace mode: the outcomes of one attack, strength and number of colluders, over models,
