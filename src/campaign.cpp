@@ -119,7 +119,12 @@ void read_series_params(const std::string& file, const std::string& where, const
 // The calibration limits: "calibration", and "protocols" each overriding it.
 void read_protocols(const std::string& file, const json& j, CampaignConfig& c) {
   auto limits = [&](const json& k, const std::string& where, CalibrateOptions o) {
-    check_keys(file, k, where, {"name", "max_rms", "max_msdm", "iterations", "min", "max"});
+    check_keys(file, k, where,
+               {"name", "max_rms", "max_msdm", "iterations", "min", "max", "bin_offset"});
+    const std::string rule = k.value("bin_offset", bin_offset_rule_name(o.bin_offset));
+    if (rule != "fixed" && rule != "at-most-strength")
+      bad(file, fmt::format("{}: bin_offset '{}' is not fixed or at-most-strength", where, rule));
+    o.bin_offset = rule == "fixed" ? BinOffsetRule::Fixed : BinOffsetRule::AtMostStrength;
     o.max_rms_percent = k.value("max_rms", o.max_rms_percent);
     o.max_msdm = k.value("max_msdm", o.max_msdm);
     o.iterations = k.value("iterations", o.iterations);
@@ -350,11 +355,11 @@ CalibrationRecord calibrate_for_campaign(const CampaignConfig& c, int model, int
   }
   EmbedOptions eo;
   eo.variant = parse_variant(r.variant);
-  // The trials embed with the default G: calibrate with it fixed, as the paper does.
-  CalibrateOptions co = c.protocols[protocol].calibration;
-  co.bin_offset = BinOffsetRule::Fixed;
-  const CalibrateResult k =
-      calibrate_strength(mesh.V, mesh.F, calibration_payload(c.bits, c.seed), eo, co);
+  const CalibrateResult k = calibrate_strength(mesh.V, mesh.F, calibration_payload(c.bits, c.seed),
+                                               eo, c.protocols[protocol].calibration);
+  r.bin_offset = k.bin_offset;
+  if (k.status == CalibrateStatus::BelowMinimum)
+    r.cause = fmt::format("{}: {}", calibrate_cause_name(k.cause), k.diagnostics.front());
   r.status = calibrate_status_name(k.status);
   r.strength = k.strength;
   r.rms_percent = k.rms_percent;
@@ -419,6 +424,7 @@ void run_campaign_unit(const CampaignConfig& c, const CampaignUnit& u, const Mes
   if (!embedded) base.status = "no strength meets the calibration limits";
   if (embedded) {
     eo.strength = record.strength;
+    eo.bin_offset = record.bin_offset;
     const auto t0 = Clock::now();
     const EmbedResult e = embed(mesh.V, mesh.F, payload, eo);
     base.embed_seconds = since(t0);
@@ -535,8 +541,9 @@ TrialRow row_from_json(const std::string& line) {
 std::string calibration_to_json(const CalibrationRecord& r) {
   json j{{"model", r.model},       {"variant", r.variant},         {"status", r.status},
          {"strength", r.strength}, {"rms_percent", r.rms_percent}, {"msdm", r.msdm},
-         {"seconds", r.seconds},   {"evaluations", r.evaluations}};
+         {"seconds", r.seconds},   {"evaluations", r.evaluations}, {"bin_offset", r.bin_offset}};
   if (!r.protocol.empty()) j["protocol"] = r.protocol;
+  if (!r.cause.empty()) j["cause"] = r.cause;
   return j.dump();
 }
 
@@ -553,6 +560,8 @@ CalibrationRecord calibration_from_json(const std::string& line) {
     r.seconds = j.at("seconds").get<double>();
     r.evaluations = j.at("evaluations").get<int>();
     r.protocol = j.value("protocol", "");
+    r.bin_offset = j.value("bin_offset", 0.05);  // records before G was searched: the paper's
+    r.cause = j.value("cause", "");
     return r;
   } catch (const json::exception& e) {
     throw InvalidInputError("calibrations", 0, fmt::format("not a calibration: {}", e.what()));
@@ -583,16 +592,25 @@ std::string row_to_csv(const TrialRow& r, bool trace) {
 }
 
 std::vector<SummaryRow> summarize(const CampaignConfig& c, const std::vector<TrialRow>& rows) {
+  // Only trials that measured a mark: one without a mark within the limits (no strength met
+  // them, the embedding failed) or whose attack failed says nothing of the mark's robustness.
   std::map<std::string, std::vector<double>> groups;
-  for (const TrialRow& r : rows)
-    groups[fmt::format("{}|{}|{}|{}", r.protocol, r.variant, r.attack, r.attack_strength)]
-        .push_back(r.ber);
+  std::map<std::string, int> excluded;
+  for (const TrialRow& r : rows) {
+    const std::string key =
+        fmt::format("{}|{}|{}|{}", r.protocol, r.variant, r.attack, r.attack_strength);
+    if (r.status == "ok")
+      groups[key].push_back(r.ber);
+    else
+      ++excluded[key];
+  }
   std::vector<SummaryRow> out;
   for (const CampaignProtocol& p : c.protocols)
     for (const std::string& v : c.variants)
       for (const AttackSeries& s : c.attacks)
         for (const double x : s.strengths) {
-          auto it = groups.find(fmt::format("{}|{}|{}|{}", p.name, v, series_label(s), x));
+          const std::string key = fmt::format("{}|{}|{}|{}", p.name, v, series_label(s), x);
+          auto it = groups.find(key);
           if (it == groups.end()) continue;
           std::vector<double> b = it->second;
           std::sort(b.begin(), b.end());
@@ -602,6 +620,7 @@ std::vector<SummaryRow> summarize(const CampaignConfig& c, const std::vector<Tri
           row.attack = series_label(s);
           row.attack_strength = x;
           row.trials = static_cast<int>(b.size());
+          row.excluded = excluded.count(key) ? excluded[key] : 0;
           const std::size_t n = b.size();
           row.median_ber = n % 2 ? b[n / 2] : 0.5 * (b[n / 2 - 1] + b[n / 2]);
           double sum = 0;

@@ -128,7 +128,8 @@ std::string protocol_table(const CampaignConfig& c, const CampaignProtocol& p,
                       distortion(*columns[k]));
   md +=
       ". Published: mean BER over 5 trials on Venus; this campaign: mean (median) BER over "
-      "its models, payloads and draws.\n\n| attack (definition) | strength |";
+      "its models, payloads and draws that were marked within this protocol's limits (the "
+      "calibration table names the models that were not).\n\n| attack (definition) | strength |";
   for (const PublishedColumn* col : columns)
     md += fmt::format(" {}{} |", col->method,
                       *col->protocol ? fmt::format(", {}", col->protocol) : std::string());
@@ -140,7 +141,10 @@ std::string protocol_table(const CampaignConfig& c, const CampaignProtocol& p,
   for (std::size_t i = 0; i < published_attacks().size(); ++i) {
     const PublishedAttack& a = published_attacks()[i];
     const std::string label = series_label({a.kind, {}, 0, a.params});
-    if (!find(summary, p.name, c.variants[0], label, a.strength)) continue;
+    bool measured = false;
+    for (const std::string& v : c.variants)
+      measured |= find(summary, p.name, v, label, a.strength) != nullptr;
+    if (!measured) continue;
     ++rows;
     md += fmt::format("| {} ({}) | {:g} |", label, a.definition, a.strength);
     for (const PublishedColumn* col : columns) md += fmt::format(" {:.2f} |", col->ber[i]);

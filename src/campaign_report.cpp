@@ -142,6 +142,30 @@ std::string file_slug(const std::string& label) {
   return out;
 }
 
+// The trials the statistics leave out, by model, variant and protocol, with their reason.
+std::string left_out(const std::vector<TrialRow>& rows) {
+  std::map<std::string, std::pair<int, std::string>> by_unit;
+  int total = 0;
+  for (const TrialRow& r : rows) {
+    if (r.status == "ok") continue;
+    ++total;
+    auto& [count, reason] = by_unit[fmt::format("{} {}{}", r.model, r.variant,
+                                                r.protocol.empty() ? "" : " (" + r.protocol + ")")];
+    ++count;
+    if (reason.empty()) reason = r.status.substr(0, r.status.find(':'));
+  }
+  if (total == 0) return "Every trial measured a mark.";
+  std::string md =
+      fmt::format("Left out, not counted as BER 0.5: {} of {} trials without a mark to measure (",
+                  total, rows.size());
+  bool first = true;
+  for (const auto& [unit, entry] : by_unit) {
+    md += fmt::format("{}{}: {} trials, {}", first ? "" : "; ", unit, entry.first, entry.second);
+    first = false;
+  }
+  return md + ").";
+}
+
 }  // namespace
 
 std::string detail::svg_document(double w, double h, const std::string& body) {
@@ -171,11 +195,11 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
   if (c.trace) return detail::write_trace_report(out_dir, c, calibrations, rows, wall_seconds);
   const fs::path dir(out_dir);
   const std::vector<SummaryRow> summary = summarize(c, rows);
-  std::string csv = "variant,attack,attack_strength,median_ber,mean_ber,trials,protocol\n";
+  std::string csv = "variant,attack,attack_strength,median_ber,mean_ber,trials,protocol,excluded\n";
   auto quote = [](const std::string& t) { return fmt::format("\"{}\"", t); };
   for (const SummaryRow& s : summary)
-    csv += fmt::format("{},{},{},{},{},{},{}\n", s.variant, quote(s.attack), s.attack_strength,
-                       s.median_ber, s.mean_ber, s.trials, s.protocol);
+    csv += fmt::format("{},{},{},{},{},{},{},{}\n", s.variant, quote(s.attack), s.attack_strength,
+                       s.median_ber, s.mean_ber, s.trials, s.protocol, s.excluded);
   write_file_atomically((dir / "summary.csv").string(), csv);
   const std::vector<Column> columns = columns_of(c);
   auto lookup = [&](const Column& col, const std::string& a, double x) -> const SummaryRow* {
@@ -259,9 +283,13 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
         c.calibrate
             ? fmt::format(
                   "Strengths calibrated per model and variant{}: the largest alpha with vertex "
-                  "RMS <= {} % of the diagonal and MSDM <= {} (bisection, {} steps).\n\n",
+                  "RMS <= {} % of the diagonal and MSDM <= {} (calibrate.h's search, precision "
+                  "{}), bin offset G {}.\n\n",
                   p.name.empty() ? "" : " under protocol `" + p.name + "`",
-                  p.calibration.max_rms_percent, p.calibration.max_msdm, p.calibration.iterations)
+                  p.calibration.max_rms_percent, p.calibration.max_msdm, p.calibration.precision,
+                  p.calibration.bin_offset == BinOffsetRule::Fixed
+                      ? "fixed at the paper's 0.05"
+                      : "= min(0.05, alpha) (at-most-strength)")
             : fmt::format("Fixed strength alpha = {} for every model and variant.\n\n", c.strength);
   md += "## Calibrated strengths\n\nalpha (vertex RMS % of the diagonal, MSDM)\n\n| model |";
   for (const Column& col : columns) md += " " + col.name + " |";
@@ -277,7 +305,9 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
       if (it == calibrations.end())
         md += " - |";
       else if (it->strength <= 0)
-        md += fmt::format(" none ({}) |", it->status);
+        md +=
+            fmt::format(" none ({}) |",
+                        it->cause.empty() ? it->status : it->cause.substr(0, it->cause.find(':')));
       else
         md += fmt::format(" {:.4f} ({:.4f}, {:.3f}) |", it->strength, it->rms_percent, it->msdm);
     }
@@ -305,8 +335,9 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
   }
 
   md +=
-      "\n## Median bit error rate\n\nOver models, payloads and draws; a trial whose "
-      "embedding or attack failed counts as 0.5.\n\n";
+      "\n## Median bit error rate\n\nOver models, payloads and draws, of the trials that "
+      "measured a mark. " +
+      left_out(rows) + "\n\n";
   md += md_figures + "\n";
   for (const AttackSeries& a : c.attacks) {
     md += fmt::format("### {}\n\n{}\n\n| strength |", series_label(a), strength_label(a));

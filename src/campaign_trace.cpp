@@ -68,7 +68,8 @@ std::uint64_t campaign_leaker(const CampaignConfig& c, int p) {
 }
 
 std::vector<IssuedCopy> campaign_copies(const CampaignConfig& c, const std::string& model,
-                                        const std::string& variant, double strength) {
+                                        const std::string& variant, double strength,
+                                        double bin_offset) {
   const std::string fingerprint = key_fingerprint(campaign_key(c));
   std::vector<IssuedCopy> copies(c.copies);
   for (int i = 0; i < c.copies; ++i) {
@@ -79,6 +80,7 @@ std::vector<IssuedCopy> campaign_copies(const CampaignConfig& c, const std::stri
     copy.bits = c.bits;
     copy.variant = variant;
     copy.strength = strength;
+    copy.bin_offset = bin_offset;
     copy.strength_spread = c.spread;
     copy.key_fingerprint = fingerprint;
   }
@@ -136,7 +138,8 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
   const std::string& model = c.models[u.model].name;
   const std::string& variant = c.variants[u.variant];
   const Key key = campaign_key(c);
-  const std::vector<IssuedCopy> copies = campaign_copies(c, model, variant, record.strength);
+  const std::vector<IssuedCopy> copies =
+      campaign_copies(c, model, variant, record.strength, record.bin_offset);
   const std::vector<std::uint64_t> pair = unit_leakers(c, u.payload);
   const bool averaged =
       std::any_of(todo.begin(), todo.end(), [](const PlannedTrial& t) { return t.colluders == 2; });
@@ -146,6 +149,7 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
   EmbedOptions eo;
   eo.variant = parse_variant(variant);
   eo.strength = record.strength;
+  eo.bin_offset = record.bin_offset;
   TrialRow base;
   base.model = model;
   base.variant = variant;

@@ -204,16 +204,21 @@ TEST(Campaign, QuickCampaignWritesCompleteRowsMediansFiguresAndReport) {
   auto column = [&](const char* name) {
     return static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
   };
+  // Statistics over the trials that measured a mark; the others counted apart.
   std::map<std::string, std::vector<double>> groups;
+  std::map<std::string, int> left_out;
   int csv_rows = 0;
   while (std::getline(csv, line)) {
     const std::vector<std::string> c = split_csv(line);
     ASSERT_EQ(c.size(), header.size()) << line;
     ++csv_rows;
     const double ber = std::stod(c[column("ber")]);
-    groups[c[column("variant")] + "," + c[column("attack")] + "," +
-           std::to_string(std::stod(c[column("attack_strength")]))]
-        .push_back(ber);
+    const std::string group = c[column("variant")] + "," + c[column("attack")] + "," +
+                              std::to_string(std::stod(c[column("attack_strength")]));
+    if (c[column("status")] == "ok")
+      groups[group].push_back(ber);
+    else
+      ++left_out[group];
     if (c[column("attack")] == "none" && c[column("status")] == "ok")
       EXPECT_EQ(ber, 0.0) << "an embedding that does not decode: " << line;
   }
@@ -223,8 +228,10 @@ TEST(Campaign, QuickCampaignWritesCompleteRowsMediansFiguresAndReport) {
   int checked = 0;
   while (std::getline(summary, line)) {
     const std::vector<std::string> c = split_csv(line);
-    std::vector<double> b = groups[c[0] + "," + c[1] + "," + std::to_string(std::stod(c[2]))];
+    const std::string group = c[0] + "," + c[1] + "," + std::to_string(std::stod(c[2]));
+    std::vector<double> b = groups[group];
     ASSERT_FALSE(b.empty()) << line;
+    EXPECT_EQ(std::stoi(c[7]), left_out[group]) << line;
     std::sort(b.begin(), b.end());
     const double median =
         b.size() % 2 ? b[b.size() / 2] : 0.5 * (b[b.size() / 2 - 1] + b[b.size() / 2]);
@@ -446,5 +453,32 @@ TEST(Campaign, TraceQuickCampaignNamesNoInnocentAndBeatsTheBlindDecoder) {
   EXPECT_EQ(rows_without_times(dir), rows);
 }
 
+TEST(Campaign, SummaryLeavesOutTrialsWithoutAMarkInsteadOfCountingThemAsHalf) {
+  // Two models: one marked (BER 0.1, 0.2, 0.3), one that no strength could mark within the
+  // limits (its rows carry BER 0.5 and a status). The statistics are those of the marked ones.
+  CampaignConfig c;
+  c.variants = {"DRS"};
+  c.protocols = {CampaignProtocol{}};
+  c.attacks = {AttackSeries{"noise", {0.001}, 0, {}}};
+  std::vector<TrialRow> rows;
+  for (const double ber : {0.1, 0.2, 0.3, 0.5, 0.5}) {
+    TrialRow r;
+    r.variant = "DRS";
+    r.attack = "noise";
+    r.attack_strength = 0.001;
+    r.ber = ber;
+    r.status = ber < 0.5 ? "ok" : "no strength meets the calibration limits";
+    rows.push_back(r);
+  }
+  const std::vector<SummaryRow> s = summarize(c, rows);
+  ASSERT_EQ(s.size(), 1u);
+  EXPECT_EQ(s[0].trials, 3);
+  EXPECT_EQ(s[0].excluded, 2);
+  EXPECT_NEAR(s[0].median_ber, 0.2, 1e-15);
+  EXPECT_NEAR(s[0].mean_ber, 0.2, 1e-15);
+  // Nothing measured: no row at all, rather than a made-up 0.5.
+  for (TrialRow& r : rows) r.status = "attack failed: x";
+  EXPECT_TRUE(summarize(c, rows).empty());
+}
 }  // namespace
 }  // namespace meshmark

@@ -129,6 +129,14 @@ enum class SimplifyCost {
 Mesh attack_simplify(const Mesh& mesh, double ratio,
                      SimplifyCost cost = SimplifyCost::LindstromTurk);
 
+/// attack_simplify at several ratios from one run of collapses: out[k] is the mesh when it
+/// first has at most ratios[k] of the faces, which is what attack_simplify(mesh, ratios[k],
+/// cost) returns (the collapses are the same; only where a run stops differs). A level of
+/// detail chain at the cost of its smallest level alone.
+/// \throw as attack_simplify.
+std::vector<Mesh> attack_simplify_levels(const Mesh& mesh, const std::vector<double>& ratios,
+                                         SimplifyCost cost = SimplifyCost::LindstromTurk);
+
 /// Isotropic remeshing (CGAL Polygon_mesh_processing::isotropic_remeshing, `iterations`
 /// rounds of splits, collapses, flips and tangential relaxation) to edges of `edge_factor`
 /// times the mean edge length, after the same repair as attack_simplify. Every vertex moves:

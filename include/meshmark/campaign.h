@@ -141,7 +141,9 @@ struct CalibrationRecord {
   std::string protocol;  ///< its name ("" for the unnamed one)
   std::string status;    ///< calibrate_status_name, or "fixed"
   double strength = 0, rms_percent = 0, msdm = 0, seconds = 0;
+  double bin_offset = 0.05;  ///< G the trials embed with (calibrate.h: BinOffsetRule)
   int evaluations = 0;
+  std::string cause;  ///< below minimum: calibrate_cause_name, and the first diagnostic
 };
 
 /// What a trial's tracer named, against the copies that were leaked.
@@ -167,11 +169,12 @@ std::uint64_t campaign_first_id(const CampaignConfig& config);
 /// Trace mode: the leaker of payload index p, one of the issued IDs (from the seed).
 std::uint64_t campaign_leaker(const CampaignConfig& config, int p);
 
-/// Trace mode: the records of the copies issued from a model in variant at strength (alpha),
-/// as a registry would list them: config.copies consecutive IDs from campaign_first_id, keyed
-/// with campaign_key, config.bits bits, 32-bit IDs, config.spread.
+/// Trace mode: the records of the copies issued from a model in variant at strength (alpha)
+/// and bin offset G, as a registry would list them: config.copies consecutive IDs from
+/// campaign_first_id, keyed with campaign_key, config.bits bits, 32-bit IDs, config.spread.
 std::vector<IssuedCopy> campaign_copies(const CampaignConfig& config, const std::string& model,
-                                        const std::string& variant, double strength);
+                                        const std::string& variant, double strength,
+                                        double bin_offset = 0.05);
 
 /// One trial.
 struct TrialRow {
@@ -238,11 +241,14 @@ struct SummaryRow {
   std::string protocol, variant, attack;  ///< attack: the series' label
   double attack_strength = 0;
   double median_ber = 0, mean_ber = 0;
-  int trials = 0;
+  int trials = 0;    ///< trials that measured a mark (status "ok"): the statistics' sample
+  int excluded = 0;  ///< trials left out: no mark within the limits, or the attack failed
 };
 
-/// Medians over models, payloads and draws, in the order protocols, variants, then attacks of
-/// the config.
+/// Medians over models, payloads and draws of the trials that measured a mark, in the order
+/// protocols, variants, then attacks of the config; the others (a model the calibration could
+/// not mark within the limits, a failed embedding or attack) are counted in `excluded`, not as
+/// BER 0.5. A group with no measured trial has no row.
 std::vector<SummaryRow> summarize(const CampaignConfig& config, const std::vector<TrialRow>& rows);
 
 /// Trace mode: the outcomes of one attack, strength and number of colluders, over models,

@@ -5,7 +5,9 @@
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/LindstromTurk_cost.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/LindstromTurk_placement.h>
 #include <CGAL/Surface_mesh_simplification/edge_collapse.h>
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -18,26 +20,54 @@ namespace meshmark {
 namespace {
 namespace SMS = CGAL::Surface_mesh_simplification;
 
-// Stops once the mesh has at most `target` faces (CGAL's own ratio predicate counts edges).
+// Stops once the mesh has at most the last target's faces (CGAL's own ratio predicate counts
+// edges), keeping a copy of the mesh each time it first has at most a target's faces: the
+// state a run stopping there would end in, since the predicate is asked before each collapse
+// and is the only thing that differs between the runs.
 struct FaceCountStop {
   const detail::SurfaceMesh* mesh;
-  std::size_t target;
+  const Mesh* original;
+  std::vector<std::size_t> targets;  // decreasing
+  std::vector<Mesh>* levels;
   template <class FT, class Profile>
   bool operator()(const FT&, const Profile&, std::size_t, std::size_t) const {
-    return mesh->number_of_faces() <= target;
+    while (levels->size() < targets.size() && mesh->number_of_faces() <= targets[levels->size()]) {
+      detail::SurfaceMesh copy = *mesh;  // with its removed elements: compacted as a run's end
+      levels->push_back(detail::from_surface_mesh(copy, *original));
+    }
+    return levels->size() == targets.size();
   }
 };
+
+void check_ratio(double ratio) {
+  if (!(ratio > 0 && ratio <= 1))
+    throw InvalidArgumentError(fmt::format("simplification ratio {} is outside (0, 1]", ratio));
+}
+
 }  // namespace
 
 Mesh attack_simplify(const Mesh& mesh, double ratio, SimplifyCost cost) {
-  if (!(ratio > 0 && ratio <= 1))
-    throw InvalidArgumentError(fmt::format("simplification ratio {} is outside (0, 1]", ratio));
+  check_ratio(ratio);
+  return attack_simplify_levels(mesh, {ratio}, cost).front();
+}
+
+std::vector<Mesh> attack_simplify_levels(const Mesh& mesh, const std::vector<double>& ratios,
+                                         SimplifyCost cost) {
+  for (const double r : ratios) check_ratio(r);
+  if (ratios.empty()) return {};
   detail::SurfaceMesh sm = detail::to_surface_mesh(mesh);
-  // The target counts the triangles CGAL was given: degenerate and duplicate ones, which the
+  // The targets count the triangles CGAL was given: degenerate and duplicate ones, which the
   // conversion drops, are no surface to simplify.
-  const auto target =
-      static_cast<std::size_t>(std::llround(ratio * static_cast<double>(sm.number_of_faces())));
-  const FaceCountStop stop{&sm, target};
+  std::vector<std::size_t> order(ratios.size());
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return ratios[a] > ratios[b]; });
+  std::vector<std::size_t> targets;
+  for (const std::size_t k : order)
+    targets.push_back(static_cast<std::size_t>(
+        std::llround(ratios[k] * static_cast<double>(sm.number_of_faces()))));
+  std::vector<Mesh> levels;
+  const FaceCountStop stop{&sm, &mesh, targets, &levels};
   if (cost == SimplifyCost::GarlandHeckbert) {
     const SMS::GarlandHeckbert_plane_policies<detail::SurfaceMesh, detail::CgalKernel> quadrics(sm);
     SMS::edge_collapse(
@@ -48,7 +78,12 @@ Mesh attack_simplify(const Mesh& mesh, double ratio, SimplifyCost cost) {
                        CGAL::parameters::get_cost(SMS::LindstromTurk_cost<detail::SurfaceMesh>())
                            .get_placement(SMS::LindstromTurk_placement<detail::SurfaceMesh>()));
   }
-  return detail::from_surface_mesh(sm, mesh);
+  // A run that ends without reaching the last targets (no edge left that may collapse) ends
+  // there for them too.
+  while (levels.size() < targets.size()) levels.push_back(detail::from_surface_mesh(sm, mesh));
+  std::vector<Mesh> out(ratios.size());
+  for (std::size_t k = 0; k < order.size(); ++k) out[order[k]] = std::move(levels[k]);
+  return out;
 }
 
 }  // namespace meshmark
