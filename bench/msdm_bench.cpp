@@ -5,10 +5,10 @@
 
 #include <benchmark/benchmark.h>
 
-#include <filesystem>
 #include <map>
 #include <string>
 
+#include "bench_meshes.h"
 #include "meshmark/attack.h"
 #include "meshmark/io.h"
 #include "meshmark/metrics.h"
@@ -26,18 +26,13 @@ const Pair* pair_of(const std::string& path) {
   static std::map<std::string, Pair> cache;
   auto it = cache.find(path);
   if (it != cache.end()) return &it->second;
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) return nullptr;
-  ReadOptions ro;
-  ro.keep_image = false;
-  Mesh m = read_mesh(path, ro);
-  Mesh n = attack_noise(m, 0.0002, NoiseReference::Diagonal, 1);
-  return &cache.emplace(path, Pair{std::move(m), std::move(n)}).first->second;
+  const Mesh* m = bench::load(path);
+  if (!m) return nullptr;
+  Pair p{*m, attack_noise(*m, 0.0002, NoiseReference::Diagonal, 1)};
+  return &cache.emplace(path, std::move(p)).first->second;
 }
 
-std::string shared(const char* name) {
-  return std::string(MESHMARK_SHARED_DIR) + "/meshes/" + name;
-}
+using bench::shared;
 
 void msdm_reference(benchmark::State& state, const std::string& path) {
   const Pair* p = pair_of(path);
