@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <map>
 
+#include "bench_meshes.h"
 #include "meshmark/attack.h"
 #include "meshmark/decode.h"
 #include "meshmark/embed.h"
@@ -22,20 +23,8 @@ using namespace meshmark;
 
 namespace {
 
-const Mesh* load(const std::string& path) {
-  static std::map<std::string, Mesh> cache;
-  auto it = cache.find(path);
-  if (it != cache.end()) return &it->second;
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) return nullptr;
-  ReadOptions ro;
-  ro.keep_image = false;
-  return &cache.emplace(path, read_mesh(path, ro)).first->second;
-}
-
-std::string shared(const char* name) {
-  return std::string(MESHMARK_SHARED_DIR) + "/meshes/" + name;
-}
+using bench::load;
+using bench::shared;
 
 // Embeds 64 bits into m with the variant, once per iteration.
 void embed_mesh(benchmark::State& state, const Mesh* m, const std::string& path,

@@ -8,27 +8,18 @@
 #include <cmath>
 #include <numeric>
 
+#include "curvature_edges.h"
 #include "parallel.h"
 #include "sphere_walk.h"
 
 namespace meshmark {
 
-namespace {
+namespace detail {
 
-// Unique undirected edges with their signed dihedral angle (0 on boundary and non-manifold
-// edges), the faces around each (compressed rows) and the edge of each face's side c (from
-// corner c to c + 1; -1 for a degenerate side).
-struct EdgeTable {
-  std::vector<std::array<int, 2>> ends;
-  std::vector<double> beta;
-  std::vector<int> face_offsets{0}, faces;
-  std::vector<std::array<int, 3>> face_edges;
-};
-
-EdgeTable dihedral_edges(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
+EdgeTable edge_table(const Eigen::MatrixX3i& F, const Adjacency& adj, Eigen::Index nv_) {
   // Half-edges (max, face, +1 if the face runs min->max) bucketed by their min vertex, each
   // bucket sorted: linear in the faces, no global sort.
-  const auto nv = static_cast<std::size_t>(V.rows());
+  const auto nv = static_cast<std::size_t>(nv_);
   std::vector<int> start(nv + 1, 0);
   for (Eigen::Index t = 0; t < F.rows(); ++t)
     for (int c = 0; c < 3; ++c) {
@@ -47,26 +38,16 @@ EdgeTable dihedral_edges(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
     }
   for (std::size_t v = 0; v < nv; ++v)
     std::sort(half.begin() + start[v], half.begin() + start[v + 1]);
-  auto normal = [&](int t) {
-    const Eigen::Vector3d p0 = V.row(F(t, 0)), p1 = V.row(F(t, 1)), p2 = V.row(F(t, 2));
-    const Eigen::Vector3d n = (p1 - p0).cross(p2 - p0);
-    const double len = n.norm();
-    return len > 0 ? Eigen::Vector3d(n / len) : Eigen::Vector3d::Zero();
-  };
   EdgeTable table;
   table.face_edges.assign(static_cast<std::size_t>(F.rows()), {-1, -1, -1});
   for (std::size_t k = 0; k < half.size();) {
     std::size_t e = k;
     while (e < half.size() && half[e][0] == half[k][0] && half[e][1] == half[k][1]) ++e;
-    double beta = 0;
+    std::array<int, 2> sides = {-1, -1};
     if (e - k == 2 && half[k][3] != half[k + 1][3]) {  // manifold, consistently oriented
       // f1 runs a -> b (a = min), f2 runs b -> a.
-      const int f1 = half[k][3] > 0 ? half[k][2] : half[k + 1][2];
-      const int f2 = half[k][3] > 0 ? half[k + 1][2] : half[k][2];
-      const Eigen::Vector3d n1 = normal(f1), n2 = normal(f2);
-      const Eigen::Vector3d dir = V.row(half[k][1]) - V.row(half[k][0]);
-      const double len = dir.norm();
-      if (len > 0) beta = std::atan2(n1.cross(n2).dot(dir / len), n1.dot(n2));
+      sides[0] = half[k][3] > 0 ? half[k][2] : half[k + 1][2];
+      sides[1] = half[k][3] > 0 ? half[k + 1][2] : half[k][2];
     }
     for (std::size_t h = k; h < e; ++h) {
       table.faces.push_back(half[h][2]);
@@ -75,48 +56,63 @@ EdgeTable dihedral_edges(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
     }
     table.face_offsets.push_back(static_cast<int>(table.faces.size()));
     table.ends.push_back({half[k][0], half[k][1]});
-    table.beta.push_back(beta);
+    table.sides.push_back(sides);
     k = e;
   }
-  return table;
-}
-
-constexpr double kPi = 3.14159265358979323846;
-
-// Per undirected edge, its tensor beta / |e| e e^T (6 distinct entries: the whole edge's
-// contribution divided by its length, so that a piece of fraction t of the edge contributes t
-// times it; zero without a dihedral angle); per adjacency slot, its edge; the edge table.
-struct EdgeTensors {
-  EdgeTable table;
-  std::vector<std::array<double, 6>> tensor;
-  std::vector<int> edge_of_slot;
-};
-
-EdgeTensors edge_tensors(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
-                         const Adjacency& adj) {
-  EdgeTensors out;
-  out.table = dihedral_edges(V, F);
-  const EdgeTable& table = out.table;
-  out.edge_of_slot.assign(adj.indices.size(), -1);
-  out.tensor.assign(table.ends.size(), {0, 0, 0, 0, 0, 0});
   auto slot = [&](int from, int to) {
     const auto first = adj.indices.begin() + adj.offsets[from],
                last = adj.indices.begin() + adj.offsets[from + 1];
     const auto it = std::lower_bound(first, last, to);
     return it != last && *it == to ? static_cast<int>(it - adj.indices.begin()) : -1;
   };
-  for (std::size_t k = 0; k < table.ends.size(); ++k) {
-    const int a = table.ends[k][0], b = table.ends[k][1];
-    for (int s : {slot(a, b), slot(b, a)})
-      if (s >= 0) out.edge_of_slot[static_cast<std::size_t>(s)] = static_cast<int>(k);
-    const Eigen::Vector3d d = (V.row(b) - V.row(a)).transpose();
-    const double length = d.norm();
-    if (table.beta[k] == 0 || length == 0) continue;
-    const double w = table.beta[k] / length;
-    out.tensor[k] = {w * d(0) * d(0), w * d(0) * d(1), w * d(0) * d(2),
-                     w * d(1) * d(1), w * d(1) * d(2), w * d(2) * d(2)};
-  }
-  return out;
+  table.edge_of_slot.assign(adj.indices.size(), -1);
+  for (std::size_t k = 0; k < table.ends.size(); ++k)
+    for (int s :
+         {slot(table.ends[k][0], table.ends[k][1]), slot(table.ends[k][1], table.ends[k][0])})
+      if (s >= 0) table.edge_of_slot[static_cast<std::size_t>(s)] = static_cast<int>(k);
+  return table;
+}
+
+}  // namespace detail
+
+namespace {
+
+using detail::EdgeTable;
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Per undirected edge of the table, its tensor beta / |e| e e^T (6 distinct entries: the
+// whole edge's contribution divided by its length, so that a piece of fraction t of the edge
+// contributes t times it; zero without a dihedral angle). beta is the signed dihedral angle
+// between its two faces (0 on boundary and non-manifold edges). Edges in parallel chunks.
+std::vector<std::array<double, 6>> edge_tensors(const Eigen::MatrixX3d& V,
+                                                const Eigen::MatrixX3i& F, const EdgeTable& table) {
+  auto normal = [&](int t) {
+    const Eigen::Vector3d p0 = V.row(F(t, 0)), p1 = V.row(F(t, 1)), p2 = V.row(F(t, 2));
+    const Eigen::Vector3d n = (p1 - p0).cross(p2 - p0);
+    const double len = n.norm();
+    return len > 0 ? Eigen::Vector3d(n / len) : Eigen::Vector3d::Zero();
+  };
+  std::vector<std::array<double, 6>> tensor(table.ends.size(), {0, 0, 0, 0, 0, 0});
+  const auto ne = static_cast<std::int64_t>(table.ends.size());
+  detail::parallel_chunks(ne, [&](int, std::int64_t begin, std::int64_t end) {
+    for (auto k = static_cast<std::size_t>(begin); k < static_cast<std::size_t>(end); ++k) {
+      const int a = table.ends[k][0], b = table.ends[k][1];
+      if (table.sides[k][0] < 0) continue;
+      const Eigen::Vector3d n1 = normal(table.sides[k][0]), n2 = normal(table.sides[k][1]);
+      const Eigen::Vector3d dir = V.row(b) - V.row(a);
+      const double len = dir.norm();
+      if (!(len > 0)) continue;
+      const double beta = std::atan2(n1.cross(n2).dot(dir / len), n1.dot(n2));
+      const Eigen::Vector3d d = (V.row(b) - V.row(a)).transpose();
+      const double length = d.norm();
+      if (beta == 0 || length == 0) continue;
+      const double w = beta / length;
+      tensor[k] = {w * d(0) * d(0), w * d(0) * d(1), w * d(0) * d(2),
+                   w * d(1) * d(1), w * d(1) * d(2), w * d(2) * d(2)};
+    }
+  });
+  return tensor;
 }
 
 // Fraction of the segment a -> b inside the ball of squared radius r2 around o.
@@ -134,10 +130,9 @@ double fraction_inside(const Eigen::RowVector3d& o, double r2, const Eigen::RowV
 // Exact clipping: faces flooded from those around `center` across every edge that meets the
 // ball; each edge seen once, for its fraction inside. visit(edge, fraction).
 template <class Points, class Visit>
-void flood_ball(const Points& P, const Adjacency& adj, const EdgeTensors& edges, int center,
+void flood_ball(const Points& P, const Adjacency& adj, const EdgeTable& table, int center,
                 double radius, std::vector<int>& face_stamp, std::vector<int>& edge_stamp,
                 std::vector<int>& queue, int mark, Visit&& visit) {
-  const EdgeTable& table = edges.table;
   const Eigen::RowVector3d o = P.row(center);
   const double r2 = radius * radius;
   queue.clear();
@@ -149,7 +144,7 @@ void flood_ball(const Points& P, const Adjacency& adj, const EdgeTensors& edges,
       }
   };
   for (int s = adj.offsets[center]; s < adj.offsets[center + 1]; ++s)
-    if (edges.edge_of_slot[s] >= 0) push_faces(edges.edge_of_slot[s]);
+    if (table.edge_of_slot[s] >= 0) push_faces(table.edge_of_slot[s]);
   for (std::size_t q = 0; q < queue.size(); ++q)
     for (int e : table.face_edges[static_cast<std::size_t>(queue[q])]) {
       if (e < 0 || edge_stamp[e] == mark) continue;
@@ -210,12 +205,22 @@ CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::Ma
 
 CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                                       const Adjacency& adj, double radius, BallEdges which) {
+  if (!(radius > 0)) return detail::normal_cycle_curvature(V, F, adj, {}, radius, which);
+  return detail::normal_cycle_curvature(V, F, adj, detail::edge_table(F, adj, V.rows()), radius,
+                                        which);
+}
+
+namespace detail {
+
+CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                                      const Adjacency& adj, const EdgeTable& table, double radius,
+                                      BallEdges which) {
   const Eigen::Index nv = V.rows();
   CurvatureField field;
   field.kmin = Eigen::VectorXd::Zero(nv);
   field.kmax = Eigen::VectorXd::Zero(nv);
   if (!(radius > 0)) return field;
-  const EdgeTensors edges = edge_tensors(V, F, adj);
+  const std::vector<std::array<double, 6>> tensor = edge_tensors(V, F, table);
   const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> P =
       V;                                      // one cache line per point
   const double area = kPi * radius * radius;  // the disc's, as MEPP divides by
@@ -223,20 +228,20 @@ CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::Ma
   detail::parallel_chunks(nv, [&](int, std::int64_t begin, std::int64_t end) {
     detail::WalkScratch scratch(nv);
     std::vector<int> face_stamp(static_cast<std::size_t>(F.rows()), -1),
-        edge_stamp(edges.tensor.size(), -1), queue;
+        edge_stamp(tensor.size(), -1), queue;
     for (Eigen::Index i = begin; i < end; ++i) {
       std::array<double, 6> t = {0, 0, 0, 0, 0, 0};
       auto add = [&](int e, double fraction) {
-        for (int c = 0; c < 6; ++c) t[c] += fraction * edges.tensor[e][c];
+        for (int c = 0; c < 6; ++c) t[c] += fraction * tensor[e][c];
       };
       if (which == BallEdges::kReferenceWalk)
         detail::walk_sphere(P, adj, static_cast<int>(i), radius, scratch,
                             [&](int, int slot, int, const detail::Clip& clip, bool) {
-                              if (edges.edge_of_slot[slot] >= 0)
-                                add(edges.edge_of_slot[slot], clip.t);
+                              if (table.edge_of_slot[slot] >= 0)
+                                add(table.edge_of_slot[slot], clip.t);
                             });
       else
-        flood_ball(P, adj, edges, static_cast<int>(i), radius, face_stamp, edge_stamp, queue,
+        flood_ball(P, adj, table, static_cast<int>(i), radius, face_stamp, edge_stamp, queue,
                    static_cast<int>(i), add);
       const Eigen::Vector2d k = principal_pair(t, area);
       field.kmin(i) = k(0);
@@ -245,5 +250,7 @@ CurvatureField normal_cycle_curvature(const Eigen::MatrixX3d& V, const Eigen::Ma
   });
   return field;
 }
+
+}  // namespace detail
 
 }  // namespace meshmark

@@ -8,6 +8,7 @@
 #include <memory>
 #include <vector>
 
+#include "curvature_edges.h"
 #include "meshmark/curvature.h"
 #include "meshmark/error.h"
 #include "meshmark/mesh.h"
@@ -89,8 +90,11 @@ double one_sided_covariance(const std::vector<Sample>& x, double mx, const std::
 
 // Curvature as MSDM compares it: (|kmax| + |kmin|) / 2, times D (MEPP's KmaxKmean).
 Eigen::VectorXd msdm_curvature(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
-                               const Adjacency& adj, double radius, double D) {
-  return normal_cycle_curvature(V, F, adj, radius, BallEdges::kReferenceWalk).magnitude() * (D / 2);
+                               const Adjacency& adj, const detail::EdgeTable& edges, double radius,
+                               double D) {
+  return detail::normal_cycle_curvature(V, F, adj, edges, radius, BallEdges::kReferenceWalk)
+             .magnitude() *
+         (D / 2);
 }
 
 }  // namespace
@@ -101,6 +105,7 @@ struct MsdmReference::State {
   MsdmOptions options;
   double D = 0;
   Adjacency adj;
+  detail::EdgeTable edges;    // of F, for the curvature of every B
   Eigen::VectorXd curvature;  // A's, scaled as MSDM compares it
   std::vector<WindowStats> stats;
 };
@@ -111,7 +116,8 @@ MsdmReference::MsdmReference(const Eigen::MatrixX3d& A, const Eigen::MatrixX3i& 
   s->A = A, s->F = F, s->options = options;
   s->D = detail::longest_side(A, F);
   s->adj = vertex_adjacency(F, A.rows());
-  s->curvature = msdm_curvature(A, F, s->adj, options.curvature_radius * s->D, s->D);
+  s->edges = detail::edge_table(F, s->adj, A.rows());
+  s->curvature = msdm_curvature(A, F, s->adj, s->edges, options.curvature_radius * s->D, s->D);
   s->stats.resize(static_cast<std::size_t>(A.rows()));
   const double radius = options.window_radius * s->D, sigma = options.window_sigma * s->D;
   const double inv = sigma > 0 ? 1 / (2 * sigma * sigma) : 0;
@@ -141,7 +147,8 @@ PerceptualDistance MsdmReference::compare(const Eigen::MatrixX3d& B) const {
     throw InvalidArgumentError(
         fmt::format("MSDM needs the same vertices ({} and {}); use MSDM2", s.A.rows(), B.rows()));
   const RowPoints PB = B;
-  const Eigen::VectorXd cb = msdm_curvature(B, s.F, s.adj, s.options.curvature_radius * s.D, s.D);
+  const Eigen::VectorXd cb =
+      msdm_curvature(B, s.F, s.adj, s.edges, s.options.curvature_radius * s.D, s.D);
   const double radius = s.options.window_radius * s.D, sigma = s.options.window_sigma * s.D;
   const double inv = sigma > 0 ? 1 / (2 * sigma * sigma) : 0;
   PerceptualDistance out;

@@ -1,10 +1,12 @@
 #pragma once
 // Internal: a parallel loop over an index range, in contiguous chunks, one per hardware
-// thread. Each index is computed the same way whatever the thread count, so results do not
-// depend on it.
+// thread (or per MESHMARK_THREADS, when that environment variable holds a positive count).
+// Each index is computed the same way whatever the thread count, so results do not depend on
+// it.
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdlib>
 #include <thread>
 #include <vector>
 
@@ -13,7 +15,11 @@ namespace meshmark::detail {
 /// Number of chunks parallel_chunks uses for n items.
 inline int chunk_count(std::int64_t n) {
   if (n < 4096) return 1;
-  return static_cast<int>(std::max(1u, std::min(std::thread::hardware_concurrency(), 64u)));
+  unsigned threads = std::thread::hardware_concurrency();
+  if (const char* env = std::getenv("MESHMARK_THREADS"))
+    if (const long wanted = std::strtol(env, nullptr, 10); wanted > 0)
+      threads = static_cast<unsigned>(std::min(wanted, 64L));
+  return static_cast<int>(std::max(1u, std::min(threads, 64u)));
 }
 
 /// Calls body(chunk, begin, end) for chunk in [0, chunk_count(n)), the chunks covering [0, n)

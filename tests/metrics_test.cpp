@@ -140,6 +140,26 @@ TEST(Metrics, PreparedMsdmEqualsTheOneCall) {
   EXPECT_THROW(reference.compare(m.V.topRows(10)), InvalidArgumentError);
 }
 
+// Every vertex's window is computed on its own and the pooling runs in vertex order: the
+// values do not depend on how many threads share the vertices (MESHMARK_THREADS, parallel.h).
+// Spot subdivided once (12k vertices) is above the size from which the work is split.
+TEST(Metrics, MsdmDoesNotDependOnTheThreadCount) {
+  const std::string path = shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(path, "spot.obj");
+  const Mesh m = attack_subdivide(read_mesh(path), Subdivision::Loop, 1);
+  const Mesh n = attack_noise(m, 0.001, NoiseReference::Diagonal, 3);
+  auto with_threads = [&](const char* threads) {
+    setenv("MESHMARK_THREADS", threads, 1);
+    PerceptualDistance d = MsdmReference(m.V, m.F).compare(n.V);
+    unsetenv("MESHMARK_THREADS");
+    return d;
+  };
+  const PerceptualDistance one = with_threads("1"), three = with_threads("3");
+  EXPECT_GT(one.global, 0.0);
+  EXPECT_EQ(one.global, three.global);
+  EXPECT_EQ((one.local - three.local).cwiseAbs().maxCoeff(), 0.0);
+}
+
 // MSDM's radii are fractions of the bounding box's longest side D and its curvature is scaled
 // by D: a scaling and a shift of both meshes leave every value unchanged (up to rounding,
 // which may move an edge across a window's sphere). A rotation would not: it changes the
