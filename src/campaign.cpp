@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 
@@ -441,6 +442,28 @@ void run_campaign_unit(const CampaignConfig& c, const CampaignUnit& u, const Mes
   ExtractOptions xo;
   xo.bits = c.bits;
   xo.center = eo.variant.center;
+  // A simplification series runs once for all its strengths (attack_simplify_levels gives
+  // each what its own run would): its levels, and the time each one is charged (an equal share).
+  std::map<const AttackSeries*, std::map<double, Mesh>> levels;
+  std::map<const AttackSeries*, double> level_seconds;
+  auto simplified = [&](const detail::PlannedTrial& t) -> const Mesh* {
+    const std::string& k = t.series->kind;
+    if (!embedded || (k != "simplify" && k != "qsimplify")) return nullptr;
+    auto it = levels.find(t.series);
+    if (it == levels.end()) {
+      std::vector<double> ratios;
+      for (const detail::PlannedTrial& u : todo)
+        if (u.series == t.series) ratios.push_back(u.strength);
+      const auto t0 = Clock::now();
+      std::vector<Mesh> meshes = attack_simplify_levels(
+          marked, ratios,
+          k == "simplify" ? SimplifyCost::LindstromTurk : SimplifyCost::GarlandHeckbert);
+      level_seconds[t.series] = since(t0) / static_cast<double>(ratios.size());
+      it = levels.emplace(t.series, std::map<double, Mesh>{}).first;
+      for (std::size_t r = 0; r < ratios.size(); ++r) it->second[ratios[r]] = std::move(meshes[r]);
+    }
+    return &it->second.at(t.strength);
+  };
   for (const detail::PlannedTrial& t : todo) {
     TrialRow row = base;
     row.key = t.key;
@@ -451,8 +474,9 @@ void run_campaign_unit(const CampaignConfig& c, const CampaignUnit& u, const Mes
     if (embedded) {
       try {
         const auto t0 = Clock::now();
-        const Mesh attacked = detail::attack_for_trial(c, t, marked);
-        row.attack_seconds = since(t0);
+        const Mesh* level = simplified(t);
+        const Mesh attacked = level ? *level : detail::attack_for_trial(c, t, marked);
+        row.attack_seconds = level ? level_seconds[t.series] : since(t0);
         const auto t1 = Clock::now();
         const ExtractResult r = extract(attacked.V, attacked.F, xo);
         row.extract_seconds = since(t1);

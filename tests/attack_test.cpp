@@ -582,3 +582,26 @@ TEST(AttackDegenerate, NoFaceOfNonZeroAreaIsANamedError) {
   EXPECT_THROW(attack_subdivide(m, Subdivision::Loop, 1), InvalidInputError);
   EXPECT_THROW(attack_subdivide(m, Subdivision::Sqrt3, 1), InvalidInputError);
 }
+
+// Levels of detail from one run: each level is the mesh a run stopping at its ratio returns,
+// exactly (the same collapses; attack_simplify stops on its own predicate, without copies).
+TEST(Attack, SimplificationLevelsFromOneRunEqualSeparateRuns) {
+  int meshes = 0;
+  for (const std::string& path : {shared_mesh("bunny.ply"), cgal_mesh("fandisk.off")}) {
+    if (path.empty()) continue;
+    SCOPED_TRACE(path);
+    ++meshes;
+    const Mesh m = real(path);
+    const std::vector<double> ratios = {0.5, 0.9, 0.1, 0.3, 0.7};  // any order
+    for (const SimplifyCost cost : {SimplifyCost::LindstromTurk, SimplifyCost::GarlandHeckbert}) {
+      const std::vector<Mesh> levels = attack_simplify_levels(m, ratios, cost);
+      ASSERT_EQ(levels.size(), ratios.size());
+      for (std::size_t k = 0; k < ratios.size(); ++k) {
+        const Mesh one = attack_simplify(m, ratios[k], cost);
+        EXPECT_TRUE(levels[k].V == one.V) << ratios[k];
+        EXPECT_TRUE(levels[k].F == one.F) << ratios[k];
+      }
+    }
+  }
+  if (meshes == 0) GTEST_SKIP() << "skipped: no real mesh available";
+}

@@ -24,7 +24,7 @@ namespace SMS = CGAL::Surface_mesh_simplification;
 // edges), keeping a copy of the mesh each time it first has at most a target's faces: the
 // state a run stopping there would end in, since the predicate is asked before each collapse
 // and is the only thing that differs between the runs.
-struct FaceCountStop {
+struct LevelsStop {
   const detail::SurfaceMesh* mesh;
   const Mesh* original;
   std::vector<std::size_t> targets;  // decreasing
@@ -39,35 +39,19 @@ struct FaceCountStop {
   }
 };
 
-void check_ratio(double ratio) {
-  if (!(ratio > 0 && ratio <= 1))
-    throw InvalidArgumentError(fmt::format("simplification ratio {} is outside (0, 1]", ratio));
-}
+// Stops once the mesh has at most `target` faces.
+struct OneTargetStop {
+  const detail::SurfaceMesh* mesh;
+  std::size_t target;
+  template <class FT, class Profile>
+  bool operator()(const FT&, const Profile&, std::size_t, std::size_t) const {
+    return mesh->number_of_faces() <= target;
+  }
+};
 
-}  // namespace
-
-Mesh attack_simplify(const Mesh& mesh, double ratio, SimplifyCost cost) {
-  check_ratio(ratio);
-  return attack_simplify_levels(mesh, {ratio}, cost).front();
-}
-
-std::vector<Mesh> attack_simplify_levels(const Mesh& mesh, const std::vector<double>& ratios,
-                                         SimplifyCost cost) {
-  for (const double r : ratios) check_ratio(r);
-  if (ratios.empty()) return {};
-  detail::SurfaceMesh sm = detail::to_surface_mesh(mesh);
-  // The targets count the triangles CGAL was given: degenerate and duplicate ones, which the
-  // conversion drops, are no surface to simplify.
-  std::vector<std::size_t> order(ratios.size());
-  for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
-  std::stable_sort(order.begin(), order.end(),
-                   [&](std::size_t a, std::size_t b) { return ratios[a] > ratios[b]; });
-  std::vector<std::size_t> targets;
-  for (const std::size_t k : order)
-    targets.push_back(static_cast<std::size_t>(
-        std::llround(ratios[k] * static_cast<double>(sm.number_of_faces()))));
-  std::vector<Mesh> levels;
-  const FaceCountStop stop{&sm, &mesh, targets, &levels};
+// The collapses with `cost`'s cost and placement until `stop`.
+template <class Stop>
+void collapse(detail::SurfaceMesh& sm, const Stop& stop, SimplifyCost cost) {
   if (cost == SimplifyCost::GarlandHeckbert) {
     const SMS::GarlandHeckbert_plane_policies<detail::SurfaceMesh, detail::CgalKernel> quadrics(sm);
     SMS::edge_collapse(
@@ -78,6 +62,41 @@ std::vector<Mesh> attack_simplify_levels(const Mesh& mesh, const std::vector<dou
                        CGAL::parameters::get_cost(SMS::LindstromTurk_cost<detail::SurfaceMesh>())
                            .get_placement(SMS::LindstromTurk_placement<detail::SurfaceMesh>()));
   }
+}
+
+// The target face count of ratio: it counts the triangles CGAL was given (degenerate and
+// duplicate ones, which the conversion drops, are no surface to simplify).
+std::size_t face_target(const detail::SurfaceMesh& sm, double ratio) {
+  return static_cast<std::size_t>(std::llround(ratio * static_cast<double>(sm.number_of_faces())));
+}
+
+void check_ratio(double ratio) {
+  if (!(ratio > 0 && ratio <= 1))
+    throw InvalidArgumentError(fmt::format("simplification ratio {} is outside (0, 1]", ratio));
+}
+
+}  // namespace
+
+Mesh attack_simplify(const Mesh& mesh, double ratio, SimplifyCost cost) {
+  check_ratio(ratio);
+  detail::SurfaceMesh sm = detail::to_surface_mesh(mesh);
+  collapse(sm, OneTargetStop{&sm, face_target(sm, ratio)}, cost);
+  return detail::from_surface_mesh(sm, mesh);
+}
+
+std::vector<Mesh> attack_simplify_levels(const Mesh& mesh, const std::vector<double>& ratios,
+                                         SimplifyCost cost) {
+  for (const double r : ratios) check_ratio(r);
+  if (ratios.empty()) return {};
+  detail::SurfaceMesh sm = detail::to_surface_mesh(mesh);
+  std::vector<std::size_t> order(ratios.size());
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return ratios[a] > ratios[b]; });
+  std::vector<std::size_t> targets;
+  for (const std::size_t k : order) targets.push_back(face_target(sm, ratios[k]));
+  std::vector<Mesh> levels;
+  collapse(sm, LevelsStop{&sm, &mesh, targets, &levels}, cost);
   // A run that ends without reaching the last targets (no edge left that may collapse) ends
   // there for them too.
   while (levels.size() < targets.size()) levels.push_back(detail::from_surface_mesh(sm, mesh));
