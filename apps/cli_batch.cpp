@@ -109,8 +109,12 @@ void refuse_clashes(std::vector<Job>& jobs) {
 }
 
 // Whether the recorded copy is this line's, issued by an earlier run, with its file as recorded.
-bool resumable(const IssuedCopy& taken, IssuedCopy wanted, const std::string& output) {
+// searched: the strength and G were searched within fidelity limits, so the recorded ones are
+// whatever the search found for that copy.
+bool resumable(const IssuedCopy& taken, IssuedCopy wanted, const std::string& output,
+               bool searched) {
   wanted.output_path = recorded_path(output);
+  if (searched) wanted.strength = taken.strength, wanted.bin_offset = taken.bin_offset;
   if (!same_copy(taken, wanted)) return false;
   try {
     return content_hash(read_file(output)) == taken.output_hash;
@@ -160,7 +164,8 @@ int run_batch(const std::string& manifest, const BatchSettings& settings) {
         if (!jobs[k].refused && records[k].id == taken.id &&
             records[k].original_hash == taken.original_hash) {
           jobs[k].refused = true;
-          if (taken.row && resumable(taken, records[k], jobs[k].output)) {
+          if (taken.row &&
+              resumable(taken, records[k], jobs[k].output, settings.limits.has_value())) {
             jobs[k].ok = jobs[k].resumed = true;
             jobs[k].outcome =
                 fmt::format("already issued to '{}' on {} and its file is intact: skipped",

@@ -143,6 +143,40 @@ TEST(Registry, ConcurrentWritersLoseNothing) {
   EXPECT_EQ(all.size(), static_cast<std::size_t>(writers * batches * per_batch));
 }
 
+TEST(Registry, CopiesMarkedWithinFidelityLimitsRecordTheirOwnStrengthAndResume) {
+  // Each copy of a --fidelity batch gets its own strength and G, recorded: embedding its ID
+  // again at the recorded settings gives the same file, byte for byte; and the batch run again
+  // skips every copy as issued (the settings were searched, not given).
+  const std::string spot = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir();
+  const std::string db = dir + "/shop.db";
+  {
+    std::ofstream manifest(dir + "/m.txt");
+    for (int id = 7; id < 10; ++id)
+      manifest << spot << " " << dir << "/c" << id << ".obj id:" << id << " buyer " << id << "\n";
+  }
+  const std::string batch =
+      "embed --batch " + dir + "/m.txt --key shop --registry " + db + " --fidelity paper";
+  test::CliRun r = test::run_cli(batch);
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::vector<IssuedCopy> issued = Registry(db).list();
+  ASSERT_EQ(issued.size(), 3u);
+  for (const IssuedCopy& c : issued) {
+    EXPECT_GT(c.strength, 0.001);
+    EXPECT_LE(c.bin_offset, c.strength);  // G = min(0.05, alpha)
+    const std::string again = dir + "/again" + std::to_string(c.id) + ".obj";
+    r = test::run_cli(fmt::format("embed {} {} --id {} --key shop --strength {} --bin-offset {}",
+                                  spot, again, c.id, c.strength, c.bin_offset));
+    ASSERT_EQ(r.code, 0) << r.out;
+    EXPECT_EQ(read_file(again), read_file(c.output_path)) << c.id;
+  }
+  r = test::run_cli(batch);
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("3 issued before and skipped"), std::string::npos) << r.out;
+  EXPECT_EQ(Registry(db).list().size(), 3u);
+}
+
 TEST(Registry, RefusesNewerSchemasAndForeignDatabases) {
   const std::string dir = test::scratch_dir();
   const std::string newer = dir + "/newer.db", foreign = dir + "/foreign.db";
