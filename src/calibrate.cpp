@@ -103,11 +103,32 @@ void explain(const PreparedEmbedder& embedder, const Payload& payload, const Emb
   auto& d = result.diagnostics;
   const EmbedResult& r = weakest.result;
   // Bits the carrier can hold: the largest nb' with a healthy check.
-  auto fewer_bits = [&] {
-    for (int k = nb - 1; k >= 1; k = k > 16 ? k - k / 8 : k - 1)
-      if (embedder.check(k).status == CarrierHealth::Healthy)
-        return fmt::format("{} bits or fewer give every bin enough positions", k);
-    return std::string("no payload length gives every bin enough positions");
+  // And whether the weakest mark of that many bits (the payload's first ones) fits the limits:
+  // fewer bits have wider bins, whose vertices move farther for the same strength.
+  auto fewer_bits = [&]() -> std::string {
+    int k = nb - 1;
+    while (k >= 1 && embedder.check(k).status != CarrierHealth::Healthy)
+      k = k > 16 ? k - k / 8 : k - 1;
+    if (k < 1) return "no payload length gives every bin enough positions";
+    Payload prefix;
+    prefix.bits.assign(payload.bits.begin(), payload.bits.begin() + k);
+    EmbedOptions e = eo;
+    e.strength = o.min_strength;
+    e.bin_offset = o.bin_offset == BinOffsetRule::Fixed ? eo.bin_offset
+                                                        : std::min(eo.bin_offset, o.min_strength);
+    e.strengths.clear();
+    const EmbedResult w = embedder.embed(prefix, e);
+    const std::string healthy = fmt::format("{} bits give every bin enough positions", k);
+    if (w.status != EmbedStatus::Embedded)
+      return fmt::format("{}, but do not embed either: {}", healthy, w.message);
+    const double m = w.rms_percent <= o.max_rms_percent
+                         ? MsdmReference(embedder.V(), embedder.F()).compare(w.V).global
+                         : -1;
+    if (m >= 0 && m <= o.max_msdm)
+      return fmt::format("{} and fit the limits at strength {}", healthy, o.min_strength);
+    return fmt::format(
+        "{}, but not the limits: their wider bins cost more, RMS {:.5f} %{} at strength {}",
+        healthy, w.rms_percent, m >= 0 ? fmt::format(" and MSDM {:.4f}", m) : "", o.min_strength);
   };
   auto other_centers = [&] {
     std::vector<std::string> ok;
@@ -127,8 +148,12 @@ void explain(const PreparedEmbedder& embedder, const Payload& payload, const Emb
     d.push_back("the mesh cannot carry the payload: " + r.message);
     d.push_back(per_bin);
   } else if (r.status == EmbedStatus::Infeasible) {
-    result.cause = CalibrateCause::Infeasible;
-    d.push_back(fmt::format("even strength {}: {}", weakest.alpha, r.message));
+    // Empty bins are the carrier's fault, not the strength's: no vertex to move.
+    result.cause = check.empty_bins > 0 ? CalibrateCause::Carrier : CalibrateCause::Infeasible;
+    d.push_back(fmt::format(
+        "{}even strength {}: {}",
+        check.empty_bins > 0 ? fmt::format("{} of {} bins are empty; ", check.empty_bins, nb) : "",
+        weakest.alpha, r.message));
     for (const std::string& line : check.diagnostics) d.push_back(line);
     d.push_back(per_bin);
   } else if (r.status == EmbedStatus::NotConverged) {

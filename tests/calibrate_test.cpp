@@ -187,16 +187,46 @@ TEST(Calibrate, ACarrierTooSmallForThePayloadIsNamedWithFewerBitsThatFit) {
   EXPECT_EQ(r.evaluations, 1) << "nothing to search when the carrier cannot hold the bits";
   bool fewer = false;
   for (const std::string& line : r.diagnostics)
-    fewer |= line.find("bits or fewer") != std::string::npos;
+    fewer |= line.find("bits give every bin enough positions") != std::string::npos;
   EXPECT_TRUE(fewer) << r.message;
   // The number suggested is right: that many bits pass the carrier check, one more does not
   // (or the suggestion is the largest that does).
   for (const std::string& line : r.diagnostics) {
-    const auto at = line.find(" bits or fewer");
+    const auto at = line.find(" bits give every bin enough positions");
     if (at == std::string::npos) continue;
     const int k = std::stoi(line.substr(line.rfind(' ', at - 1) + 1));
     EXPECT_EQ(check_carrier(mesh.V, mesh.F, k).status, CarrierHealth::Healthy) << k;
   }
+}
+
+TEST(Calibrate, EmptyBinsAreNamedAsTheCarriersAndFewerBitsSuggested) {
+  // featuretype.STL (a CAD part, 2,010 positions): 3 of its 64 bins are empty at 64 bits.
+  const std::string path = test::shared_mesh("featuretype.STL");
+  MESHMARK_REQUIRE(path, "featuretype.STL");
+  const Mesh mesh = read_mesh(path);
+  const CarrierCheck check = check_carrier(mesh.V, mesh.F, 64);
+  ASSERT_GT(check.empty_bins, 0) << "the premise: some bin is empty";
+  const CalibrateResult r = calibrate_strength(mesh.V, mesh.F, calibration_payload(64, 2), {});
+  ASSERT_EQ(r.status, CalibrateStatus::BelowMinimum);
+  EXPECT_EQ(r.cause, CalibrateCause::Carrier);
+  EXPECT_NE(r.diagnostics.front().find("bins are empty"), std::string::npos) << r.message;
+  bool fewer = false;
+  for (const std::string& line : r.diagnostics) {
+    const auto at = line.find(" bits give every bin enough positions");
+    if (at == std::string::npos) continue;
+    fewer = true;
+    const int k = std::stoi(line.substr(line.rfind(' ', at - 1) + 1));
+    EXPECT_EQ(check_carrier(mesh.V, mesh.F, k).empty_bins, 0) << k;
+    // What it says of the limits holds: calibrating that many bits (the same payload's first
+    // ones) fits them, or does not, as said.
+    Payload prefix = calibration_payload(64, 2);
+    prefix.bits.resize(static_cast<std::size_t>(k));
+    const CalibrateResult fewer_result = calibrate_strength(mesh.V, mesh.F, prefix, {});
+    const bool said_fits = line.find("and fit the limits") != std::string::npos;
+    EXPECT_EQ(fewer_result.status != CalibrateStatus::BelowMinimum, said_fits)
+        << line << " | " << fewer_result.message;
+  }
+  EXPECT_TRUE(fewer) << r.message;
 }
 
 }  // namespace
