@@ -42,6 +42,10 @@ struct InputOptions {
   double weld_tolerance = 0;
 };
 
+/// Adds --method to a subcommand: the embedding method (method.h), parsed by parse_method.
+/// purpose: what the method is for in this command ("the embedding's method").
+void add_method_option(CLI::App& app, std::string& method, const std::string& purpose);
+
 /// Adds --weld-tolerance to a subcommand.
 void add_input_options(CLI::App& app, InputOptions& options);
 
@@ -78,11 +82,12 @@ void write_output(const std::string& path, const std::string& input_path, const 
                   const OutputOptions& options);
 
 /// Writes a watermarked mesh only if the bytes carry bins (every bit right, margins at least
-/// half the strength): write_marked_mesh; refuses to write over the input file.
+/// half the strength, read with the embedding's center and method): write_marked_mesh;
+/// refuses to write over the input file.
 WrittenCheck write_marked_output(const std::string& path, const std::string& input_path,
                                  const Mesh& mesh, const OutputOptions& options,
-                                 const InputOptions& input, const Payload& bins, CenterKind center,
-                                 double strength);
+                                 const InputOptions& input, const Payload& bins,
+                                 const EmbedOptions& embedding);
 
 /// Largest --bits any command takes (a payload needs at least one vertex per bin).
 inline constexpr int kMaxBits = 4096;

@@ -249,8 +249,7 @@ int run_batch(const std::string& manifest, const BatchSettings& settings) {
         Mesh out = it->second->mesh;
         out.V = r.V;
         const WrittenCheck written =
-            write_marked_output(job.output, job.input, out, out_options, in_options, payload,
-                                options.variant.center, o.strength);
+            write_marked_output(job.output, job.input, out, out_options, in_options, payload, o);
         if (!written.carried) throw Error(written.message);
         job.ok = true;
         job.outcome = fmt::format("{} rounds, RMS {:.5f} %{}, {:.1f} ms", r.rounds, r.rms_percent,

@@ -24,7 +24,7 @@ namespace fs = std::filesystem;
 namespace {
 
 struct CalibrateArgs {
-  std::string input, variant = "DRS", cache, bin_offset_rule = "at-most-strength";
+  std::string input, variant = "DRS", cache, bin_offset_rule = "at-most-strength", method = "qp";
   double bin_offset = 0.05;
   int bits = 64;
   CalibrateOptions options;
@@ -56,14 +56,15 @@ std::string file_hash(const std::string& path) {
 
 int run(const CalibrateArgs& a) {
   const Variant variant = parse_variant(a.variant);
+  const Method method = parse_method(a.method);
   CalibrateOptions options = a.options;
   options.bin_offset =
       a.bin_offset_rule == "fixed" ? BinOffsetRule::Fixed : BinOffsetRule::AtMostStrength;
-  const std::string key =
-      fmt::format("{}|{}|{}|rms {}|msdm {}|range {} {}|steps {}|precision {}|G {} {}|v2",
-                  file_hash(a.input), variant.name(), a.bits, options.max_rms_percent,
-                  options.max_msdm, options.min_strength, options.max_strength, options.iterations,
-                  options.precision, a.bin_offset, bin_offset_rule_name(options.bin_offset));
+  const std::string key = fmt::format(
+      "{}|{}|{}|rms {}|msdm {}|range {} {}|steps {}|precision {}|G {} {}|{}|v2", file_hash(a.input),
+      variant.name(), a.bits, options.max_rms_percent, options.max_msdm, options.min_strength,
+      options.max_strength, options.iterations, options.precision, a.bin_offset,
+      bin_offset_rule_name(options.bin_offset), method_name(method));
   const std::string cache = a.cache.empty() ? default_cache() : a.cache;
   nlohmann::json found;
   if (!a.no_cache && fs::exists(cache)) {
@@ -81,11 +82,13 @@ int run(const CalibrateArgs& a) {
     const Mesh mesh = read_input(a.input, a.in);
     EmbedOptions eo;
     eo.variant = variant;
+    eo.method = method;
     eo.bin_offset = a.bin_offset;
     const CalibrateResult r =
         calibrate_strength(mesh.V, mesh.F, calibration_payload(a.bits, 1), eo, options);
     found = {{"key", key},
              {"input", a.input},
+             {"method", method_name(method)},
              {"variant", variant.name()},
              {"bits", a.bits},
              {"status", calibrate_status_name(r.status)},
@@ -137,6 +140,7 @@ void register_calibrate(CLI::App& app, int& exit_code) {
       "calibrate", "The largest strength whose distortion stays within RMS and MSDM limits");
   sub->add_option("IN", args->input, "mesh to calibrate on")->required();
   sub->add_option("--variant", args->variant, "variant (default DRS)");
+  add_method_option(*sub, args->method, "who moves the vertices");
   sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, kMaxBits));
   sub->add_option("--max-rms", args->options.max_rms_percent,
                   "vertex RMS limit, % of the bounding-box diagonal (default 0.04)")

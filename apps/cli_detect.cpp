@@ -17,7 +17,7 @@ namespace meshmark::cli {
 namespace {
 
 struct DetectArgs {
-  std::string input, expect_id, expect_payload, variant = "DRS";
+  std::string input, expect_id, expect_payload, variant = "DRS", method = "qp";
   int bits = 64;
   double threshold = 1e-6;
   KeyArgs keys;
@@ -49,6 +49,7 @@ int run(const DetectArgs& a) {
   ExtractOptions eo;
   eo.bits = a.bits;
   eo.center = parse_variant(a.variant).center;
+  eo.method = parse_method(a.method);
   const Mesh mesh = read_input(a.input, a.in);
   const ExtractResult r = extract(mesh.V, mesh.F, eo);
   report_carrier(a.input, r.check);
@@ -106,6 +107,7 @@ void register_detect(CLI::App& app, int& exit_code) {
                   "expected raw payload (embed --payload), hexadecimal");
   sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, kMaxBits));
   sub->add_option("--variant", args->variant, "the embedding's variant (its center matters)");
+  add_method_option(*sub, args->method, "the embedding's method (its bin statistic is read)");
   sub->add_option("--threshold", args->threshold,
                   "declare the mark present below this false-alarm probability")
       ->check(CLI::Range(1e-300, 0.5));

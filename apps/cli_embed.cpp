@@ -18,6 +18,7 @@ namespace {
 struct EmbedArgs {
   std::string input, output, payload, id, variant = "DRS", solver = "native", batch;
   std::string x_step = "cg", registry, buyer, fidelity, bin_offset_rule = "at-most-strength";
+  std::string method = "qp";
   double max_rms = 0, max_msdm = 0;  // 0: not given
   KeyArgs keys;
   int bits = 64;
@@ -52,6 +53,7 @@ int run(const EmbedArgs& a, bool strength_given) {
   EmbedOptions options = a.embed;
   const std::optional<CalibrateOptions> limits = fidelity_limits(a, strength_given);
   options.variant = parse_variant(a.variant);
+  options.method = parse_method(a.method);
   options.backend = a.solver == "ipopt" ? SolverBackend::Ipopt : SolverBackend::Native;
   options.admm.x_step =
       a.x_step == "cholesky" ? AdmmXStep::Cholesky : AdmmXStep::ConjugateGradients;
@@ -142,8 +144,8 @@ int run(const EmbedArgs& a, bool strength_given) {
     status = "not within the fidelity limits";
   if (r.status == EmbedStatus::Embedded) {
     mesh.V = r.V;
-    const WrittenCheck written = write_marked_output(a.output, a.input, mesh, a.out, a.in, bins,
-                                                     options.variant.center, options.strength);
+    const WrittenCheck written =
+        write_marked_output(a.output, a.input, mesh, a.out, a.in, bins, options);
     if (!written.carried) r.status = EmbedStatus::NotConverged, r.message = written.message;
     if (!written.carried) status = "not carried by the file";
     if (written.carried && registry) record_copies(*registry, {copy}, {a.output});
@@ -155,6 +157,7 @@ int run(const EmbedArgs& a, bool strength_given) {
         {"message", r.message},
         {"input", a.input},
         {"output", ok ? a.output : ""},
+        {"method", method_name(options.method)},
         {"variant", a.variant},
         {"solver", a.solver},
         {"payload", payload_to_hex(payload)},
@@ -199,12 +202,19 @@ int run(const EmbedArgs& a, bool strength_given) {
     fmt::print("{}: {}\n", ok ? "embedded" : "NOT embedded", r.message);
     if (coded)
       fmt::print("  ID               {} ({} bits, coded)\n", parse_id(a.id), a.keys.id_bits);
-    fmt::print("  payload          {} ({} bits, {}, variant {}, strength {}, bin offset {})\n",
+    fmt::print("  payload          {} ({} bits, {}, {} {}, strength {}{})\n",
                payload_to_hex(payload), a.bits,
-               key ? "keyed layout" : (coded ? "public whitening" : "canonical layout"), a.variant,
-               options.strength, options.bin_offset);
-    fmt::print("  rounds           {} ({} solver iterations, KKT residual {:.2e})\n", r.rounds,
-               r.solver_iterations, r.kkt_residual);
+               key ? "keyed layout" : (coded ? "public whitening" : "canonical layout"),
+               options.method == Method::Qp ? "variant" : method_name(options.method), a.variant,
+               options.strength,
+               options.method == Method::Qp ? fmt::format(", bin offset {}", options.bin_offset)
+                                            : std::string());
+    if (options.method == Method::Qp)
+      fmt::print("  rounds           {} ({} solver iterations, KKT residual {:.2e})\n", r.rounds,
+                 r.solver_iterations, r.kkt_residual);
+    else
+      fmt::print("  rounds           {} ({} evaluations of the exponent search)\n", r.rounds,
+                 r.solver_iterations);
     fmt::print("  smallest margin  {:.6f} (target {})\n", r.min_margin, options.strength);
     fmt::print("  RMS displacement {:.6f} % of the bounding-box diagonal\n", r.rms_percent);
     if (calibration)
@@ -245,6 +255,7 @@ void register_embed(CLI::App& app, int& exit_code) {
                   "buyer ID to embed with error correction and an integrity check (decimal or "
                   "0x hex; --id-bits long)");
   sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, kMaxBits));
+  add_method_option(*sub, args->method, "who moves the vertices");
   sub->add_option("--variant", args->variant,
                   "center (D S V), direction (R N S), cost (S Q L); default DRS");
   sub->add_option("--lambda", args->embed.lambda,

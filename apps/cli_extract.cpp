@@ -15,7 +15,7 @@ namespace meshmark::cli {
 namespace {
 
 struct ExtractArgs {
-  std::string input, expect, variant = "DRS";
+  std::string input, expect, variant = "DRS", method = "qp";
   int bits = 64;
   InputOptions in;
   KeyArgs keys;
@@ -28,6 +28,7 @@ int run(const ExtractArgs& a) {
   ExtractOptions options;
   options.bits = a.bits;
   options.center = parse_variant(a.variant).center;
+  options.method = parse_method(a.method);
   std::optional<Payload> expected;
   if (!a.expect.empty()) expected = payload_from_hex(a.expect, a.bits);
   const std::optional<Key> key = resolve_key(a.keys);
@@ -64,9 +65,13 @@ int run(const ExtractArgs& a) {
            {"margin", margins[j]},
            {"vertices", r.counts[bin]}});
     }
-    nlohmann::json j = {{"input", a.input},       {"payload", hex},
-                        {"bits", a.bits},         {"keyed", key.has_value()},
-                        {"erasures", r.erasures}, {"min_margin", r.min_margin()},
+    nlohmann::json j = {{"input", a.input},
+                        {"payload", hex},
+                        {"bits", a.bits},
+                        {"keyed", key.has_value()},
+                        {"method", method_name(options.method)},
+                        {"erasures", r.erasures},
+                        {"min_margin", r.min_margin()},
                         {"per_bit", per_bit}};
     j["carrier"] = {{"status", carrier_health_name(r.check.status)},
                     {"positions", r.check.positions},
@@ -126,6 +131,7 @@ void register_extract(CLI::App& app, int& exit_code) {
   sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, kMaxBits));
   sub->add_option("--variant", args->variant,
                   "the embedding's variant (its center letter matters)");
+  add_method_option(*sub, args->method, "the embedding's method (its bin statistic is read)");
   sub->add_option("--expect", args->expect, "expected payload (hex): report the bit error rate");
   sub->add_flag("--json", args->json, "print a JSON report");
   sub->add_flag("--coded", args->coded,

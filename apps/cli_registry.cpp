@@ -33,6 +33,7 @@ IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::
   c.strength_spread = strength_spread;
   c.bin_offset = options.bin_offset;
   c.key_fingerprint = key_fingerprint(key);
+  c.method = method_name(options.method);
   return c;
 }
 
@@ -84,7 +85,8 @@ nlohmann::json to_json(const IssuedCopy& c) {
           {"mark_format", c.mark_format},
           {"issued_at", c.issued_at},
           {"output_path", c.output_path},
-          {"output_hash", c.output_hash}};
+          {"output_hash", c.output_hash},
+          {"method", c.method}};
 }
 
 // A CSV field: quoted when it holds a comma, a quote or a line break.
@@ -129,19 +131,20 @@ int run_list(const RegistryArgs& a) {
     fmt::print(
         "row,original_hash,original_path,buyer,id,id_bits,bits,variant,strength,"
         "strength_spread,bin_offset,key_fingerprint,mark_format,issued_at,output_path,"
-        "output_hash\n");
+        "output_hash,method\n");
     for (const IssuedCopy& c : copies)
-      fmt::print("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.row, c.original_hash,
+      fmt::print("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.row, c.original_hash,
                  csv(c.original_path), csv(c.buyer), c.id, c.id_bits, c.bits, c.variant, c.strength,
                  c.strength_spread, c.bin_offset, c.key_fingerprint, c.mark_format, c.issued_at,
-                 csv(c.output_path), c.output_hash);
+                 csv(c.output_path), c.output_hash, c.method);
   } else {
-    fmt::print("{:>6}  {:>10}  {:<20}  {:<20}  {:<7}  {:<8}  {}\n", "row", "id", "buyer",
-               "issued (UTC)", "variant", "key", "copy");
+    fmt::print("{:>6}  {:>10}  {:<20}  {:<20}  {:<14}  {:<8}  {}\n", "row", "id", "buyer",
+               "issued (UTC)", "method", "key", "copy");
     for (const IssuedCopy& c : copies)
-      fmt::print("{:>6}  {:>10}  {:<20}  {:<20}  {:<7}  {:<8}  {}\n", c.row, c.id,
-                 printable(c.buyer), c.issued_at, c.variant, c.key_fingerprint.substr(0, 8),
-                 printable(c.output_path));
+      fmt::print("{:>6}  {:>10}  {:<20}  {:<20}  {:<14}  {:<8}  {}\n", c.row, c.id,
+                 printable(c.buyer), c.issued_at,
+                 c.method == "qp" ? c.variant : c.method + "/" + c.variant.substr(0, 1),
+                 c.key_fingerprint.substr(0, 8), printable(c.output_path));
     fmt::print("{} cop{}\n", copies.size(), copies.size() == 1 ? "y" : "ies");
   }
   return kOk;

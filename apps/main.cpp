@@ -13,6 +13,14 @@
 
 namespace meshmark::cli {
 
+void add_method_option(CLI::App& app, std::string& method, const std::string& purpose) {
+  app.add_option("--method", method,
+                 purpose +
+                     ": qp (the QP framework, default), cho-mean or cho-variance (Cho et al. "
+                     "2007's Method I or II, baselines: docs/cho.md)")
+      ->check(CLI::IsMember({"qp", "cho-mean", "cho-variance"}, CLI::ignore_case));
+}
+
 void add_input_options(CLI::App& app, InputOptions& options) {
   const CLI::Validator distance(
       [](const std::string& text) -> std::string {
@@ -111,14 +119,16 @@ void write_output(const std::string& path, const std::string& input_path, const 
 
 WrittenCheck write_marked_output(const std::string& path, const std::string& input_path,
                                  const Mesh& mesh, const OutputOptions& options,
-                                 const InputOptions& input, const Payload& bins, CenterKind center,
-                                 double strength) {
+                                 const InputOptions& input, const Payload& bins,
+                                 const EmbedOptions& embedding) {
   refuse_overwrite(path, {input_path});
   ReadOptions ro;
   ro.weld_tolerance = input.weld_tolerance;
   ExtractOptions eo;
-  eo.center = center;
-  return write_marked_mesh(path, mesh, write_options(options), ro, bins, eo, 0.5 * strength);
+  eo.center = embedding.variant.center;
+  eo.method = embedding.method;
+  return write_marked_mesh(path, mesh, write_options(options), ro, bins, eo,
+                           0.5 * embedding.strength);
 }
 
 }  // namespace meshmark::cli

@@ -265,7 +265,7 @@ CampaignConfig load_campaign(const std::string& path) {
     for (const json& v : j["variants"]) {
       const std::string name = v.get<std::string>();
       try {
-        c.variants.push_back(parse_variant(name).name());
+        c.variants.push_back(parse_scheme(name).name());
       } catch (const InvalidArgumentError& e) {
         bad(path, fmt::format("variant \"{}\": {}", name, e.what()));
       }
@@ -343,6 +343,14 @@ std::string trial_key(const std::string& model, const std::string& variant, int 
                      draw, colluders == 2 ? "|avg2" : "", protocol.empty() ? "" : "|" + protocol);
 }
 
+EmbedOptions detail::scheme_options(const std::string& scheme) {
+  const MarkScheme s = parse_scheme(scheme);
+  EmbedOptions eo;
+  eo.method = s.method;
+  eo.variant = s.variant;
+  return eo;
+}
+
 CalibrationRecord calibrate_for_campaign(const CampaignConfig& c, int model, int variant,
                                          const Mesh& mesh, int protocol) {
   CalibrationRecord r;
@@ -354,8 +362,7 @@ CalibrationRecord calibrate_for_campaign(const CampaignConfig& c, int model, int
     r.strength = c.strength;
     return r;
   }
-  EmbedOptions eo;
-  eo.variant = parse_variant(r.variant);
+  EmbedOptions eo = detail::scheme_options(r.variant);
   const CalibrateResult k = calibrate_strength(mesh.V, mesh.F, calibration_payload(c.bits, c.seed),
                                                eo, c.protocols[protocol].calibration);
   r.bin_offset = k.bin_offset;
@@ -412,8 +419,7 @@ void run_campaign_unit(const CampaignConfig& c, const CampaignUnit& u, const Mes
     if (!done(t.key)) todo.push_back(std::move(t));
   if (todo.empty()) return;
   const Payload payload = campaign_payload(c, u.payload);
-  EmbedOptions eo;
-  eo.variant = parse_variant(variant);
+  EmbedOptions eo = detail::scheme_options(variant);
   TrialRow base;
   base.model = model;
   base.variant = variant;
@@ -442,6 +448,7 @@ void run_campaign_unit(const CampaignConfig& c, const CampaignUnit& u, const Mes
   ExtractOptions xo;
   xo.bits = c.bits;
   xo.center = eo.variant.center;
+  xo.method = eo.method;
   // A simplification series runs once for all its strengths (attack_simplify_levels gives
   // each what its own run would): its levels, and the time each one is charged (an equal share).
   std::map<const AttackSeries*, std::map<double, Mesh>> levels;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "meshmark/campaign.h"
+#include "meshmark/embed.h"
 
 namespace meshmark::detail {
 
@@ -56,5 +57,8 @@ std::string published_comparison(const CampaignConfig& config,
 std::string write_trace_report(const std::string& dir, const CampaignConfig& config,
                                const std::vector<CalibrationRecord>& calibrations,
                                const std::vector<TrialRow>& rows, double wall_seconds);
+
+/// The embedding options of a campaign's scheme name (a variant, or a Cho method: MarkScheme).
+EmbedOptions scheme_options(const std::string& scheme);
 
 }  // namespace meshmark::detail

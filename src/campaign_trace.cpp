@@ -78,7 +78,9 @@ std::vector<IssuedCopy> campaign_copies(const CampaignConfig& c, const std::stri
     copy.buyer = fmt::format("buyer {}", copy.id);
     copy.original_path = model;
     copy.bits = c.bits;
-    copy.variant = variant;
+    const MarkScheme scheme = parse_scheme(variant);
+    copy.variant = scheme.variant.name();
+    copy.method = method_name(scheme.method);
     copy.strength = strength;
     copy.bin_offset = bin_offset;
     copy.strength_spread = c.spread;
@@ -101,7 +103,7 @@ std::vector<std::uint64_t> unit_leakers(const CampaignConfig& c, int payload) {
 
 // Traces and decodes blind one attacked mesh, filling the row's outcomes.
 void judge(const Mesh& attacked, const Mesh& original, const std::vector<IssuedCopy>& copies,
-           const Key& key, const CampaignConfig& c, CenterKind center,
+           const Key& key, const CampaignConfig& c, const EmbedOptions& scheme,
            const std::vector<std::uint64_t>& leakers, TrialRow& row) {
   const IdCode code(IdCodeOptions{c.bits});
   auto t0 = Clock::now();
@@ -114,8 +116,10 @@ void judge(const Mesh& attacked, const Mesh& original, const std::vector<IssuedC
   row.trace_named = joined(named);
   row.trace_p = t.ranking.empty() ? 1.0 : t.ranking.front().corrected_p;
   t0 = Clock::now();
-  const IdReading blind =
-      read_id(attacked.V, attacked.F, ExtractOptions{c.bits, center}, code, key);
+  const IdReading blind = read_id(
+      attacked.V, attacked.F,
+      ExtractOptions{.bits = c.bits, .center = scheme.variant.center, .method = scheme.method},
+      code, key);
   row.extract_seconds = since(t0);
   row.blind_outcome = trace_outcome_name(trace_outcome(
       blind.id.valid ? std::vector{blind.id.id} : std::vector<std::uint64_t>{}, leakers));
@@ -146,8 +150,7 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
 
   // The leaker's copy (and the colluder's, when an averaged trial is to run), keyed and coded
   // as `meshmark embed --id` makes them.
-  EmbedOptions eo;
-  eo.variant = parse_variant(variant);
+  EmbedOptions eo = scheme_options(variant);
   eo.strength = record.strength;
   eo.bin_offset = record.bin_offset;
   TrialRow base;
@@ -195,7 +198,7 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
         const Mesh attacked = attack_for_trial(c, t, t.colluders == 2 ? average : marked[0]);
         row.attack_seconds = since(t0);
         row.vertices = static_cast<int>(attacked.V.rows());
-        judge(attacked, mesh, copies, key, c, eo.variant.center, leakers, row);
+        judge(attacked, mesh, copies, key, c, eo, leakers, row);
       } catch (const Error& e) {
         row.status = fmt::format("attack or trace failed: {}", e.what());
       }

@@ -23,14 +23,15 @@ double ExtractResult::min_margin() const {
   return *std::min_element(margins.begin(), margins.end());
 }
 
-void bin_means(const Histogram& h, std::vector<double>& means, std::vector<int>& counts) {
+void bin_means(const Histogram& h, std::vector<double>& means, std::vector<int>& counts,
+               BinStatistic statistic) {
   const int nb = h.bins - 2;
   std::vector<double> sums(static_cast<std::size_t>(nb), 0.0);
   counts.assign(static_cast<std::size_t>(nb), 0);
   for (std::size_t i = 0; i < h.bin.size(); ++i) {
     const int j = h.bin[i] - 1;
     if (j < 0 || j >= nb) continue;
-    sums[j] += h.t(static_cast<Eigen::Index>(i));
+    sums[j] += bin_score_term(statistic, h.t(static_cast<Eigen::Index>(i)));
     counts[j] += 1;
   }
   means.resize(static_cast<std::size_t>(nb));
@@ -87,7 +88,7 @@ ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
     r.erasures = options.bits;
     return r;
   }
-  bin_means(r.histogram, r.means, r.counts);
+  bin_means(r.histogram, r.means, r.counts, bin_statistic(options.method));
   r.bits.resize(nb);
   r.margins.resize(nb);
   for (std::size_t j = 0; j < nb; ++j) {

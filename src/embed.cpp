@@ -33,6 +33,14 @@ void check_options(const Payload& payload, const EmbedOptions& o) {
   if (!(o.lambda >= 0 && o.lambda <= 1))
     throw InvalidArgumentError(fmt::format("lambda {} is outside [0, 1]", o.lambda));
   if (o.max_rounds < 1) throw InvalidArgumentError("max_rounds must be at least 1");
+  if (o.method != Method::Qp &&
+      (o.variant.direction != DirectionKind::Radial || o.variant.cost != CostKind::Squared))
+    throw InvalidArgumentError(fmt::format(
+        "method {} moves vertices radially and has no cost to weigh: its variant is DRS, SRS "
+        "or VRS (the center's letter), not {}",
+        method_name(o.method), o.variant.name()));
+  if (o.method != Method::Qp && !(o.cho.tolerance > 0 && o.cho.max_iterations >= 1))
+    throw InvalidArgumentError("Cho's exponent search needs a positive tolerance and iterations");
 }
 
 // Signed margins m_j (tbar_j - 1/2) of the payload's bits in a histogram (-1/2 when empty).
@@ -46,8 +54,10 @@ std::vector<double> signed_margins(const Histogram& h, const Payload& payload) {
   return margins;
 }
 
-void measure(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referenced,
-             EmbedResult& res) {
+}  // namespace
+
+void detail::measure_displacement(const Eigen::MatrixX3d& V,
+                                  const std::vector<std::uint8_t>& referenced, EmbedResult& res) {
   double sum = 0, n = 0;
   res.squared_displacement = 0;
   for (Eigen::Index i = 0; i < V.rows(); ++i) {
@@ -59,6 +69,8 @@ void measure(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referen
   const double diag = bounding_box_diagonal(V, referenced);
   res.rms_percent = diag > 0 ? 100.0 * res.rms_displacement / diag : 0;
 }
+
+namespace {
 
 // Everything that depends on the mesh and the variant only: groups, adjacency (L), the
 // roughness field (S), the center.
@@ -159,6 +171,7 @@ EmbedResult PreparedEmbedder::embed(const Payload& payload, const EmbedOptions& 
   auto elapsed = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   };
+  if (options.method != Method::Qp) return detail::embed_cho(V, ctx, payload, options);
   EmbedResult res;
   res.V = V;
   res.check = check(payload.size());
@@ -240,7 +253,7 @@ EmbedResult PreparedEmbedder::embed(const Payload& payload, const EmbedOptions& 
       break;
     }
   }
-  measure(V, ctx.referenced, res);
+  detail::measure_displacement(V, ctx.referenced, res);
   res.message = res.status == EmbedStatus::Embedded
                     ? fmt::format("{} bits embedded with {} in {} round(s)", payload.size(),
                                   options.variant.name(), res.rounds)

@@ -57,6 +57,15 @@ struct EmbedContext {
   Eigen::Vector3d original_center = Eigen::Vector3d::Zero();
 };
 
+/// Fills res's displacement fields (squared_displacement, rms_displacement, rms_percent) from
+/// res.V against V; referenced: the carrier mask (each position counted once).
+void measure_displacement(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referenced,
+                          EmbedResult& res);
+
+/// Embeds payload with Cho et al.'s method options.method (cho.h) on the prepared context.
+EmbedResult embed_cho(const Eigen::MatrixX3d& V, const EmbedContext& ctx, const Payload& payload,
+                      const EmbedOptions& options);
+
 /// One round's problem.
 struct RoundProblem {
   Histogram hist;

@@ -64,7 +64,7 @@ bool same_copy(const IssuedCopy& recorded, const IssuedCopy& wanted) {
          recorded.strength == wanted.strength &&
          recorded.strength_spread == wanted.strength_spread &&
          recorded.bin_offset == wanted.bin_offset && recorded.mark_format == wanted.mark_format &&
-         recorded.output_path == wanted.output_path;
+         recorded.method == wanted.method && recorded.output_path == wanted.output_path;
 }
 
 struct Registry::Impl {

@@ -39,7 +39,7 @@ std::unique_ptr<RegistryBackend> open_postgres_registry(const std::string& uri);
 inline constexpr const char* kRegistryColumns =
     "original_hash, original_path, buyer, id, id_bits, bits, variant, strength, "
     "strength_spread, bin_offset, key_fingerprint, mark_format, issued_at, output_path, "
-    "output_hash";
+    "output_hash, method";
 
 /// The statements that create schema version 1's table and index, in SQLite's or
 /// PostgreSQL's types.
@@ -72,5 +72,10 @@ inline std::string registry_schema_v1(bool postgres) {
   sql += "CREATE INDEX copies_by_buyer ON copies (buyer);\n";
   return sql;
 }
+
+/// The statements that take schema version 1's table to version 2 (the method column; earlier
+/// copies were all marked by the QP framework).
+inline constexpr const char* kRegistryMigrationV2 =
+    "ALTER TABLE copies ADD COLUMN method TEXT NOT NULL DEFAULT 'qp'";
 
 }  // namespace meshmark::detail

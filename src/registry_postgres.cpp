@@ -47,6 +47,7 @@ class Result {
     c.bin_offset = std::strtod(PQgetvalue(r_, row, 10), nullptr);
     c.key_fingerprint = text(row, 11);
     c.mark_format = std::atoi(PQgetvalue(r_, row, 12));
+    c.method = text(row, 16);
     c.issued_at = text(row, 13);
     c.output_path = text(row, 14);
     c.output_hash = text(row, 15);
@@ -80,7 +81,7 @@ class PostgresRegistry final : public RegistryBackend {
         if (!versioned) {
           run("CREATE TABLE meshmark_schema (version INTEGER NOT NULL)");
           run(registry_schema_v1(true));
-          run(fmt::format("INSERT INTO meshmark_schema VALUES ({})", kRegistrySchemaVersion));
+          run("INSERT INTO meshmark_schema VALUES (1)");
         }
         const int version = schema_version();
         if (version > kRegistrySchemaVersion)
@@ -88,7 +89,11 @@ class PostgresRegistry final : public RegistryBackend {
               "{}: the registry has schema version {}, newer than this meshmark's {}: use a "
               "newer meshmark",
               name_, version, kRegistrySchemaVersion));
-        // Migrations from version v to v + 1 go here, each in this transaction.
+        // Migrations from version v to v + 1, each in this transaction.
+        if (schema_version() == 1) {
+          run(kRegistryMigrationV2);
+          run("UPDATE meshmark_schema SET version = 2");
+        }
       });
     } catch (...) {
       PQfinish(conn_);
@@ -141,9 +146,10 @@ class PostgresRegistry final : public RegistryBackend {
                                         std::to_string(c.mark_format),
                                         c.issued_at,
                                         c.output_path,
-                                        c.output_hash};
+                                        c.output_hash,
+                                        c.method};
     const Result r = run(fmt::format("INSERT INTO copies ({}) VALUES ($1, $2, $3, $4, $5, $6, "
-                                     "$7, $8, $9, $10, $11, $12, $13, $14, $15) RETURNING row",
+                                     "$7, $8, $9, $10, $11, $12, $13, $14, $15, $16) RETURNING row",
                                      kRegistryColumns),
                          p);
     return std::strtoll(PQgetvalue(r.get(), 0, 0), nullptr, 10);

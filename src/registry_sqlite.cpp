@@ -53,6 +53,7 @@ class Statement {
     c.bin_offset = sqlite3_column_double(s_, 10);
     c.key_fingerprint = text(11);
     c.mark_format = sqlite3_column_int(s_, 12);
+    c.method = text(16);
     c.issued_at = text(13);
     c.output_path = text(14);
     c.output_hash = text(15);
@@ -92,9 +93,13 @@ class SqliteRegistry final : public RegistryBackend {
             throw IOError(
                 fmt::format("{}: an SQLite database that is not a meshmark registry", path));
           exec(registry_schema_v1(false).c_str());
-          exec(fmt::format("PRAGMA user_version = {}", kRegistrySchemaVersion).c_str());
+          exec("PRAGMA user_version = 1");
         }
-        // Migrations from version v to v + 1 go here, each in this transaction.
+        // Migrations from version v to v + 1, each in this transaction.
+        if (schema_version() == 1) {
+          exec(kRegistryMigrationV2);
+          exec("PRAGMA user_version = 2");
+        }
       });
     } catch (...) {
       sqlite3_close(db_);
@@ -140,7 +145,7 @@ class SqliteRegistry final : public RegistryBackend {
       insert_ = std::make_unique<Statement>(
           db_, path_,
           fmt::format("INSERT INTO copies ({}) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, "
-                      "?11, ?12, ?13, ?14, ?15)",
+                      "?11, ?12, ?13, ?14, ?15, ?16)",
                       kRegistryColumns));
     Statement& s = *insert_;
     sqlite3_reset(s.get());
@@ -159,6 +164,7 @@ class SqliteRegistry final : public RegistryBackend {
     s.bind(13, c.issued_at);
     s.bind(14, c.output_path);
     s.bind(15, c.output_hash);
+    s.bind(16, c.method);
     if (sqlite3_step(s.get()) != SQLITE_DONE) fail(db_, path_, "cannot record a copy");
     return sqlite3_last_insert_rowid(db_);
   }

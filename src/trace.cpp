@@ -16,6 +16,7 @@
 #include "meshmark/detect.h"
 #include "meshmark/error.h"
 #include "meshmark/histogram.h"
+#include "meshmark/method.h"
 #include "meshmark/variant.h"
 #include "meshmark/watermark.h"
 
@@ -91,7 +92,7 @@ double position(const BitEvidence& e) {
 std::vector<BitEvidence> read_bins(const Eigen::MatrixX3d& VO, const Eigen::VectorXd& reference,
                                    const std::vector<std::uint8_t>& carrier, const Histogram& h,
                                    const Resampled& m, const std::vector<double>& alpha,
-                                   double& gamma) {
+                                   BinStatistic statistic, double& gamma) {
   const int nb = h.bins - 2;
   std::vector<double> sum0(nb, 0), sum(nb, 0);
   std::vector<int> count(nb, 0);
@@ -101,8 +102,9 @@ std::vector<BitEvidence> read_bins(const Eigen::MatrixX3d& VO, const Eigen::Vect
     if (j < 0 || j >= nb) continue;
     const double rho = (m.point.row(i).transpose() - h.center).norm();
     // The reference: the original, or the original processed as the leak seems to have been.
-    sum0[j] += (reference(i) - h.rho_min) / h.step - h.bin[i];
-    sum[j] += (rho - h.rho_min) / h.step - h.bin[i];
+    // Each on the bins' score scale (method.h: t itself for the mean).
+    sum0[j] += bin_score_term(statistic, (reference(i) - h.rho_min) / h.step - h.bin[i]);
+    sum[j] += bin_score_term(statistic, (rho - h.rho_min) / h.step - h.bin[i]);
     ++count[j];
   }
   std::vector<double> shift(nb, 0), up(nb, 0), down(nb, 0);
@@ -302,11 +304,11 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
   const double diagonal = bounding_box_diagonal(original.V, carrier);
 
   // Groups of candidates read alike.
-  using GroupKey = std::tuple<char, int, int, double, double>;
+  using GroupKey = std::tuple<char, int, int, double, double, std::string>;
   std::map<GroupKey, std::vector<std::size_t>> groups;
   for (std::size_t k = 0; k < mine.size(); ++k)
     groups[{mine[k].variant.empty() ? 'D' : mine[k].variant[0], mine[k].bits, mine[k].id_bits,
-            mine[k].strength, mine[k].strength_spread}]
+            mine[k].strength, mine[k].strength_spread, mine[k].method}]
         .push_back(k);
   r.seconds.registration = since(t);
   Eigen::MatrixX3d reference = original.V;
@@ -314,7 +316,8 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
   r.processing = "none";
   bool first = true;
   for (const auto& [group, members] : groups) {
-    const auto& [letter, bits, id_bits, strength, spread] = group;
+    const auto& [letter, bits, id_bits, strength, spread, method] = group;
+    const BinStatistic statistic = bin_statistic(parse_method(method));
     const CenterKind kind = parse_variant(std::string(1, letter) + "RS").center;
     const Center center = center_of_mass(original.V, original.F, carrier, kind);
     const Histogram h = build_histogram(original.V, carrier, center.point, bits);
@@ -333,7 +336,7 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     const std::vector<double> alpha = mark_strengths(key, bits, true, strength, spread);
     const std::vector<BitEvidence> evidence =
         read_bins(original.V, radii(reference, original.V, normals, m, center.point), carrier, h, m,
-                  alpha, gamma);
+                  alpha, statistic, gamma);
     const BitLayout layout = mark_layout(key, bits, true);
     IdCodeOptions co;
     co.bits = bits;

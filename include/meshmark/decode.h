@@ -9,6 +9,7 @@
 
 #include "meshmark/carrier_check.h"
 #include "meshmark/histogram.h"
+#include "meshmark/method.h"
 #include "meshmark/payload.h"
 
 namespace meshmark {
@@ -22,6 +23,9 @@ struct ExtractOptions {
   /// few). 0 for the normal reading.
   int skip_nearest = 0;
   int skip_farthest = 0;  ///< see skip_nearest
+  /// The method the mark was written with: it decides the bin statistic read (method.h; QP
+  /// and Cho's Method I read the mean, Cho's Method II the variance).
+  Method method = Method::Qp;
 };
 
 /// Value of an erased bit (its bin is empty) in ExtractResult::bits.
@@ -30,12 +34,14 @@ inline constexpr std::uint8_t kErasure = 2;
 /// What extract read.
 struct ExtractResult {
   std::vector<std::uint8_t> bits;  ///< 0, 1, or kErasure for an empty bin
-  std::vector<double> means;       ///< tbar_j, mean position in bin j + 1 (NaN when empty)
-  std::vector<double> margins;     ///< |tbar_j - 1/2|, the bit's confidence (0 when erased)
-  std::vector<int> counts;         ///< distinct carrier positions in bin j + 1
-  int erasures = 0;                ///< number of empty bins
-  Center center;                   ///< the center the histogram was built around
-  Histogram histogram;             ///< the histogram itself
+  /// Bin j + 1's score (NaN when empty): the mean of bin_score_term over its positions
+  /// (method.h), i.e. tbar_j, the mean position, for the mean statistic; bit 1 above 1/2.
+  std::vector<double> means;
+  std::vector<double> margins;  ///< |score_j - 1/2|, the bit's confidence (0 when erased)
+  std::vector<int> counts;      ///< distinct carrier positions in bin j + 1
+  int erasures = 0;             ///< number of empty bins
+  Center center;                ///< the center the histogram was built around
+  Histogram histogram;          ///< the histogram itself
   /// Whether the carrier can carry nb bits (carrier_check.h): a warning (Weak) or an error
   /// (Unusable: collapsed, duplicated or far too coarse geometry) to report with the bits.
   CarrierCheck check;
@@ -52,7 +58,10 @@ struct ExtractResult {
 ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                       const ExtractOptions& options = {});
 
-/// Per-bin mean of t over bins 1..nb of a histogram: means[j], counts[j] for bin j + 1.
-void bin_means(const Histogram& h, std::vector<double>& means, std::vector<int>& counts);
+/// Per-bin score over bins 1..nb of a histogram: means[j], the mean of
+/// bin_score_term(statistic, t) (the mean of t for BinStatistic::Mean), and counts[j], for
+/// bin j + 1.
+void bin_means(const Histogram& h, std::vector<double>& means, std::vector<int>& counts,
+               BinStatistic statistic = BinStatistic::Mean);
 
 }  // namespace meshmark

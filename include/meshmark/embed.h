@@ -13,8 +13,10 @@
 
 #include "meshmark/admm_qp.h"
 #include "meshmark/carrier_check.h"
+#include "meshmark/cho.h"
 #include "meshmark/histogram.h"
 #include "meshmark/ipopt_qp.h"
+#include "meshmark/method.h"
 #include "meshmark/payload.h"
 #include "meshmark/roughness.h"
 #include "meshmark/separable_qp.h"
@@ -30,6 +32,11 @@ enum class SolverBackend {
 
 /// Options of embed. Units: strength and bin offset are fractions of a bin width.
 struct EmbedOptions {
+  /// Who moves the vertices (method.h): the QP framework, or Cho et al.'s Method I or II
+  /// (cho.h: radial moves around the variant's center; the variant must be ?RS, and
+  /// bin_offset, lambda, the solvers and the backend do not apply).
+  Method method = Method::Qp;
+  ChoSettings cho;         ///< Cho's methods: the exponent search's tolerance and bound
   Variant variant;         ///< center, direction and cost (default DRS)
   double lambda = 0.5;     ///< costs Q and L: weight of the squared error, in [0, 1]
   double strength = 0.05;  ///< alpha in (0, 1/2): each bin mean moves to 1/2 +- alpha
@@ -37,7 +44,9 @@ struct EmbedOptions {
   /// [strength, 1/2); empty: every bit gets `strength`. watermark.h draws keyed ones.
   std::vector<double> strengths;
   double bin_offset = 0.05;  ///< G in [0, 1/2): vertices stay inside [G, 1 - G] of their bin
-  int max_rounds = 10;       ///< linearize-and-solve rounds at most
+  /// Linearize-and-solve rounds at most (QP); for Cho's methods, mapping rounds at most, each
+  /// around the center and histogram of the previous one's result (1: Cho's single pass).
+  int max_rounds = 10;
   /// A bit "decodes with its margin" when m_j (tbar_j - 1/2) >= strength - margin_tolerance.
   double margin_tolerance = 1e-6;
   /// The center may move by at most this many bin widths.
@@ -83,7 +92,9 @@ struct EmbedResult {
   CarrierCheck check;
 };
 
-/// Embeds payload (nb = payload.size() bits) into V, F (#V x 3, #F x 3). Unreferenced
+/// Embeds payload (nb = payload.size() bits) into V, F (#V x 3, #F x 3) with options.method
+/// (the QP framework by default; Cho's mapping: cho.h, with the same status and fields, the
+/// solver's being the exponent search's: solver_iterations counts score evaluations). Unreferenced
 /// vertices do not move. Vertices at bit-identical positions (unwelded seams, split corners)
 /// share one unknown, so seams stay closed, and count once in the bin means, the center and the
 /// cost, as the decoder counts them (carrier_vertices): a mesh with split corners is marked as

@@ -22,7 +22,7 @@
 namespace meshmark {
 
 /// The schema version this build writes and reads.
-inline constexpr int kRegistrySchemaVersion = 1;
+inline constexpr int kRegistrySchemaVersion = 2;  ///< 2 adds the method
 
 /// One issued copy.
 struct IssuedCopy {
@@ -42,6 +42,9 @@ struct IssuedCopy {
   std::string issued_at;                 ///< UTC, ISO 8601 (filled by record() when empty)
   std::string output_path;               ///< where the copy was written
   std::string output_hash;               ///< content_hash of the copy's bytes
+  /// The embedding method (method_name: "qp", "cho-mean", "cho-variance"); copies recorded
+  /// by schema version 1 read "qp".
+  std::string method = "qp";
 };
 
 /// What list() selects (every given field must match).

@@ -1,0 +1,68 @@
+#include "meshmark/method.h"
+
+#include <algorithm>
+#include <cctype>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "meshmark/error.h"
+
+namespace meshmark {
+
+namespace {
+
+constexpr Method kMethods[] = {Method::Qp, Method::ChoMean, Method::ChoVariance};
+
+}  // namespace
+
+const char* method_name(Method method) {
+  switch (method) {
+    case Method::Qp:
+      return "qp";
+    case Method::ChoMean:
+      return "cho-mean";
+    case Method::ChoVariance:
+      return "cho-variance";
+  }
+  return "?";
+}
+
+Method parse_method(std::string_view name) {
+  std::string lower(name);
+  std::transform(lower.begin(), lower.end(), lower.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  for (const Method m : kMethods)
+    if (lower == method_name(m)) return m;
+  throw InvalidArgumentError(fmt::format(
+      "unknown method '{}': the methods are qp (the default), cho-mean and cho-variance", name));
+}
+
+std::string MarkScheme::name() const {
+  if (method == Method::Qp) return variant.name();
+  std::string out = method_name(method);
+  if (variant.center != CenterKind::Discrete) out += "/" + variant.name();
+  return out;
+}
+
+MarkScheme parse_scheme(std::string_view name) {
+  MarkScheme s;
+  const std::size_t slash = name.find('/');
+  const std::string_view head = name.substr(0, slash);
+  if (head.size() == 3 && slash == std::string_view::npos) {
+    s.variant = parse_variant(head);
+    return s;
+  }
+  s.method = parse_method(head);
+  if (s.method == Method::Qp && slash == std::string_view::npos) return s;
+  if (slash != std::string_view::npos) s.variant = parse_variant(name.substr(slash + 1));
+  if (s.method != Method::Qp &&
+      (s.variant.direction != DirectionKind::Radial || s.variant.cost != CostKind::Squared))
+    throw InvalidArgumentError(fmt::format(
+        "scheme '{}': Cho's methods move vertices radially with no cost: their variant is DRS, "
+        "SRS or VRS",
+        name));
+  return s;
+}
+
+}  // namespace meshmark
