@@ -201,6 +201,39 @@ TEST(Registry, RefusesNewerSchemasAndForeignDatabases) {
   EXPECT_THROW(Registry{dir + "/text.db"}, IOError);
 }
 
+TEST(Registry, ASchemaOneStoreIsMigratedAndItsCopiesReadAsQp) {
+  // A registry as schema version 1 wrote it (its statements written out here), with one copy.
+  const std::string path = test::scratch_dir() + "/v1.db";
+  std::filesystem::remove(path);
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  const char* v1 =
+      "CREATE TABLE copies (row INTEGER PRIMARY KEY, original_hash TEXT NOT NULL, original_path "
+      "TEXT NOT NULL, buyer TEXT NOT NULL, id INTEGER NOT NULL, id_bits INTEGER NOT NULL, bits "
+      "INTEGER NOT NULL, variant TEXT NOT NULL, strength REAL NOT NULL, strength_spread REAL NOT "
+      "NULL, bin_offset REAL NOT NULL, key_fingerprint TEXT NOT NULL, mark_format INTEGER NOT "
+      "NULL, issued_at TEXT NOT NULL, output_path TEXT NOT NULL, output_hash TEXT NOT NULL, "
+      "UNIQUE (original_hash, key_fingerprint, bits, id_bits, id));"
+      "CREATE INDEX copies_by_buyer ON copies (buyer);"
+      "INSERT INTO copies VALUES (1, 'h', '/o.obj', 'Ann', 7, 32, 64, 'DRS', 0.03, 0.25, 0.03, "
+      "'f', 2, '2026-01-01T00:00:00Z', '/c.obj', 'ch');"
+      "PRAGMA user_version = 1;";
+  ASSERT_EQ(sqlite3_exec(db, v1, nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(db);
+  Registry r(path);
+  EXPECT_EQ(r.schema_version(), 2);
+  std::vector<IssuedCopy> all = r.list();
+  ASSERT_EQ(all.size(), 1u);
+  EXPECT_EQ(all[0].buyer, "Ann");
+  EXPECT_EQ(all[0].method, "qp");
+  IssuedCopy cho = copy_of(8, "Bo");
+  cho.method = "cho-variance";
+  r.record({cho});
+  all = Registry(path).list();
+  ASSERT_EQ(all.size(), 2u);
+  EXPECT_EQ(all[1].method, "cho-variance");
+}
+
 TEST(Registry, KeyFingerprintsAndHashes) {
   const Key a = key_from_passphrase("a"), b = key_from_passphrase("b");
   EXPECT_EQ(key_fingerprint(a).size(), 32u);

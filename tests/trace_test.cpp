@@ -336,5 +336,51 @@ TEST(Trace, CommandLineNamesTheBuyerFromTheRegistry) {
   EXPECT_EQ(r.code, 1) << r.out;
 }
 
+TEST(Trace, ChoMarksAreIssuedReadDetectedAndTracedByEveryCommand) {
+  const std::string spot = test::shared_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  for (const std::string method : {"cho-mean", "cho-variance"}) {
+    SCOPED_TRACE(method);
+    const std::string dir = test::scratch_dir();
+    const std::string db = dir + "/shop.db";
+    std::filesystem::remove(db);
+    std::ofstream manifest(dir + "/m.txt");
+    for (int i = 0; i < 4; ++i)
+      manifest << spot << " " << dir << "/c" << i << ".obj id:" << 100 + 71 * i << " buyer" << i
+               << "\n";
+    manifest.close();
+    test::CliRun r = test::run_cli("embed --batch " + dir + "/m.txt --key studio --registry " + db +
+                                   " --method " + method);
+    ASSERT_EQ(r.code, 0) << r.out;
+    r = test::run_cli("registry list " + db + " --format json");
+    EXPECT_EQ(r.code, 0) << r.out;
+    EXPECT_NE(r.out.find("\"method\": \"" + method + "\""), std::string::npos) << r.out;
+    // Blind: the ID reads back with the method's statistic, and detect confirms it alone.
+    const std::string copy = dir + "/c2.obj";
+    r = test::run_cli("extract " + copy + " --coded --key studio --method " + method);
+    EXPECT_EQ(r.code, 0) << r.out;
+    EXPECT_NE(r.out.find("id 242 "), std::string::npos) << r.out;
+    r = test::run_cli("detect " + copy + " --expect 242 --key studio --method " + method);
+    EXPECT_EQ(r.code, 0) << r.out;
+    r = test::run_cli("detect " + copy + " --expect 171 --key studio --method " + method);
+    EXPECT_EQ(r.code, 6) << r.out;
+    // Traced with the original after a similarity and mild noise: the registry knows the method.
+    r = test::run_cli("attack similarity,noise:0.0005 " + copy + " " + dir + "/leak.obj");
+    ASSERT_EQ(r.code, 0) << r.out;
+    r = test::run_cli("trace " + dir + "/leak.obj --original " + spot + " --registry " + db +
+                      " --key studio --json");
+    EXPECT_EQ(r.code, 0) << r.out;
+    EXPECT_NE(r.out.find("\"buyer\": \"buyer2\""), std::string::npos) << r.out;
+    r = test::run_cli("trace " + spot + " --original " + spot + " --registry " + db +
+                      " --key studio");
+    EXPECT_EQ(r.code, 6) << r.out;
+  }
+  // A scheme Cho's methods do not have is refused.
+  const test::CliRun r = test::run_cli("embed " + spot +
+                                       " /tmp/never.obj --payload 1 --bits 8 "
+                                       "--method cho-mean --variant VRL");
+  EXPECT_EQ(r.code, 1) << r.out;
+}
+
 }  // namespace
 }  // namespace meshmark
