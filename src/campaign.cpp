@@ -433,7 +433,23 @@ void run_campaign_unit(const CampaignConfig& c, const CampaignUnit& u, const Mes
     eo.strength = record.strength;
     eo.bin_offset = record.bin_offset;
     const auto t0 = Clock::now();
-    const EmbedResult e = embed(mesh.V, mesh.F, payload, eo);
+    EmbedResult e;
+    if (c.calibrate) {
+      // Each copy its own strongest mark within the protocol's limits (as embed --fidelity
+      // does): the (model, scheme) calibration of one payload does not hold for another one.
+      CalibrateResult k =
+          calibrate_strength(mesh.V, mesh.F, payload, eo, c.protocols[u.protocol].calibration);
+      base.strength = k.strength;
+      if (k.status == CalibrateStatus::BelowMinimum) {
+        e.status = EmbedStatus::NotConverged;
+        e.message = fmt::format("no strength meets the calibration limits for this payload ({})",
+                                calibrate_cause_name(k.cause));
+      } else {
+        e = std::move(k.embedding);
+      }
+    } else {
+      e = embed(mesh.V, mesh.F, payload, eo);
+    }
     base.embed_seconds = since(t0);
     embedded = e.status == EmbedStatus::Embedded;
     if (embedded) {

@@ -253,6 +253,43 @@ TEST(Campaign, QuickCampaignWritesCompleteRowsMediansFiguresAndReport) {
   EXPECT_EQ(rows_without_times(dir), rows);
 }
 
+// Cho's methods beside the QP framework in one campaign: calibrated to the same limits, read
+// back with their own statistic, named in the report.
+TEST(Campaign, ChoSchemesRunBesideTheQpFrameworkAtTheSameLimits) {
+  MESHMARK_REQUIRE(test::shared_mesh("spot.obj"), "spot.obj");
+  const std::string dir = test::scratch_dir();
+  const std::string config = write_text(dir + "/cho.json", R"({
+    "name": "cho-side-by-side", "models": ["${shared}/meshes/spot.obj"],
+    "variants": ["DRS", "cho-mean", "cho-variance/VRS"], "bits": 32, "payloads": 2, "draws": 1,
+    "seed": 7, "calibration": {"max_rms": 0.04, "max_msdm": 0.25, "iterations": 6},
+    "attacks": [{"kind": "similarity", "strengths": [2]}, {"kind": "noise", "strengths": [0.0005]}]
+  })");
+  EXPECT_EQ(load_campaign(config).variants[2], "cho-variance/VRS");
+  const test::CliRun run = test::run_cli("bench " + config + " --out " + dir + "/out");
+  ASSERT_EQ(run.code, 0) << run.out;
+  std::map<std::string, int> ok;
+  for (const auto& [key, json] : rows_without_times(dir + "/out")) {
+    const TrialRow r = row_from_json(json);
+    if (r.status != "ok") continue;
+    ++ok[r.variant];
+    // Each scheme's own embedding, measured by the campaign, within the shared limits (the
+    // search stops within 1 % of a limit from below).
+    EXPECT_LE(r.rms_percent, 0.04 * (1 + 1e-9)) << key;
+    EXPECT_LE(r.msdm, 0.25 * (1 + 1e-9)) << key;
+    EXPECT_GT(r.strength, 0) << key;
+    if (r.attack == "none" || r.attack == "similarity") EXPECT_EQ(r.ber, 0.0) << key;
+  }
+  for (const char* scheme : {"DRS", "cho-mean", "cho-variance/VRS"})
+    EXPECT_EQ(ok[scheme], 2 * 3) << scheme << ": 2 payloads x (none, similarity, noise)";
+  const std::string report = read_file(dir + "/out/report.md");
+  EXPECT_NE(report.find("cho-mean"), std::string::npos);
+  EXPECT_NE(report.find("cho-variance/VRS"), std::string::npos);
+  EXPECT_THROW(load_campaign(write_text(dir + "/bad.json", R"({"name": "b",
+    "models": ["${shared}/meshes/spot.obj"], "variants": ["cho-mean/VRL"], "strength": 0.05,
+    "attacks": [{"kind": "noise", "strengths": [0.001]}]})")),
+               InvalidInputError);
+}
+
 // The benchmark-quick campaign: rows name their protocol, each embedding stays within its
 // protocol's limits, the series' parameters reach the attack, and the report compares with
 // the published results at equal distortion.

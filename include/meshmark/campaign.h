@@ -36,6 +36,14 @@
 /// whose values it overrides) and every embedding runs once per protocol; rows, keys (a last
 /// "|NAME") and calibrations name the protocol.
 ///
+/// Variants may name Cho et al.'s methods (method.h, MarkScheme: "cho-mean", "cho-variance",
+/// "cho-mean/VRS"), which then run beside the QP framework's variants on the same trials.
+/// In blind mode every embedding (model, variant, payload, protocol) is calibrated for itself,
+/// as `embed --fidelity` calibrates a copy: its row's strength is its own, and its distortion
+/// is within the protocol's limits (the (model, variant) calibration of one payload does not
+/// hold for another: on spot, other payloads at its strength measured up to 1.3 times the RMS
+/// limit). A model and variant whose calibration finds no strength embed nothing.
+///
 /// Trace mode ("mode": "trace"; trace.h) measures tracing with the original against the blind
 /// decoder. Per model and variant, "copies" (1000 by default) coded IDs are issued under the
 /// campaign's key (campaign_key) to consecutive IDs from campaign_first_id, as registry
