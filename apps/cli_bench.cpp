@@ -417,11 +417,15 @@ int run(const BenchArgs& a) {
 
   // Rank 0: merge, in canonical order, one row per key.
   std::map<std::string, TrialRow> by_key;
+  int unreadable = 0;
+  std::string first_unreadable;
   for (const std::string& line : journal_lines(rows_path)) {
     try {
       TrialRow r = row_from_json(line);
       by_key.emplace(r.key, std::move(r));
-    } catch (const InvalidInputError&) {
+    } catch (const InvalidInputError& e) {
+      if (unreadable++ == 0)
+        first_unreadable = fmt::format("{} ({})", line.substr(0, 200), e.what());
     }
   }
   std::vector<TrialRow> rows;
@@ -435,8 +439,11 @@ int run(const BenchArgs& a) {
         rows.push_back(it->second);
     }
   if (!missing.empty())
-    throw Error(fmt::format("{} trials missing after the run, first {} (a bug)", missing.size(),
-                            missing.front()));
+    throw Error(fmt::format(
+        "{} trials missing after the run, first {} (a bug){}", missing.size(), missing.front(),
+        unreadable
+            ? fmt::format("; {} journal lines unreadable, first: {}", unreadable, first_unreadable)
+            : ""));
   std::string jsonl, csv = csv_header(config.trace) + "\n";
   for (const TrialRow& r : rows)
     jsonl += row_to_json(r) + "\n", csv += row_to_csv(r, config.trace) + "\n";
