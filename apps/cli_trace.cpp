@@ -10,6 +10,7 @@
 #include "meshmark/error.h"
 #include "meshmark/evidence_report.h"
 #include "meshmark/trace.h"
+#include "meshmark/version.h"
 
 namespace meshmark::cli {
 
@@ -77,7 +78,7 @@ void write_report(const TraceArgs& a, const TraceOptions& options, const Mesh& l
   c.command = reproducing_command(a.argv, redacted);
   if (redacted)
     c.command_note = "The passphrase given with --key is not written: set MESHMARK_KEY to it.";
-  c.version = "meshmark " MESHMARK_VERSION;
+  c.version = "meshmark " MESHMARK_VERSION_STRING;
   c.settings = {
       {"erase distance", fmt::format("{:g} of the diagonal", options.erase_distance)},
       {"registration", options.register_leak ? "similarity (ICP)" : "none (--no-register)"},

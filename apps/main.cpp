@@ -10,6 +10,7 @@
 #include "cli.h"
 #include "meshmark/error.h"
 #include "meshmark/roughness.h"
+#include "meshmark/version.h"
 
 namespace meshmark::cli {
 
@@ -143,7 +144,7 @@ int main(int argc, char** argv) {
       "meshmark: blind, robust watermarking of triangle meshes (Rolland-Neviere et al., TIFS "
       "2014)"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "meshmark " MESHMARK_VERSION);
+  app.set_version_flag("--version", "meshmark " MESHMARK_VERSION_STRING);
   int exit_code = cli::kOk;
   cli::register_embed(app, exit_code);
   cli::register_extract(app, exit_code);

@@ -1,0 +1,41 @@
+# Installation and the CMake package: `cmake --install build --prefix P` puts the library, its
+# public headers, the generated version header and the CLI (bin/meshmark) under P, and a package
+# that another project finds with find_package(meshmark) and links as meshmark::meshmark
+# (P/lib/cmake/meshmark).
+include(CMakePackageConfigHelpers)
+
+# A sanitized static library needs its runtime at the consumer's link too.
+if(MESHMARK_SANITIZE)
+  target_link_options(meshmark INTERFACE -fsanitize=address,undefined)
+endif()
+
+set(MESHMARK_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/meshmark)
+install(TARGETS meshmark EXPORT meshmarkTargets
+  ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+  LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
+  RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+# The installed CLI finds a shared libmeshmark beside it (prefix/lib) wherever the prefix is.
+set_target_properties(meshmark_cli PROPERTIES INSTALL_RPATH "$ORIGIN/../${CMAKE_INSTALL_LIBDIR}")
+install(TARGETS meshmark_cli RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/include/meshmark ${PROJECT_BINARY_DIR}/include/meshmark
+  DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} FILES_MATCHING PATTERN "*.h")
+install(EXPORT meshmarkTargets NAMESPACE meshmark:: DESTINATION ${MESHMARK_CMAKE_DIR})
+
+# The config finds the dependencies the exported target names: Eigen3 (public: the headers use
+# it) always, and the private ones too when the library is static (its link interface lists them
+# as $<LINK_ONLY:...>).
+get_target_property(MESHMARK_LIBRARY_TYPE meshmark TYPE)
+# The pkg-config modules meshmark links (PREFIX:module, PkgConfig::PREFIX in the export).
+set(MESHMARK_PKG_MODULES SODIUM:libsodium PQ:libpq DRACO:draco LIB3MF:lib3MF)
+if(MESHMARK_WITH_IPOPT)
+  list(APPEND MESHMARK_PKG_MODULES IPOPT:ipopt)
+endif()
+list(JOIN MESHMARK_PKG_MODULES " " MESHMARK_PKG_MODULES)
+configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/meshmarkConfig.cmake.in
+  ${PROJECT_BINARY_DIR}/meshmarkConfig.cmake INSTALL_DESTINATION ${MESHMARK_CMAKE_DIR})
+write_basic_package_version_file(${PROJECT_BINARY_DIR}/meshmarkConfigVersion.cmake
+  COMPATIBILITY SameMajorVersion)
+install(FILES ${PROJECT_BINARY_DIR}/meshmarkConfig.cmake ${PROJECT_BINARY_DIR}/meshmarkConfigVersion.cmake
+  DESTINATION ${MESHMARK_CMAKE_DIR})
+install(FILES ${PROJECT_SOURCE_DIR}/LICENSE ${PROJECT_SOURCE_DIR}/CHANGELOG.md
+  DESTINATION ${CMAKE_INSTALL_DOCDIR})
