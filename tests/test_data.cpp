@@ -32,7 +32,12 @@ std::string cgal_mesh(const std::string& name) {
 
 std::string scratch_dir() {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  std::filesystem::path dir = std::filesystem::temp_directory_path() / "meshmark-tests" /
+  // One tree per checkout: two checkouts' suites running at once (worktrees) would otherwise
+  // remove and write each other's directories (seen: a campaign's rows lost mid-run).
+  const std::string checkout =
+      std::to_string(std::hash<std::string>{}(MESHMARK_SOURCE_DIR) % 1000000007u);
+  std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                              ("meshmark-tests-" + checkout) /
                               (std::string(info->test_suite_name()) + "." + info->name());
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
