@@ -124,7 +124,7 @@ ExtractOptions extract_options(py::handle options, const py::kwargs& kwargs) {
   py::kwargs rest;
   for (const auto& [key, value] : kwargs) {
     if (key.cast<std::string>() == "variant")
-      o.center = parse_variant(value.cast<std::string>()).center;
+      o.center = to_variant(value).center;
     else
       rest[key] = value;
   }

@@ -59,7 +59,10 @@ void bind_options(py::module_& m) {
                              "bin offset are fractions of a bin width. `lambda` is `lambda_` "
                              "(a Python keyword).");
   Fields<EmbedOptions>(o)
-      .rw("variant", &EmbedOptions::variant, "Variant, or its three letters ('DRS')")
+      .rw_property(
+          "variant", [](EmbedOptions& x) -> Variant& { return x.variant; },
+          [](EmbedOptions& x, py::handle v) { x.variant = to_variant(v); },
+          "Variant, or its three letters ('DRS')")
       .rw("lambda_", &EmbedOptions::lambda, "costs Q and L: weight of the squared error, [0, 1]")
       .rw("strength", &EmbedOptions::strength, "alpha in (0, 1/2)")
       .rw("strengths", &EmbedOptions::strengths,

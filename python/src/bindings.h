@@ -17,6 +17,7 @@
 #include "meshmark/key.h"
 #include "meshmark/mesh.h"
 #include "meshmark/payload.h"
+#include "meshmark/variant.h"
 
 namespace meshmark::python {
 
@@ -65,6 +66,9 @@ std::optional<Key> resolve_key(py::handle key, py::handle key_file);
 /// naming the bad value.
 Payload to_payload(py::handle payload, py::handle nbits, const char* name = "payload");
 
+/// A Variant, or one from its three letters. \throw InvalidArgumentError naming a bad letter.
+Variant to_variant(py::handle variant);
+
 /// An ID: a non-negative Python int below 2^64. \throw InvalidArgumentError otherwise.
 std::uint64_t to_id(py::handle id, const char* name = "id");
 
@@ -86,6 +90,13 @@ class Fields {
   template <class M>
   Fields& rw(const char* name, M T::*member, const char* doc) {
     cls_.def_readwrite(name, member, doc);
+    names_.emplace_back(name);
+    return *this;
+  }
+  /// A read-write property with its own getter and setter (an option that converts).
+  template <class Getter, class Setter>
+  Fields& rw_property(const char* name, Getter getter, Setter setter, const char* doc) {
+    cls_.def_property(name, getter, setter, doc);
     names_.emplace_back(name);
     return *this;
   }

@@ -1,6 +1,7 @@
 // Arrays, paths, keys, payloads and IDs from Python values, each checked at entry.
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cmath>
 #include <limits>
@@ -22,11 +23,10 @@ py::array as_array(py::handle value, char& kind) {
 // Refuses anything but an (n, 3) array, naming the argument and the shape it has.
 void require_rows_of_three(const py::array& a, const char* name, const char* what) {
   if (a.ndim() == 2 && a.shape(1) == 3) return;
-  std::string shape;
-  for (py::ssize_t d = 0; d < a.ndim(); ++d) shape += (d ? ", " : "") + std::to_string(a.shape(d));
+  std::vector<py::ssize_t> shape(a.shape(), a.shape() + a.ndim());
   throw InvalidInputError(name, 0,
                           fmt::format("expected an (n, 3) array of {}, got shape ({}{})", what,
-                                      shape, a.ndim() == 1 ? "," : ""));
+                                      fmt::join(shape, ", "), a.ndim() == 1 ? "," : ""));
 }
 
 }  // namespace
@@ -157,6 +157,13 @@ Payload to_payload(py::handle payload, py::handle nbits, const char* name) {
   return p;
 }
 
+Variant to_variant(py::handle variant) {
+  if (py::isinstance<Variant>(variant)) return variant.cast<Variant>();
+  if (py::isinstance<py::str>(variant)) return parse_variant(variant.cast<std::string>());
+  throw py::type_error(fmt::format("variant: expected three letters (str) or a Variant, got {}",
+                                   py::str(py::type::of(variant)).cast<std::string>()));
+}
+
 std::uint64_t to_id(py::handle id, const char* name) {
   if (!py::isinstance<py::int_>(id) || py::isinstance<py::bool_>(id))
     throw InvalidArgumentError(fmt::format("{}: expected a non-negative int", name));
@@ -171,12 +178,11 @@ void apply_keywords(py::handle target, const py::kwargs& kwargs) {
   const py::tuple fields = py::type::of(target).attr("fields");
   for (const auto& [key, value] : kwargs) {
     if (!fields.contains(key)) {
-      std::string known;
-      for (const py::handle f : fields)
-        known += (known.empty() ? "" : ", ") + f.cast<std::string>();
+      std::vector<std::string> known;
+      for (const py::handle f : fields) known.push_back(f.cast<std::string>());
       throw py::type_error(fmt::format("{}: unexpected keyword '{}' (fields: {})",
                                        py::type::of(target).attr("__name__").cast<std::string>(),
-                                       key.cast<std::string>(), known));
+                                       key.cast<std::string>(), fmt::join(known, ", ")));
     }
     py::setattr(target, key, value);
   }

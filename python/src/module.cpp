@@ -91,7 +91,7 @@ void init_variant(py::module_& m) {
       .value("Laplacian", CostKind::Laplacian);
   py::class_<Variant>(m, "Variant",
                       "A variant of the framework (TIFS 2014) by its three letters: center (D S "
-                      "V), direction (R N S), cost (S Q L). A str converts implicitly.")
+                      "V), direction (R N S), cost (S Q L).")
       .def(py::init(&parse_variant), py::arg("name") = "DRS",
            "Parses a three-letter name such as 'DRS' or 'VRL' (any case).")
       .def_readwrite("center", &Variant::center)
@@ -100,7 +100,6 @@ void init_variant(py::module_& m) {
       .def("name", &Variant::name, "The three letters.")
       .def("__eq__", [](const Variant& a, const Variant& b) { return a == b; })
       .def("__repr__", [](const Variant& v) { return fmt::format("Variant('{}')", v.name()); });
-  py::implicitly_convertible<py::str, Variant>();
   m.attr("PAPER_VARIANTS") = py::make_tuple("DRS", "SRS", "VRS", "VRQ", "VRL", "VNS", "VSS");
 }
 
