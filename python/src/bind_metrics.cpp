@@ -2,6 +2,7 @@
 // msdm2.
 
 #include "bindings.h"
+#include "meshmark/error.h"
 #include "meshmark/metrics.h"
 
 namespace meshmark::python {
@@ -37,8 +38,17 @@ void bind_types(py::module_& m) {
       .done(false);
 }
 
+// Surface distances sample each surface: a mesh without triangles has none (the library
+// assumes samples: refused here with a clear message).
+void require_triangles(const Eigen::MatrixX3i& F, const char* name) {
+  if (F.rows() == 0)
+    throw InvalidInputError(name, 0, "no triangles: a surface distance needs a surface");
+}
+
 // The CLI's compare of two meshes, with its JSON report's keys.
 py::dict compare(const Mesh& A, const Mesh& B, const SurfaceDistanceOptions& sampling) {
+  require_triangles(A.F, "a");
+  require_triangles(B.F, "b");
   const bool same = A.V.rows() == B.V.rows() && A.F == B.F;
   double rms = 0, msdm_global = 0;
   SurfaceDistance d;
@@ -103,6 +113,8 @@ void init_metrics(py::module_& m) {
         const Eigen::MatrixX3d va = to_positions(VA, "VA"), vb = to_positions(VB, "VB");
         const Eigen::MatrixX3i fa = to_faces(FA, va.rows(), "FA"),
                                fb = to_faces(FB, vb.rows(), "FB");
+        require_triangles(fa, "FA");
+        require_triangles(fb, "FB");
         SurfaceDistanceOptions o;
         o.samples = samples;
         o.seed = seed;
@@ -128,6 +140,8 @@ void init_metrics(py::module_& m) {
         const Eigen::MatrixX3d va = to_positions(VA, "VA"), vb = to_positions(VB, "VB");
         const Eigen::MatrixX3i fa = to_faces(FA, va.rows(), "FA"),
                                fb = to_faces(FB, vb.rows(), "FB");
+        require_triangles(fa, "FA");
+        require_triangles(fb, "FB");
         py::gil_scoped_release unlocked;
         return msdm2(va, fa, vb, fb);
       },

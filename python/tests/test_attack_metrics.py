@@ -82,3 +82,14 @@ def test_metrics_of_a_mesh_with_itself_are_zero_and_rms_is_numpy_s(fandisk):
     # the other surface (closer where the surface runs along t).
     d = meshmark.surface_distance(V, F, B, F, samples=2000)
     assert 0 < d.mrms <= d.hausdorff <= 1e-3 * (1 + 1e-12)
+
+
+def test_surface_metrics_refuse_a_mesh_without_triangles(fandisk):
+    V, F = meshmark.read_mesh(fandisk)
+    none = np.zeros((0, 3), dtype=np.int32)
+    with pytest.raises(meshmark.InvalidInputError, match="FA: no triangles"):
+        meshmark.surface_distance(V, none, V, F)
+    with pytest.raises(meshmark.InvalidInputError, match="FB: no triangles"):
+        meshmark.msdm2(V, F, V, none)
+    with pytest.raises(meshmark.InvalidInputError, match="a: no triangles"):
+        meshmark.compare((V, none), (V, F))
