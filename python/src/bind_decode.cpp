@@ -211,8 +211,7 @@ void bind_functions(py::module_& m) {
   m.def(
       "detect",
       [](py::handle V, py::handle F, py::handle expect, py::handle expect_payload, int bits,
-         const std::string& variant, double threshold, py::handle key, py::handle key_file,
-         int id_bits) {
+         py::handle variant, double threshold, py::handle key, py::handle key_file, int id_bits) {
         if (expect.is_none() == expect_payload.is_none())
           throw InvalidArgumentError("detect needs one of expect (an ID) or expect_payload");
         if (!(threshold > 0 && threshold < 1))
@@ -221,7 +220,7 @@ void bind_functions(py::module_& m) {
         const Eigen::MatrixX3i f = to_faces(F, v.rows());
         ExtractOptions eo;
         eo.bits = bits;
-        eo.center = parse_variant(variant).center;
+        eo.center = to_variant(variant).center;
         std::optional<std::uint64_t> id;
         Payload raw;
         if (!expect.is_none())

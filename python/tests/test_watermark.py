@@ -55,7 +55,8 @@ def test_coded_id_under_a_key(fandisk):
     assert result.status == meshmark.EmbedStatus.Embedded, result.message
     found = meshmark.read_id(result.V, F, key="studio secret")
     assert found.id.valid and found.id.id == 4242 and found.id.corrected == 0
-    detected = meshmark.detect(result.V, F, expect=4242, key="studio secret")
+    detected = meshmark.detect(result.V, F, expect=4242, key="studio secret",
+                               variant=meshmark.Variant("DRS"))
     assert detected.detected and detected.matches == 64 and detected.p_value < 1e-6
     assert detected.model == meshmark.NullModel.CodewordExact
 
