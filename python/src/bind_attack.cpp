@@ -1,0 +1,67 @@
+// Attacks: attack (one kind or a chain, the CLI's names and parameters) and attack_kinds.
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "bindings.h"
+#include "meshmark/attack.h"
+#include "meshmark/error.h"
+
+namespace meshmark::python {
+
+namespace {
+
+// The CLI's attack: a kind with a strength, or a chain "noise:0.001,quant:10"; the parameters
+// go to every step that reads them (set_chain_params refuses one that none reads).
+std::vector<AttackStep> attack_steps(const std::string& kind, double strength,
+                                     const AttackParams& params) {
+  std::vector<AttackStep> steps = parse_attack_chain(kind);
+  if (kind.find_first_of(":,") == std::string::npos) steps[0].strength = strength;
+  for (const AttackStep& s : steps)
+    if (!std::isfinite(s.strength))
+      throw InvalidArgumentError(
+          fmt::format("attack '{}': strength {} is not a finite number", s.kind, s.strength));
+  set_chain_params(steps, params);
+  return steps;
+}
+
+}  // namespace
+
+void init_attack(py::module_& m) {
+  m.def(
+      "attack",
+      [](py::handle mesh, const std::string& kind, double strength, std::uint64_t seed,
+         double lambda, double mu, bool fixed_boundary, const std::string& weighting,
+         const std::string& convention) {
+        AttackParams params;
+        params.lambda = lambda;
+        params.mu = mu;
+        params.fixed_boundary = fixed_boundary;
+        params.weighting = parse_smooth_weighting(weighting);
+        params.convention = parse_quantize_convention(convention);
+        const std::vector<AttackStep> steps = attack_steps(kind, strength, params);
+        const Mesh input = to_mesh(mesh);
+        py::gil_scoped_release unlocked;
+        return apply_attack_chain(input, steps, seed);
+      },
+      py::arg("mesh"), py::arg("kind"), py::arg("strength") = 0.0, py::kw_only(),
+      py::arg("seed") = 1, py::arg("lambda_") = 0.0, py::arg("mu") = 0.0,
+      py::arg("fixed_boundary") = false, py::arg("weighting") = "uniform",
+      py::arg("convention") = "levels",
+      "Applies an attack to a Mesh (or a (V, F) pair) and returns the attacked Mesh, as the "
+      "CLI's attack (same kinds, strengths and seed). kind: a name from attack_kinds(), or a "
+      "chain 'noise:0.001,quant:10' (then strength is unused). lambda_, mu, fixed_boundary, "
+      "weighting ('uniform', 'inverse-distance'): smooth and taubin; convention ('levels', "
+      "'benchmark'): quant. Attacks that keep the connectivity keep the file image.");
+  m.def(
+      "attack_kinds",
+      [] {
+        py::dict kinds;
+        for (const auto& [name, what] : attack_kinds()) kinds[py::str(name)] = what;
+        return kinds;
+      },
+      "The attack kinds: name -> what its strength means.");
+}
+
+}  // namespace meshmark::python
