@@ -68,6 +68,10 @@ Eigen::MatrixX3d sample_surface(const Eigen::MatrixX3d& V, const Eigen::MatrixX3
 SurfaceDistance surface_distance(const Eigen::MatrixX3d& VA, const Eigen::MatrixX3i& FA,
                                  const Eigen::MatrixX3d& VB, const Eigen::MatrixX3i& FB,
                                  const SurfaceDistanceOptions& o) {
+  if (FA.rows() == 0 || FB.rows() == 0)
+    throw InvalidArgumentError(
+        fmt::format("surface distance between meshes of {} and {} faces: both need triangles",
+                    FA.rows(), FB.rows()));
   SurfaceDistance d;
   d.diagonal = bounding_box_diagonal(VA, referenced_vertices(FA, VA.rows()));
   auto one_side = [&](const Eigen::MatrixX3d& V1, const Eigen::MatrixX3i& F1,

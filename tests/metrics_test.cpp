@@ -179,3 +179,11 @@ TEST(Metrics, MsdmIsBlindToScaleAndShiftOfBothMeshes) {
   const double before2 = msdm2(m.V, m.F, n.V, n.F).global;
   EXPECT_NEAR(msdm2(move(m.V), m.F, move(n.V), n.F).global, before2, 1e-6 * before2);
 }
+
+TEST(Metrics, SurfaceDistanceRefusesAMeshWithoutFaces) {
+  // No triangle, no surface to sample: an error naming it, never a read past empty samples.
+  const Mesh m = bumpy_sphere(8, 8, 3);
+  const Eigen::MatrixX3i none(0, 3);
+  EXPECT_THROW(surface_distance(m.V, none, m.V, m.F), InvalidArgumentError);
+  EXPECT_THROW(surface_distance(m.V, m.F, m.V, none), InvalidArgumentError);
+}

@@ -41,6 +41,7 @@ struct SurfaceDistance {
 };
 
 /// Computes MRMS and Hausdorff between (VA, FA) and (VB, FB).
+/// \throw InvalidArgumentError when either mesh has no face (there is no surface to sample).
 SurfaceDistance surface_distance(const Eigen::MatrixX3d& VA, const Eigen::MatrixX3i& FA,
                                  const Eigen::MatrixX3d& VB, const Eigen::MatrixX3i& FB,
                                  const SurfaceDistanceOptions& options = {});

@@ -24,6 +24,7 @@ void bind_extract_types(py::module_& m) {
       .rw("skip_nearest", &ExtractOptions::skip_nearest,
           "carrier positions left out near the center")
       .rw("skip_farthest", &ExtractOptions::skip_farthest, "and farthest from it")
+      .rw("method", &ExtractOptions::method, "Method: the embedding's (its bin statistic)")
       .done(true);
   py::class_<ExtractResult> r(m, "ExtractResult", "What extract read, in bin order.");
   Fields<ExtractResult>(r)

@@ -15,6 +15,15 @@ void bind_settings(py::module_& m) {
   py::enum_<SolverBackend>(m, "SolverBackend", "Who solves each round's quadratic program.")
       .value("Native", SolverBackend::Native, "the structured solvers (the CLI's --solver native)")
       .value("Ipopt", SolverBackend::Ipopt, "Ipopt, for comparison (--solver ipopt)");
+  py::enum_<Method>(m, "Method", "Who moves the vertices (method.h; the CLI's --method).")
+      .value("Qp", Method::Qp, "the QP framework (qp, the default)")
+      .value("ChoMean", Method::ChoMean, "Cho et al.'s Method I (cho-mean)")
+      .value("ChoVariance", Method::ChoVariance, "Cho et al.'s Method II (cho-variance)");
+  py::class_<ChoSettings> cho(m, "ChoSettings", "Cho's methods: the exponent search.");
+  Fields<ChoSettings>(cho)
+      .rw("tolerance", &ChoSettings::tolerance, "score units from the target")
+      .rw("max_iterations", &ChoSettings::max_iterations, "score evaluations per bin at most")
+      .done(true);
   py::enum_<AdmmXStep>(m, "AdmmXStep", "How ADMM's x-steps are solved (cost L).")
       .value("ConjugateGradients", AdmmXStep::ConjugateGradients, "--x-step cg")
       .value("Cholesky", AdmmXStep::Cholesky, "--x-step cholesky");
@@ -59,6 +68,8 @@ void bind_options(py::module_& m) {
                              "bin offset are fractions of a bin width. `lambda` is `lambda_` "
                              "(a Python keyword).");
   Fields<EmbedOptions>(o)
+      .rw("method", &EmbedOptions::method, "Method (Qp, or Cho's ChoMean or ChoVariance)")
+      .rw("cho", &EmbedOptions::cho, "ChoSettings")
       .rw_property(
           "variant", [](EmbedOptions& x) -> Variant& { return x.variant; },
           [](EmbedOptions& x, py::handle v) { x.variant = to_variant(v); },

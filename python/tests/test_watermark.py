@@ -24,6 +24,33 @@ def test_embed_extract_round_trip_every_bit_right(fandisk):
     assert meshmark.extract(V, F).min_margin() < 0.05 - 1e-6
 
 
+@pytest.mark.parametrize("method", ["ChoMean", "ChoVariance"])
+def test_cho_methods_round_trip_with_their_own_statistic(fandisk, method):
+    V, F = meshmark.read_mesh(fandisk)
+    bits = meshmark.random_payload(64, seed=12)
+    m = getattr(meshmark.Method, method)
+    result = meshmark.embed(V, F, bits, strength=0.05, method=m)
+    assert result.status == meshmark.EmbedStatus.Embedded, result.message
+    read = meshmark.extract(result.V, F, meshmark.ExtractOptions(method=m))
+    np.testing.assert_array_equal(read.bits, bits)
+    assert read.min_margin() >= 0.05 - 1e-6
+    if method == "ChoVariance":
+        # Recomputed here with numpy: per bit bin, the mean of u^2 (u = 2t - 1) is at least
+        # (1 + alpha) / 3 for a 1 and at most (1 - alpha) / 3 for a 0, to the stated 1e-6.
+        c = result.V.mean(axis=0)  # fandisk: every vertex is used, no two at one position
+        rho = np.linalg.norm(result.V - c, axis=1)
+        s = (rho.max() - rho.min()) / 66
+        x = (rho - rho.min()) / s
+        b = np.minimum(np.floor(x).astype(int), 65)
+        u2 = (2 * (x - b) - 1) ** 2
+        for j in range(64):
+            v = u2[b == j + 1].mean()
+            if bits[j]:
+                assert v >= (1 + 0.05) / 3 - 1e-6 / 3
+            else:
+                assert v <= (1 - 0.05) / 3 + 1e-6 / 3
+
+
 @pytest.mark.parametrize("variant", ["VRS", "DRL", "SNS"])
 def test_round_trip_through_a_file_for_other_variants(fandisk, tmp_path, variant):
     mesh = meshmark.read_mesh(fandisk)
@@ -79,6 +106,8 @@ CASES = [
      dict(payload=PAYLOAD, variant="VRL", strength=0.07, lambda_=0.4)),
     (["--id", "77", "--key", "k", "--bin-offset", "0.03", "--strength-spread", "0.5"],
      dict(id=77, key="k", bin_offset=0.03, strength_spread=0.5)),
+    (["--payload", PAYLOAD, "--method", "cho-variance", "--strength", "0.1"],
+     dict(payload=PAYLOAD, method=meshmark.Method.ChoVariance, strength=0.1)),
 ]
 
 
