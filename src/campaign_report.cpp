@@ -34,7 +34,30 @@ const char* kColors[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd",
                          "#ff7f0e", "#8c564b", "#e377c2", "#17becf"};
 const char* kDashes[] = {"", "6,3", "2,3", "8,3,2,3", "", "6,3", "2,3", "8,3,2,3"};
 
-// One panel: median BER in [0, 0.5] against the attack's strength, a curve per variant.
+// The legend's entries (a line sample and the curve's name) flow left to right between the
+// title and the frame, wrapping at the frame's width: each entry's (x offset, row).
+constexpr double kLegendRow = 14, kLegendLeft = 56, kLegendRight = 12;
+std::vector<std::pair<double, int>> legend_layout(const std::vector<Curve>& curves, double w) {
+  std::vector<std::pair<double, int>> at;
+  double x = 0;
+  int row = 0;
+  for (const Curve& c : curves) {
+    const double width = 30 + 6.2 * static_cast<double>(c.name.size());  // 11 px text
+    if (x > 0 && x + width > w - kLegendLeft - kLegendRight) x = 0, ++row;
+    at.emplace_back(x, row);
+    x += width + 10;
+  }
+  return at;
+}
+
+// The legend's height beyond its first row: what a panel of these curves needs added.
+double legend_extra(const std::vector<Curve>& curves, double w) {
+  const auto at = legend_layout(curves, w);
+  return at.empty() ? 0 : kLegendRow * at.back().second;
+}
+
+// One panel: median BER in [0, 0.5] against the attack's strength, a curve per variant. h
+// holds the plot and a one-row legend; legend_extra(curves, w) more is taken for the others.
 std::string panel(double x0, double y0, double w, double h, const std::string& title,
                   const std::string& xlabel, const std::vector<Curve>& curves) {
   double lo = INFINITY, hi = -INFINITY;
@@ -42,7 +65,10 @@ std::string panel(double x0, double y0, double w, double h, const std::string& t
     for (const auto& p : c.points) lo = std::min(lo, p.first), hi = std::max(hi, p.first);
   if (!std::isfinite(lo)) lo = 0, hi = 1;
   if (hi == lo) lo -= 0.5, hi += 0.5;
-  const double ml = 56, mr = 12, mt = 46, mb = 44;
+  const auto legend = legend_layout(curves, w);
+  const double extra = legend.empty() ? 0 : kLegendRow * legend.back().second;
+  h += extra;
+  const double ml = kLegendLeft, mr = kLegendRight, mt = 46 + extra, mb = 44;
   const double pw = w - ml - mr, ph = h - mt - mb;
   auto X = [&](double x) { return x0 + ml + (x - lo) / (hi - lo) * pw; };
   double top = 0.5;  // BER axis [0, 0.5], wider if a median lies above chance
@@ -82,16 +108,16 @@ std::string panel(double x0, double y0, double w, double h, const std::string& t
     s += fmt::format(
         "<polyline points='{}' fill='none' stroke='{}' stroke-width='2' "
         "stroke-dasharray='{}'/>\n",
-        pts, color, kDashes[k % 8]);
+        pts, color, kDashes[(k + k / 8) % 8]);
     for (const auto& p : c.points)
       s += fmt::format("<circle cx='{:.1f}' cy='{:.1f}' r='3' fill='{}'/>\n", X(p.first),
                        Y(p.second), color);
-    // Legend: a row between the title and the frame.
-    const double lx = x0 + ml + 62 * static_cast<double>(k), ly = y0 + 36;
+    // Legend: rows between the title and the frame.
+    const double lx = x0 + ml + legend[k].first, ly = y0 + 36 + kLegendRow * legend[k].second;
     s += fmt::format(
         "<line x1='{:.1f}' y1='{:.1f}' x2='{:.1f}' y2='{:.1f}' stroke='{}' "
         "stroke-width='2' stroke-dasharray='{}'/>\n",
-        lx, ly - 4, lx + 22, ly - 4, color, kDashes[k % 8]);
+        lx, ly - 4, lx + 22, ly - 4, color, kDashes[(k + k / 8) % 8]);
     s += fmt::format("<text x='{:.1f}' y='{:.1f}' font-size='11'>{}</text>\n", lx + 26, ly,
                      detail::xml_escape(c.name));
   }
@@ -237,22 +263,29 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
                   const std::vector<std::string>& variants) -> std::string {
     if (attacks.empty()) return "";
     std::string panels;
-    for (std::size_t i = 0; i < attacks.size(); ++i)
-      panels += panel((i % 3) * pw, (i / 3) * ph, pw, ph,
-                      fmt::format("({}) {}", char('a' + i), series_label(*attacks[i])),
-                      attacks[i]->kind + " strength", curves_of(*attacks[i], variants));
+    double extra = 0;  // every panel's legend as tall as the tallest
+    for (const AttackSeries* a : attacks)
+      extra = std::max(extra, legend_extra(curves_of(*a, variants), pw));
+    for (std::size_t i = 0; i < attacks.size(); ++i) {
+      const std::vector<Curve> curves = curves_of(*attacks[i], variants);
+      panels +=
+          panel((i % 3) * pw, (i / 3) * (ph + extra), pw, ph + extra - legend_extra(curves, pw),
+                fmt::format("({}) {}", char('a' + i), series_label(*attacks[i])),
+                attacks[i]->kind + " strength", curves);
+    }
     const std::size_t cols = std::min<std::size_t>(3, attacks.size());
-    png |=
-        write_figure(dir, name, svg_document(cols * pw, ((attacks.size() + 2) / 3) * ph, panels));
+    png |= write_figure(dir, name,
+                        svg_document(cols * pw, ((attacks.size() + 2) / 3) * (ph + extra), panels));
     return name;
   };
   std::string md_figures;
   for (std::size_t i = 0; i < plotted.size(); ++i) {
     const AttackSeries& a = *plotted[i];
-    png |= write_figure(dir, "figure-" + file_slug(series_label(a)),
-                        svg_document(pw, ph,
-                                     panel(0, 0, pw, ph, series_label(a), strength_label(a),
-                                           curves_of(a, c.variants))));
+    const std::vector<Curve> curves = curves_of(a, c.variants);
+    png |=
+        write_figure(dir, "figure-" + file_slug(series_label(a)),
+                     svg_document(pw, ph + legend_extra(curves, pw),
+                                  panel(0, 0, pw, ph, series_label(a), strength_label(a), curves)));
   }
   const std::string all = grid("figure-all", plotted, c.variants);
   if (!all.empty()) md_figures += "All attacks, every variant:\n\n![all](figure-all.svg)\n\n";
