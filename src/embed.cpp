@@ -14,6 +14,14 @@
 
 namespace meshmark {
 
+bool detail::margins_held(const std::vector<double>& margins, const EmbedOptions& options) {
+  for (std::size_t j = 0; j < margins.size(); ++j) {
+    const double alpha = bit_strength(options, static_cast<int>(j));
+    if (margins[j] < alpha - std::min(options.margin_tolerance, 0.5 * alpha)) return false;
+  }
+  return true;
+}
+
 namespace {
 
 void check_options(const Payload& payload, const EmbedOptions& o) {
@@ -43,18 +51,18 @@ void check_options(const Payload& payload, const EmbedOptions& o) {
     throw InvalidArgumentError("Cho's exponent search needs a positive tolerance and iterations");
 }
 
-// Signed margins m_j (tbar_j - 1/2) of the payload's bits in a histogram (-1/2 when empty).
-std::vector<double> signed_margins(const Histogram& h, const Payload& payload) {
+}  // namespace
+
+std::vector<double> detail::signed_margins(const Histogram& h, const Payload& payload,
+                                           BinStatistic statistic) {
   std::vector<double> means;
   std::vector<int> counts;
-  bin_means(h, means, counts);
+  bin_means(h, means, counts, statistic);
   std::vector<double> margins(means.size());
   for (std::size_t j = 0; j < means.size(); ++j)
     margins[j] = counts[j] > 0 ? (payload.bits[j] ? 1.0 : -1.0) * (means[j] - 0.5) : -0.5;
   return margins;
 }
-
-}  // namespace
 
 void detail::measure_displacement(const Eigen::MatrixX3d& V,
                                   const std::vector<std::uint8_t>& referenced, EmbedResult& res) {
@@ -171,13 +179,17 @@ EmbedResult PreparedEmbedder::embed(const Payload& payload, const EmbedOptions& 
   auto elapsed = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   };
-  if (options.method != Method::Qp) return detail::embed_cho(V, ctx, payload, options);
   EmbedResult res;
   res.V = V;
   res.check = check(payload.size());
   if (res.check.status == CarrierHealth::Unusable) {
     res.status = EmbedStatus::InvalidMesh;
     res.message = res.check.summary();
+    res.seconds = elapsed();
+    return res;
+  }
+  if (options.method != Method::Qp) {
+    detail::embed_cho(V, ctx, payload, options, res);
     res.seconds = elapsed();
     return res;
   }
@@ -238,16 +250,11 @@ EmbedResult PreparedEmbedder::embed(const Payload& payload, const EmbedOptions& 
     // Decode as a receiver would; stop once every bit holds its margin and the center stays.
     const Center c = center_of_mass(res.V, F, ctx.referenced, options.variant.center);
     const Histogram h = build_histogram(res.V, ctx.referenced, c.point, payload.size());
-    res.margins = signed_margins(h, payload);
+    res.margins = detail::signed_margins(h, payload);
     res.min_margin = *std::min_element(res.margins.begin(), res.margins.end());
     res.center_drift = (c.point - ctx.original_center).norm() / res.bin_width;
     res.status = EmbedStatus::NotConverged;
-    bool margins_held = true;
-    for (int j = 0; j < payload.size(); ++j)
-      margins_held &=
-          res.margins[j] >= bit_strength(options, j) -
-                                std::min(options.margin_tolerance, 0.5 * bit_strength(options, j));
-    if (sol.status == QpStatus::Solved && margins_held &&
+    if (sol.status == QpStatus::Solved && detail::margins_held(res.margins, options) &&
         res.center_drift <= options.center_tolerance) {
       res.status = EmbedStatus::Embedded;
       break;

@@ -3,7 +3,6 @@
 // margin as a reader rebuilding the histogram sees it.
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -48,25 +47,11 @@ void apply_mapping(const Histogram& h, const std::vector<std::uint8_t>& referenc
 
 }  // namespace
 
-EmbedResult embed_cho(const Eigen::MatrixX3d& V, const EmbedContext& ctx, const Payload& payload,
-                      const EmbedOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
-  auto elapsed = [&] {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  };
+void embed_cho(const Eigen::MatrixX3d& V, const EmbedContext& ctx, const Payload& payload,
+               const EmbedOptions& options, EmbedResult& res) {
   const Eigen::MatrixX3i& F = *ctx.F;
   const int nb = payload.size();
   const BinStatistic statistic = bin_statistic(options.method);
-  EmbedResult res;
-  res.V = V;
-  res.check =
-      check_carrier(ctx.referenced, build_histogram(V, ctx.referenced, ctx.original_center, nb));
-  if (res.check.status == CarrierHealth::Unusable) {
-    res.status = EmbedStatus::InvalidMesh;
-    res.message = res.check.summary();
-    res.seconds = elapsed();
-    return res;
-  }
   res.status = EmbedStatus::NotConverged;
   for (int round = 0; round < options.max_rounds; ++round) {
     // The histogram a reader of the current positions builds.
@@ -76,8 +61,7 @@ EmbedResult embed_cho(const Eigen::MatrixX3d& V, const EmbedContext& ctx, const 
       res.status = EmbedStatus::InvalidMesh;
       res.message = "the mesh has no histogram (its vertices are all at one distance)";
       res.V = V;
-      res.seconds = elapsed();
-      return res;
+      return;
     }
     if (round == 0) res.bin_width = h.step;
     // Each bit's exponent; a bin that no exponent brings to its target stops the embedding.
@@ -100,8 +84,7 @@ EmbedResult embed_cho(const Eigen::MatrixX3d& V, const EmbedContext& ctx, const 
       if (round == 0) {
         res.status = EmbedStatus::Infeasible;
         res.V = V;
-        res.seconds = elapsed();
-        return res;
+        return;
       }
       break;  // NotConverged, with the last round's positions
     }
@@ -110,19 +93,11 @@ EmbedResult embed_cho(const Eigen::MatrixX3d& V, const EmbedContext& ctx, const 
     // Decode as a receiver would.
     const Center cw = center_of_mass(res.V, F, ctx.referenced, options.variant.center);
     const Histogram hw = build_histogram(res.V, ctx.referenced, cw.point, nb);
-    std::vector<double> scores;
-    std::vector<int> counts;
-    bin_means(hw, scores, counts, statistic);
-    res.margins.assign(static_cast<std::size_t>(nb), -0.5);
-    bool held = hw.valid();
-    for (int j = 0; j < nb && hw.valid(); ++j) {
-      if (counts[j] > 0) res.margins[j] = (payload.bits[j] ? 1.0 : -1.0) * (scores[j] - 0.5);
-      const double alpha = bit_strength(options, j);
-      held &= res.margins[j] >= alpha - std::min(options.margin_tolerance, 0.5 * alpha);
-    }
+    res.margins = hw.valid() ? signed_margins(hw, payload, statistic)
+                             : std::vector<double>(static_cast<std::size_t>(nb), -0.5);
     res.min_margin = *std::min_element(res.margins.begin(), res.margins.end());
     res.center_drift = (cw.point - ctx.original_center).norm() / res.bin_width;
-    if (held) {
+    if (margins_held(res.margins, options)) {
       res.status = EmbedStatus::Embedded;
       break;
     }
@@ -135,8 +110,6 @@ EmbedResult embed_cho(const Eigen::MatrixX3d& V, const EmbedContext& ctx, const 
     res.message =
         fmt::format("after {} round(s) of {}: smallest margin {:.3g} (target {})", res.rounds,
                     method_name(options.method), res.min_margin, options.strength);
-  res.seconds = elapsed();
-  return res;
 }
 
 }  // namespace meshmark::detail

@@ -62,9 +62,20 @@ struct EmbedContext {
 void measure_displacement(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referenced,
                           EmbedResult& res);
 
-/// Embeds payload with Cho et al.'s method options.method (cho.h) on the prepared context.
-EmbedResult embed_cho(const Eigen::MatrixX3d& V, const EmbedContext& ctx, const Payload& payload,
-                      const EmbedOptions& options);
+/// Signed margins m_j (score_j - 1/2) of the payload's bits in a histogram, read with the
+/// statistic (method.h); -1/2 for an empty bin.
+std::vector<double> signed_margins(const Histogram& h, const Payload& payload,
+                                   BinStatistic statistic = BinStatistic::Mean);
+
+/// Whether every bit holds its strength (bit_strength), less options.margin_tolerance (at most
+/// half the strength): a round's stopping rule, for either method.
+bool margins_held(const std::vector<double>& margins, const EmbedOptions& options);
+
+/// Embeds payload with Cho et al.'s method options.method (cho.h) on the prepared context,
+/// into res (its V the original positions, its carrier check done and usable); fills every
+/// field but seconds.
+void embed_cho(const Eigen::MatrixX3d& V, const EmbedContext& ctx, const Payload& payload,
+               const EmbedOptions& options, EmbedResult& res);
 
 /// One round's problem.
 struct RoundProblem {
