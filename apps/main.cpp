@@ -54,14 +54,10 @@ void add_output_options(CLI::App& app, OutputOptions& options) {
 Mesh read_input(const std::string& path, const InputOptions& options) {
   ReadOptions ro;
   ro.weld_tolerance = options.weld_tolerance;
-  try {
-    Mesh mesh = read_mesh(path, ro);
-    for (const std::string& note : mesh.notes)
-      fmt::print(stderr, "warning: {}: {}\n", printable(path), printable(note));
-    return mesh;
-  } catch (const IOError& e) {
-    throw InputFailure(e.what());
-  }
+  Mesh mesh = read_mesh(path, ro);  // ReadError: exit kBadInput (main)
+  for (const std::string& note : mesh.notes)
+    fmt::print(stderr, "warning: {}: {}\n", printable(path), printable(note));
+  return mesh;
 }
 
 void report_carrier(const std::string& path, const CarrierCheck& check) {
@@ -134,6 +130,22 @@ WrittenCheck write_marked_output(const std::string& path, const std::string& inp
 
 }  // namespace meshmark::cli
 
+namespace {
+
+// The documented exit code of a failure (cli.h): a file that cannot be read or is malformed is
+// bad input, one that cannot be written (or a database that fails) a failed write.
+int exit_code_of(const std::exception& e) {
+  using namespace meshmark;
+  if (dynamic_cast<const cli::InputFailure*>(&e) || dynamic_cast<const InvalidInputError*>(&e) ||
+      dynamic_cast<const ReadError*>(&e))
+    return cli::kBadInput;
+  if (dynamic_cast<const IOError*>(&e)) return cli::kWriteFailed;
+  if (dynamic_cast<const InvalidArgumentError*>(&e)) return cli::kUsage;
+  return cli::kInternal;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   using namespace meshmark;
   // Large temporaries (a vector per vertex) come and go in the solvers' loops: keep them on
@@ -168,20 +180,10 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     const int rc = app.exit(e);
     return rc == 0 ? cli::kOk : cli::kUsage;
-  } catch (const cli::InputFailure& e) {
-    fmt::print(stderr, "meshmark: error: {}\n", printable(e.what()));
-    return cli::kBadInput;
-  } catch (const InvalidInputError& e) {
-    fmt::print(stderr, "meshmark: error: {}\n", printable(e.what()));
-    return cli::kBadInput;
-  } catch (const IOError& e) {
-    fmt::print(stderr, "meshmark: error: {}\n", printable(e.what()));
-    return cli::kWriteFailed;
-  } catch (const InvalidArgumentError& e) {
-    fmt::print(stderr, "meshmark: error: {}\n", printable(e.what()));
-    return cli::kUsage;
   } catch (const std::exception& e) {
-    fmt::print(stderr, "meshmark: internal error: {}\n", printable(e.what()));
-    return cli::kInternal;
+    const int rc = exit_code_of(e);
+    fmt::print(stderr, "meshmark: {}: {}\n", rc == cli::kInternal ? "internal error" : "error",
+               printable(e.what()));
+    return rc;
   }
 }

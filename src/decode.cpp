@@ -23,22 +23,6 @@ double ExtractResult::min_margin() const {
   return *std::min_element(margins.begin(), margins.end());
 }
 
-void bin_means(const Histogram& h, std::vector<double>& means, std::vector<int>& counts,
-               BinStatistic statistic) {
-  const int nb = h.bins - 2;
-  std::vector<double> sums(static_cast<std::size_t>(nb), 0.0);
-  counts.assign(static_cast<std::size_t>(nb), 0);
-  for (std::size_t i = 0; i < h.bin.size(); ++i) {
-    const int j = h.bin[i] - 1;
-    if (j < 0 || j >= nb) continue;
-    sums[j] += bin_score_term(statistic, h.t(static_cast<Eigen::Index>(i)));
-    counts[j] += 1;
-  }
-  means.resize(static_cast<std::size_t>(nb));
-  for (int j = 0; j < nb; ++j)
-    means[j] = counts[j] > 0 ? sums[j] / counts[j] : std::numeric_limits<double>::quiet_NaN();
-}
-
 ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                       const ExtractOptions& options) {
   if (options.bits < 1)

@@ -8,7 +8,7 @@
 #include <fmt/ranges.h>
 
 #include "embed_problem.h"
-#include "meshmark/decode.h"
+#include "meshmark/histogram.h"
 #include "meshmark/error.h"
 #include "meshmark/mesh.h"
 

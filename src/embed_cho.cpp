@@ -10,7 +10,7 @@
 
 #include "embed_problem.h"
 #include "meshmark/cho.h"
-#include "meshmark/decode.h"
+#include "meshmark/histogram.h"
 
 namespace meshmark::detail {
 

@@ -6,7 +6,7 @@
 
 #include <fmt/format.h>
 
-#include "meshmark/decode.h"
+#include "meshmark/histogram.h"
 #include "meshmark/shell_interval.h"
 
 namespace meshmark::detail {

@@ -195,16 +195,16 @@ std::string read_file(const std::string& path, std::size_t max_bytes, std::strin
   // O_NONBLOCK: opening a FIFO must not wait for a writer; fstat then refuses it.
   FileDescriptor file{::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC)};
   if (file.fd < 0)
-    throw IOError(
+    throw ReadError(
         fmt::format("{}: cannot open the {} for reading: {}", path, what, std::strerror(errno)));
   struct stat st {};
   if (::fstat(file.fd, &st) != 0)
-    throw IOError(fmt::format("{}: cannot read the {}: {}", path, what, std::strerror(errno)));
+    throw ReadError(fmt::format("{}: cannot read the {}: {}", path, what, std::strerror(errno)));
   if (!S_ISREG(st.st_mode))
-    throw IOError(fmt::format("{}: the {} is {}; only regular files are read", path, what,
+    throw ReadError(fmt::format("{}: the {} is {}; only regular files are read", path, what,
                               file_kind(st.st_mode)));
   auto too_large = [&] {
-    return IOError(fmt::format("{}: the {} is larger than {}, the most it may hold", path, what,
+    return ReadError(fmt::format("{}: the {} is larger than {}, the most it may hold", path, what,
                                size_text(max_bytes)));
   };
   if (static_cast<std::uint64_t>(st.st_size) > max_bytes) throw too_large();
@@ -218,7 +218,7 @@ std::string read_file(const std::string& path, std::size_t max_bytes, std::strin
     const ssize_t n = within ? ::read(file.fd, bytes.data() + done, bytes.size() - done)
                              : ::read(file.fd, chunk, sizeof chunk);
     if (n < 0 && errno == EINTR) continue;
-    if (n < 0) throw IOError(fmt::format("{}: read error: {}", path, std::strerror(errno)));
+    if (n < 0) throw ReadError(fmt::format("{}: read error: {}", path, std::strerror(errno)));
     if (n == 0) break;
     if (!within) {
       if (static_cast<std::size_t>(n) > max_bytes - done) throw too_large();
@@ -355,7 +355,7 @@ void write_mesh_files_atomically(const std::string& path, const MeshFiles& files
                         printable(target), printable(input)));
     struct stat st {};
     if (::lstat(target.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
-      throw IOError(fmt::format("{}: not a regular file; meshmark writes regular files only",
+      throw WriteError(fmt::format("{}: not a regular file; meshmark writes regular files only",
                                 printable(target)));
   }
   for (const auto& [name, bytes] : files.resources)
@@ -461,7 +461,7 @@ void write_file_atomically(const std::string& path, const std::string& bytes) {
   // link would destroy it (as root, /dev/null itself) instead of writing to what it names.
   struct stat link {};
   if (::lstat(path.c_str(), &link) == 0 && !S_ISREG(link.st_mode))
-    throw IOError(fmt::format("{}: not a regular file ({}); meshmark writes regular files only",
+    throw WriteError(fmt::format("{}: not a regular file ({}); meshmark writes regular files only",
                               path,
                               S_ISLNK(link.st_mode)                            ? "a symbolic link"
                               : S_ISDIR(link.st_mode)                          ? "a directory"
@@ -474,12 +474,12 @@ void write_file_atomically(const std::string& path, const std::string& bytes) {
   std::string tmp;
   const int fd = create_temporary(dir, prefix, existing ? old.st_mode & 0777 : 0666, tmp);
   if (fd < 0)
-    throw IOError(fmt::format("{}: cannot create a temporary file in {}: {}", path, dir,
+    throw WriteError(fmt::format("{}: cannot create a temporary file in {}: {}", path, dir,
                               std::strerror(errno)));
   auto fail_with = [&](const char* what, int err) {
     ::close(fd);
     ::unlink(tmp.c_str());
-    throw IOError(fmt::format("{}: {}: {}", path, what, std::strerror(err)));
+    throw WriteError(fmt::format("{}: {}: {}", path, what, std::strerror(err)));
   };
   if (!write_all(fd, bytes)) fail_with("write failed", errno);
   if (existing && !keep_mode(fd, old)) fail_with("cannot keep the file's mode", errno);
@@ -487,12 +487,12 @@ void write_file_atomically(const std::string& path, const std::string& bytes) {
   if (::close(fd) != 0) {
     const int err = errno;
     ::unlink(tmp.c_str());
-    throw IOError(fmt::format("{}: write failed: {}", path, std::strerror(err)));
+    throw WriteError(fmt::format("{}: write failed: {}", path, std::strerror(err)));
   }
   if (::rename(tmp.c_str(), path.c_str()) != 0) {
     const int err = errno;
     ::unlink(tmp.c_str());
-    throw IOError(fmt::format("{}: cannot rename the temporary file into place: {}", path,
+    throw WriteError(fmt::format("{}: cannot rename the temporary file into place: {}", path,
                               std::strerror(err)));
   }
 }

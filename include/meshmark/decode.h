@@ -58,10 +58,6 @@ struct ExtractResult {
 ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                       const ExtractOptions& options = {});
 
-/// Per-bin score over bins 1..nb of a histogram: means[j], the mean of
-/// bin_score_term(statistic, t) (the mean of t for BinStatistic::Mean), and counts[j], for
-/// bin j + 1.
-void bin_means(const Histogram& h, std::vector<double>& means, std::vector<int>& counts,
-               BinStatistic statistic = BinStatistic::Mean);
+// bin_means, the per-bin scores extract reads, is in histogram.h (included above).
 
 }  // namespace meshmark

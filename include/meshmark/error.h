@@ -47,10 +47,26 @@ class InvalidInputError : public Error {
   std::string detail_;
 };
 
-/// The operating system refused a read or a write (missing file, permission, full disk).
+/// The operating system refused a read or a write (missing file, permission, full disk), or a
+/// database failed (registry.h). Catch it for either; ReadError and WriteError say which.
 class IOError : public Error {
  public:
   using Error::Error;
+};
+
+/// A file that cannot be read at all: missing, not a regular file, unreadable, larger than the
+/// most it may hold (the CLI's exit code 2, bad input). A file read but malformed is an
+/// InvalidInputError instead.
+class ReadError : public IOError {
+ public:
+  using IOError::IOError;
+};
+
+/// An output that cannot be written: no permission, no space, not a regular file, a failed
+/// rename into place (the CLI's exit code 3). The destination is then untouched.
+class WriteError : public IOError {
+ public:
+  using IOError::IOError;
 };
 
 /// A caller's argument that is out of its documented range (bits <= 0, strength outside

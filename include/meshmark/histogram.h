@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "meshmark/center.h"
+#include "meshmark/method.h"
 
 namespace meshmark {
 
@@ -50,5 +51,11 @@ std::vector<std::uint8_t> carrier_vertices(const Eigen::MatrixX3d& V, const Eige
 /// for nbits bits. Bin of vertex i: floor((rho_i - rho_min) / s), clamped to nB - 1.
 Histogram build_histogram(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referenced,
                           const Eigen::Vector3d& center, int nbits);
+
+/// Per-bin score over bins 1..nb of a histogram: means[j], the mean of
+/// bin_score_term(statistic, t) (the mean of t for BinStatistic::Mean), and counts[j], for
+/// bin j + 1.
+void bin_means(const Histogram& h, std::vector<double>& means, std::vector<int>& counts,
+               BinStatistic statistic = BinStatistic::Mean);
 
 }  // namespace meshmark

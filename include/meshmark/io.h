@@ -43,7 +43,7 @@ struct ReadOptions {
 };
 
 /// Reads a mesh, choosing the format from the extension (.off .obj .ply .stl, any case).
-/// \throw IOError when the file cannot be opened or read.
+/// \throw ReadError (an IOError) when the file cannot be opened or read.
 /// \throw InvalidInputError naming file, line or element, and the problem, for malformed
 ///        content: truncated data, wrong counts, indices out of range, NaN or infinite
 ///        coordinates, non-numeric tokens, no faces.
@@ -78,8 +78,8 @@ struct WriteOptions {
 
 /// Writes a mesh atomically (see write_file_atomically). On failure the destination is
 /// untouched. The path's extension is consulted only when options.format is unset.
-/// \throw IOError when the file cannot be written; InvalidArgumentError for an unknown
-///        extension.
+/// \throw WriteError (an IOError) when the file cannot be written; InvalidArgumentError for an
+///        unknown extension or a mesh that breaks mesh.h's preconditions (validate_mesh).
 void write_mesh(const std::string& path, const Mesh& mesh, const WriteOptions& options = {});
 
 /// A mesh file as a write produces it, and the files it names beside it (a .gltf's external
@@ -122,16 +122,16 @@ const char* encoding_name(Encoding encoding);
 /// one keeps its permission bits (and its owner and group where the system allows). Before
 /// writing, temporary files of this exact pattern for the same path whose PID names no
 /// running process (left by a writer killed before its rename) are removed.
-/// \throw IOError on failure; the destination is then untouched.
+/// \throw WriteError (an IOError) on failure; the destination is then untouched.
 void write_file_atomically(const std::string& path, const std::string& bytes);
 
-/// Reads a whole regular file (symbolic links are followed). \throw IOError when it cannot be
+/// Reads a whole regular file (symbolic links are followed). \throw ReadError when it cannot be
 /// opened or read, or is not a regular file (a directory, a FIFO, a device, a socket): such
 /// a file is refused without reading from it or waiting on it.
 std::string read_file(const std::string& path);
 
 /// read_file of at most max_bytes; `what` names the file in messages ("key file").
-/// \throw IOError as read_file does, and when the file holds more than max_bytes.
+/// \throw ReadError as read_file does, and when the file holds more than max_bytes.
 std::string read_file(const std::string& path, std::size_t max_bytes, std::string_view what);
 
 }  // namespace meshmark
