@@ -287,7 +287,9 @@ void register_embed(CLI::App& app, int& exit_code) {
   sub->add_option("--max-rounds", args->embed.max_rounds, "linearize-and-solve rounds at most")
       ->check(CLI::Range(1, 1000));
   sub->add_option("--solver", args->solver,
-                  "native (structured, exact) or ipopt (general-purpose, for comparison)")
+                  "the backend that solves each round's quadratic program (EmbedOptions::backend): "
+                  "native (the structured solvers: exact dual Newton for costs S and Q, ADMM for "
+                  "cost L) or ipopt (general-purpose interior point, for comparison)")
       ->check(CLI::IsMember({"native", "ipopt"}));
   sub->add_option("--x-step", args->x_step,
                   "cost L, native solver: ADMM x-steps by matrix-free conjugate gradients (cg) or "

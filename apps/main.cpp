@@ -8,8 +8,8 @@
 #include <filesystem>
 
 #include "cli.h"
+#include "meshmark/color.h"
 #include "meshmark/error.h"
-#include "meshmark/roughness.h"
 #include "meshmark/version.h"
 
 namespace meshmark::cli {
@@ -84,9 +84,7 @@ void write_heat_map(const std::string& path, std::initializer_list<std::string> 
                     const Mesh& mesh, const Eigen::VectorXd& values) {
   require_ply(path);
   refuse_overwrite(path, inputs);
-  Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3> colors(mesh.V.rows(), 3);
-  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
-    colors.row(i) = heat_color(values(i)).cast<std::uint8_t>().transpose();
+  const Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3> colors = heat_colors(values);
   WriteOptions wo;
   wo.vertex_colors = &colors;
   wo.encoding = Encoding::BinaryLittleEndian;

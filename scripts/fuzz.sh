@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Builds the fuzzers (the mesh readers; hexadecimal payloads and the ID decoder) (libFuzzer with AddressSanitizer and UndefinedBehaviorSanitizer,
-# clang from Debian) and runs it for a bounded time per format, seeded with real meshes.
+# Builds the fuzzers (the mesh readers; hexadecimal payloads and the ID decoder: CMake targets
+# fuzz_read and fuzz_decode, libFuzzer with AddressSanitizer and UndefinedBehaviorSanitizer,
+# clang from Debian) and runs each for a bounded time, seeded with real meshes.
 # Usage: scripts/fuzz.sh [SECONDS_PER_FORMAT] (default 20). Crashes land in fuzz/crashes/;
 # keep each as a regression in fuzz/regressions/ (tests read every file there).
 set -euo pipefail
@@ -9,16 +10,14 @@ seconds="${1:-20}"
 command -v clang++ >/dev/null || { echo "fuzz: clang++ is missing (apt-get install clang libclang-rt-14-dev)" >&2; exit 1; }
 out=build-fuzz
 mkdir -p "$out" fuzz/crashes
-sources="src/error.cpp src/mesh.cpp src/text_scan.cpp src/file_image.cpp src/io.cpp src/io_off.cpp src/io_obj.cpp src/io_ply.cpp src/io_stl.cpp src/io_gltf.cpp src/io_gltf_write.cpp src/json_spans.cpp src/io_draco.cpp src/draco_codec.cpp src/io_3mf.cpp"
-format_libs="-lmeshoptimizer -ldraco -l3MF"
-format_flags="-isystem /usr/include/lib3mf"
 # Debian's lib3mf 1.8 leaks libzip objects on every 3MF read (third-party; see the file).
 export LSAN_OPTIONS="suppressions=$PWD/.ci/lsan-suppressions.txt${LSAN_OPTIONS:+:$LSAN_OPTIONS}"
-clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
-  -Iinclude -Isrc -isystem /usr/include/eigen3 $format_flags $sources fuzz/fuzz_read.cpp -lfmt $format_libs -o "$out/fuzz_read"
-clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
-  -Iinclude -Isrc -isystem /usr/include/eigen3 $format_flags $sources src/payload.cpp src/key.cpp src/coding.cpp fuzz/fuzz_decode.cpp \
-  -lfmt -lsodium $format_libs -o "$out/fuzz_decode"
+# The fuzzers are CMake targets (MESHMARK_BUILD_FUZZERS) linking the library's own I/O and
+# payload objects, instrumented; nothing else is built.
+CXX=clang++ cmake -S . -B "$out" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" \
+  -DMESHMARK_BUILD_FUZZERS=ON -DMESHMARK_BUILD_TESTS=OFF -DMESHMARK_BUILD_BENCH=OFF \
+  -DMESHMARK_BUILD_PYTHON=OFF >"$out/configure.log" || { cat "$out/configure.log" >&2; exit 1; }
+cmake --build "$out" --target fuzz_read fuzz_decode --parallel "$(nproc)"
 # Seeds: real meshes, each prefixed with the byte that selects its format.
 seeds="$out/seeds"
 rm -rf "$seeds" && mkdir -p "$seeds"

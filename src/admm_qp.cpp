@@ -188,12 +188,12 @@ QpResult AdmmQpSolver::solve(const SeparableQp& qp, const Eigen::VectorXd* warm_
     u_ += xr - z;
     result.iterations = it + 1;
     result.primal_residual = (x - z).cwiseAbs().maxCoeff();
-    result.complementarity = rho_ * (z - z_prev).cwiseAbs().maxCoeff();
-    progress = std::min(result.primal_residual, result.complementarity / rho_);
+    result.dual_residual = rho_ * (z - z_prev).cwiseAbs().maxCoeff();
+    progress = std::min(result.primal_residual, result.dual_residual / rho_);
     if (result.primal_residual <= settings_.tolerance &&
-        result.complementarity <= settings_.tolerance)
+        result.dual_residual <= settings_.tolerance)
       return stop(AdmmStop::Converged);
-    const double residual = std::max(result.primal_residual, result.complementarity / rho_);
+    const double residual = std::max(result.primal_residual, result.dual_residual / rho_);
     if (residual <= 0.5 * best || !std::isfinite(best)) best = residual, best_at = it;
     if (it - best_at >= settings_.stall_iterations) return stop(AdmmStop::Stalled);
   }

@@ -298,6 +298,7 @@ TaubinOptions taubin_options(const AttackParams& p) {
 }  // namespace
 
 Mesh apply_attack(const Mesh& mesh, const AttackStep& s, std::uint64_t seed) {
+  validate_mesh(mesh);
   const std::string& k = s.kind;
   check_attack_params(k, s.params);
   if (k == "reorder") return attack_reorder(mesh, seed);

@@ -134,11 +134,12 @@ double centroid_divisor(CenterKind kind) {
 Center center_from_totals(CenterKind kind, const Eigen::Vector3d& O, const FaceTotals& tot) {
   Center c;
   if (kind == CenterKind::Surface) {
-    c.quality = tot.T / 2;
+    c.mass = tot.T / 2;  // w6 is twice each triangle's area
     c.well_defined = tot.T > 0;
   } else {
-    c.quality = tot.magnitude > 0 ? std::abs(tot.T) / tot.magnitude : 0;
-    c.well_defined = c.quality > kVolumeCenterMinQuality;
+    c.mass = tot.T / 6;  // w6 is six times each tetrahedron's signed volume
+    c.volume_consistency = tot.magnitude > 0 ? std::abs(tot.T) / tot.magnitude : 0;
+    c.well_defined = c.volume_consistency > kVolumeCenterMinConsistency;
   }
   c.point = tot.T != 0 ? Eigen::Vector3d(O + tot.ws / (centroid_divisor(kind) * tot.T)) : O;
   return c;
@@ -163,7 +164,7 @@ Center center_of_mass(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
   if (kind == CenterKind::Discrete) {
     Center c;
     c.point = O;
-    c.quality = count;
+    c.mass = count;
     c.well_defined = count > 0;
     return c;
   }

@@ -11,8 +11,8 @@
 
 namespace meshmark {
 
-Payload ExtractResult::payload() const {
-  Payload p;
+BinWord ExtractResult::word() const {
+  BinWord p;
   p.bits.reserve(bits.size());
   for (auto b : bits) p.bits.push_back(b == 1 ? 1 : 0);
   return p;
@@ -25,6 +25,7 @@ double ExtractResult::min_margin() const {
 
 ExtractResult extract(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                       const ExtractOptions& options) {
+  validate_mesh(V, F);
   if (options.bits < 1)
     throw InvalidArgumentError(fmt::format("cannot extract {} bits", options.bits));
   if (options.skip_nearest < 0 || options.skip_farthest < 0)

@@ -8,9 +8,10 @@
 #include <fmt/ranges.h>
 
 #include "embed_problem.h"
-#include "meshmark/histogram.h"
 #include "meshmark/error.h"
+#include "meshmark/histogram.h"
 #include "meshmark/mesh.h"
+#include "qp_solver.h"
 
 namespace meshmark {
 
@@ -125,12 +126,13 @@ const char* embed_status_name(EmbedStatus status) {
 struct PreparedEmbedder::Impl {
   Eigen::MatrixX3d V;
   Eigen::MatrixX3i F;
-  EmbedOptions prepared;  // the variant, roughness and backend the context was built for
+  EmbedOptions prepared;  // the variant, roughness and solver the context was built for
   detail::EmbedContext ctx;
 };
 
 PreparedEmbedder::PreparedEmbedder(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                                    const EmbedOptions& options) {
+  validate_mesh(V, F);
   auto impl = std::make_shared<Impl>();
   impl->V = V;
   impl->F = F;
@@ -141,8 +143,9 @@ PreparedEmbedder::PreparedEmbedder(const Eigen::MatrixX3d& V, const Eigen::Matri
 
 bool PreparedEmbedder::accepts(const EmbedOptions& o) const {
   const EmbedOptions& p = impl_->prepared;
+  // The solvers keep no state across embeddings; only an assembled Hessian needs preparing.
   return o.variant == p.variant && same_roughness(o.roughness, p.roughness) &&
-         o.backend == p.backend && o.admm.x_step == p.admm.x_step;
+         (!detail::needs_assembled_hessian(o) || detail::needs_assembled_hessian(p));
 }
 
 const Eigen::MatrixX3d& PreparedEmbedder::V() const {
@@ -169,8 +172,8 @@ EmbedResult PreparedEmbedder::embed(const Payload& payload, const EmbedOptions& 
   check_options(payload, options);
   if (!accepts(options))
     throw InvalidArgumentError(fmt::format(
-        "the embedder was prepared for variant {} (and its roughness constants and backend), "
-        "not for variant {} with these settings",
+        "the embedder was prepared for variant {} (its roughness constants, and an assembled "
+        "Hessian or not), not for variant {} with these settings",
         impl_->prepared.variant.name(), options.variant.name()));
   const Eigen::MatrixX3d& V = impl_->V;
   const Eigen::MatrixX3i& F = impl_->F;
@@ -194,9 +197,10 @@ EmbedResult PreparedEmbedder::embed(const Payload& payload, const EmbedOptions& 
     return res;
   }
   detail::RoundProblem round;
-  AdmmQpSolver admm;
+  detail::RoundSolver solver(options);
+  const bool assemble = detail::needs_assembled_hessian(options);
   for (int k = 0; k < options.max_rounds; ++k) {
-    if (!detail::build_round(ctx, payload, options, res.V, round, res.message)) {
+    if (!detail::build_round(ctx, payload, options, res.V, assemble, round, res.message)) {
       res.status = EmbedStatus::InvalidMesh;
       res.V = V;
       res.seconds = elapsed();
@@ -204,32 +208,11 @@ EmbedResult PreparedEmbedder::embed(const Payload& payload, const EmbedOptions& 
     }
     const double s = round.hist.step;
     if (k == 0) res.bin_width = s;
-    QpResult sol;
-    if (options.backend == SolverBackend::Ipopt) {
-      sol = solve_round_with_ipopt(round.qp,
-                                   options.variant.cost == CostKind::Laplacian ? &round.H : nullptr,
-                                   options.ipopt);
-    } else if (options.variant.cost == CostKind::Laplacian) {
-      if (detail::needs_assembled_hessian(options)) {
-        admm.set_hessian(round.H, options.admm);
-        sol = admm.solve(round.qp);
-      } else {
-        const detail::LaplacianOperator H(ctx, round.U, options.lambda);
-        admm.set_hessian(
-            {[&H](const Eigen::VectorXd& x, Eigen::VectorXd& Hx) { H.apply(x, Hx); }, H.diagonal()},
-            options.admm);
-        sol = admm.solve(round.qp);
-      }
-    } else {
-      // No warm start: a later round's problem is a small correction whose multipliers are near
-      // zero, so the previous round's are a worse start than none (measured: one to two Newton
-      // steps more).
-      sol = solve_separable_qp(round.qp, options.solver);
-    }
+    const QpResult sol = solver.solve(ctx, round);
     ++res.rounds;
     res.solver_iterations += sol.iterations;
     res.solver_status = sol.status;
-    res.kkt_residual = std::max(sol.primal_residual, sol.complementarity);
+    res.kkt_residual = std::max({sol.primal_residual, sol.complementarity, sol.dual_residual});
     res.radial_fallbacks = round.radial_fallbacks;
     if (sol.status == QpStatus::Infeasible) {
       res.status = EmbedStatus::Infeasible;

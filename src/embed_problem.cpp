@@ -193,7 +193,8 @@ void fall_back_where_bins_cannot_reach(const EmbedContext& ctx, const Payload& p
 }  // namespace
 
 bool build_round(const EmbedContext& ctx, const Payload& payload, const EmbedOptions& o,
-                 const Eigen::MatrixX3d& V, RoundProblem& round, std::string& message) {
+                 const Eigen::MatrixX3d& V, bool assemble_hessian, RoundProblem& round,
+                 std::string& message) {
   const Eigen::MatrixX3i& F = *ctx.F;
   const int nb = payload.size(), ng = ctx.groups.count();
   // Distances are measured from the original center, where this round puts the center back:
@@ -282,7 +283,7 @@ bool build_round(const EmbedContext& ctx, const Payload& payload, const EmbedOpt
     message = fmt::format(
         "the {} center is ill-defined for this mesh (|sum of signed volumes| / sum of volumes = "
         "{:.2g}): open or inconsistently oriented",
-        center_letter(o.variant.center), round.center.quality);
+        center_letter(o.variant.center), round.center.volume_consistency);
     return false;
   }
   qp.c = (ctx.original_center - round.center.point) / s;  // bring the center back where it was
@@ -307,7 +308,7 @@ bool build_round(const EmbedContext& ctx, const Payload& payload, const EmbedOpt
     qp.h = o.lambda * qp.h + (1 - o.lambda) * q;
     qp.h = qp.h.cwiseMax(1e-12 * qp.h.maxCoeff());  // keep the cost strictly convex
   }
-  if (needs_assembled_hessian(o)) round.H = laplacian_hessian(ctx, round.U, o.lambda);
+  if (assemble_hessian) round.H = laplacian_hessian(ctx, round.U, o.lambda);
   return true;
 }
 

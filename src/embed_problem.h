@@ -51,7 +51,7 @@ struct EmbedContext {
   PositionGroups groups;
   Adjacency adjacency;                             // cost L only
   LaplacianRows laplacian;                         // cost L
-  Eigen::SparseMatrix<double> laplacian_topology;  // cost L, backend Ipopt: C^T C
+  Eigen::SparseMatrix<double> laplacian_topology;  // cost L, assembled Hessian: C^T C
   Eigen::VectorXd smoothness;                      // direction S only
   double smooth_threshold = 0.8;
   Eigen::Vector3d original_center = Eigen::Vector3d::Zero();
@@ -82,7 +82,7 @@ struct RoundProblem {
   Histogram hist;
   Center center;
   SeparableQp qp;                 // constraints; qp.h is the diagonal cost (S, Q)
-  Eigen::SparseMatrix<double> H;  // cost L, backend Ipopt: the assembled Hessian over groups
+  Eigen::SparseMatrix<double> H;  // cost L, when assembled: the Hessian over groups
   Eigen::MatrixX3d U;             // per group, the unit direction of displacement
   int radial_fallbacks = 0;
 };
@@ -92,16 +92,11 @@ struct RoundProblem {
 Eigen::SparseMatrix<double> laplacian_topology(const PositionGroups& groups,
                                                const Adjacency& adjacency);
 
-/// Cost L: whether the Hessian must be assembled (for Ipopt, or for Cholesky x-steps) rather
-/// than only applied.
-inline bool needs_assembled_hessian(const EmbedOptions& o) {
-  return o.variant.cost == CostKind::Laplacian &&
-         (o.backend == SolverBackend::Ipopt || o.admm.x_step == AdmmXStep::Cholesky);
-}
-
-/// Builds the round's problem for payload under options o at positions V. Returns false when
+/// Builds the round's problem for payload under options o at positions V; with
+/// assemble_hessian (cost L, and ctx.laplacian_topology built), round.H too. Returns false when
 /// the histogram or the center is not defined (the message says which).
 bool build_round(const EmbedContext& ctx, const Payload& payload, const EmbedOptions& o,
-                 const Eigen::MatrixX3d& V, RoundProblem& round, std::string& message);
+                 const Eigen::MatrixX3d& V, bool assemble_hessian, RoundProblem& round,
+                 std::string& message);
 
 }  // namespace meshmark::detail

@@ -202,10 +202,10 @@ std::string read_file(const std::string& path, std::size_t max_bytes, std::strin
     throw ReadError(fmt::format("{}: cannot read the {}: {}", path, what, std::strerror(errno)));
   if (!S_ISREG(st.st_mode))
     throw ReadError(fmt::format("{}: the {} is {}; only regular files are read", path, what,
-                              file_kind(st.st_mode)));
+                                file_kind(st.st_mode)));
   auto too_large = [&] {
     return ReadError(fmt::format("{}: the {} is larger than {}, the most it may hold", path, what,
-                               size_text(max_bytes)));
+                                 size_text(max_bytes)));
   };
   if (static_cast<std::uint64_t>(st.st_size) > max_bytes) throw too_large();
   std::string bytes(static_cast<std::size_t>(st.st_size), '\0');
@@ -327,6 +327,7 @@ std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format, const Write
 }
 
 MeshFiles write_mesh_files(const std::string& path, const Mesh& mesh, const WriteOptions& options) {
+  validate_mesh(mesh, path);
   // The extension is looked at only when no format is given (OUT may have none).
   const FileFormat format = options.format ? *options.format : format_from_path(path);
   MeshFiles files;
@@ -356,7 +357,7 @@ void write_mesh_files_atomically(const std::string& path, const MeshFiles& files
     struct stat st {};
     if (::lstat(target.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
       throw WriteError(fmt::format("{}: not a regular file; meshmark writes regular files only",
-                                printable(target)));
+                                   printable(target)));
   }
   for (const auto& [name, bytes] : files.resources)
     write_file_atomically((folder / name).string(), bytes);
@@ -462,12 +463,12 @@ void write_file_atomically(const std::string& path, const std::string& bytes) {
   struct stat link {};
   if (::lstat(path.c_str(), &link) == 0 && !S_ISREG(link.st_mode))
     throw WriteError(fmt::format("{}: not a regular file ({}); meshmark writes regular files only",
-                              path,
-                              S_ISLNK(link.st_mode)                            ? "a symbolic link"
-                              : S_ISDIR(link.st_mode)                          ? "a directory"
-                              : S_ISFIFO(link.st_mode)                         ? "a FIFO"
-                              : S_ISCHR(link.st_mode) || S_ISBLK(link.st_mode) ? "a device"
-                                                                               : "a socket"));
+                                 path,
+                                 S_ISLNK(link.st_mode)    ? "a symbolic link"
+                                 : S_ISDIR(link.st_mode)  ? "a directory"
+                                 : S_ISFIFO(link.st_mode) ? "a FIFO"
+                                 : S_ISCHR(link.st_mode) || S_ISBLK(link.st_mode) ? "a device"
+                                                                                  : "a socket"));
   // A new file gets 0666 less the umask; an existing one keeps its mode (created no wider).
   struct stat old {};
   const bool existing = ::stat(path.c_str(), &old) == 0 && S_ISREG(old.st_mode);
@@ -475,7 +476,7 @@ void write_file_atomically(const std::string& path, const std::string& bytes) {
   const int fd = create_temporary(dir, prefix, existing ? old.st_mode & 0777 : 0666, tmp);
   if (fd < 0)
     throw WriteError(fmt::format("{}: cannot create a temporary file in {}: {}", path, dir,
-                              std::strerror(errno)));
+                                 std::strerror(errno)));
   auto fail_with = [&](const char* what, int err) {
     ::close(fd);
     ::unlink(tmp.c_str());
@@ -493,7 +494,7 @@ void write_file_atomically(const std::string& path, const std::string& bytes) {
     const int err = errno;
     ::unlink(tmp.c_str());
     throw WriteError(fmt::format("{}: cannot rename the temporary file into place: {}", path,
-                              std::strerror(err)));
+                                 std::strerror(err)));
   }
 }
 

@@ -118,11 +118,11 @@ BitLayout BitLayout::keyed(const Key& key, int nb) {
   return layout;
 }
 
-Payload BitLayout::to_bins(const Payload& payload) const {
+BinWord BitLayout::to_bins(const Payload& payload) const {
   if (payload.size() != size())
     throw InvalidArgumentError(
         fmt::format("payload of {} bits for a layout of {} bits", payload.size(), size()));
-  Payload out;
+  BinWord out;
   out.bits.resize(size());
   for (int j = 0; j < size(); ++j) out.bits[bin_of[j]] = (payload.bits[j] & 1) ^ whitening[j];
   return out;

@@ -6,7 +6,48 @@
 #include <cstring>
 #include <numeric>
 
+#include <fmt/format.h>
+
+#include "meshmark/error.h"
+
 namespace meshmark {
+
+namespace {
+
+[[noreturn]] void bad_index(std::string_view what, std::string_view face, long long f,
+                            long long index, Eigen::Index nv) {
+  throw InvalidArgumentError(fmt::format(
+      "{}: {} {} has vertex index {} but the mesh has {} vertices", what, face, f, index, nv));
+}
+
+}  // namespace
+
+void validate_mesh(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, std::string_view what) {
+  for (Eigen::Index i = 0; i < V.rows(); ++i)
+    if (!V.row(i).allFinite())
+      throw InvalidArgumentError(
+          fmt::format("{}: vertex {} has a non-finite coordinate ({}, {}, {})", what, i, V(i, 0),
+                      V(i, 1), V(i, 2)));
+  const Eigen::Index nv = V.rows();
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c)
+      if (F(f, c) < 0 || F(f, c) >= nv) bad_index(what, "face", f, F(f, c), nv);
+}
+
+void validate_mesh(const Mesh& mesh, std::string_view what) {
+  validate_mesh(mesh.V, mesh.F, what);
+  const Polygons& p = mesh.faces;
+  const auto total = static_cast<std::int64_t>(p.indices.size());
+  if (!p.offsets.empty() && (p.offsets.front() != 0 || p.offsets.back() != total ||
+                             !std::is_sorted(p.offsets.begin(), p.offsets.end())))
+    throw InvalidArgumentError(fmt::format(
+        "{}: the polygons' offsets do not run from 0 to their {} indices in order", what, total));
+  const Eigen::Index nv = mesh.V.rows();
+  for (std::size_t k = 0; k + 1 < p.offsets.size(); ++k)
+    for (std::int64_t q = p.offsets[k]; q < p.offsets[k + 1]; ++q)
+      if (p.indices[q] < 0 || p.indices[q] >= nv)
+        bad_index(what, "polygon", static_cast<long long>(k), p.indices[q], nv);
+}
 
 void Polygons::push_back(const int* first, std::size_t count) {
   indices.insert(indices.end(), first, first + count);

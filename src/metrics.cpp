@@ -18,6 +18,8 @@ double vertex_rms_percent(const Eigen::MatrixX3d& A, const Eigen::MatrixX3d& B,
   if (A.rows() != B.rows())
     throw InvalidArgumentError(
         fmt::format("vertex RMS needs the same vertices ({} and {})", A.rows(), B.rows()));
+  validate_mesh(A, F, "the first mesh");
+  validate_mesh(B, F, "the second mesh");
   const auto used = referenced_vertices(F, A.rows());
   double sum = 0, n = 0;
   for (Eigen::Index i = 0; i < A.rows(); ++i)
@@ -28,6 +30,7 @@ double vertex_rms_percent(const Eigen::MatrixX3d& A, const Eigen::MatrixX3d& B,
 
 Eigen::MatrixX3d sample_surface(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, int count,
                                 std::uint64_t seed) {
+  validate_mesh(V, F);
   const auto used = referenced_vertices(F, V.rows());
   std::vector<double> cumulative;
   cumulative.reserve(static_cast<std::size_t>(F.rows()));
@@ -68,6 +71,8 @@ Eigen::MatrixX3d sample_surface(const Eigen::MatrixX3d& V, const Eigen::MatrixX3
 SurfaceDistance surface_distance(const Eigen::MatrixX3d& VA, const Eigen::MatrixX3i& FA,
                                  const Eigen::MatrixX3d& VB, const Eigen::MatrixX3i& FB,
                                  const SurfaceDistanceOptions& o) {
+  validate_mesh(VA, FA, "the first mesh");
+  validate_mesh(VB, FB, "the second mesh");
   if (FA.rows() == 0 || FB.rows() == 0)
     throw InvalidArgumentError(
         fmt::format("surface distance between meshes of {} and {} faces: both need triangles",

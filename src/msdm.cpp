@@ -182,6 +182,8 @@ PerceptualDistance msdm(const Eigen::MatrixX3d& A, const Eigen::MatrixX3d& B,
   if (A.rows() != B.rows())
     throw InvalidArgumentError(
         fmt::format("MSDM needs the same vertices ({} and {}); use MSDM2", A.rows(), B.rows()));
+  validate_mesh(A, F, "the first mesh");
+  validate_mesh(B, F, "the second mesh");
   return MsdmReference(A, F, options).compare(B);
 }
 

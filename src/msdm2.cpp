@@ -106,6 +106,8 @@ Eigen::VectorXd msdm2_local(const Eigen::MatrixX3d& VX, const Eigen::MatrixX3i& 
 PerceptualDistance msdm2(const Eigen::MatrixX3d& VA, const Eigen::MatrixX3i& FA,
                          const Eigen::MatrixX3d& VB, const Eigen::MatrixX3i& FB,
                          const Msdm2Options& o) {
+  validate_mesh(VA, FA, "the first mesh");
+  validate_mesh(VB, FB, "the second mesh");
   // The same D both ways.
   const double D = std::max(detail::longest_side(VA, FA), detail::longest_side(VB, FB));
   PerceptualDistance out;

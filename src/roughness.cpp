@@ -96,15 +96,4 @@ RoughnessField roughness_field(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i
   return field;
 }
 
-Eigen::Vector3i heat_color(double value) {
-  const double v = std::clamp(value, 0.0, 1.0);
-  // Blue -> cyan -> green -> yellow -> red.
-  const double r = std::clamp(1.5 - std::abs(4 * v - 3), 0.0, 1.0);
-  const double g = std::clamp(1.5 - std::abs(4 * v - 2), 0.0, 1.0);
-  const double b = std::clamp(1.5 - std::abs(4 * v - 1), 0.0, 1.0);
-  return Eigen::Vector3i(static_cast<int>(std::lround(255 * r)),
-                         static_cast<int>(std::lround(255 * g)),
-                         static_cast<int>(std::lround(255 * b)));
-}
-
 }  // namespace meshmark

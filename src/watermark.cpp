@@ -19,7 +19,7 @@ const Key& id_key(const std::optional<Key>& key) {
   return key ? *key : public_key();
 }
 
-Payload id_bins(const IdCode& code, std::uint64_t id, const std::optional<Key>& key) {
+BinWord id_bins(const IdCode& code, std::uint64_t id, const std::optional<Key>& key) {
   return mark_layout(key, code.bits(), true).to_bins(code.encode(id, id_key(key)));
 }
 

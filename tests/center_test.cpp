@@ -126,6 +126,28 @@ TEST(CenterJacobians, CentersOfAnAxisAlignedBoxAreItsMiddle) {
             0.01);
 }
 
+TEST(CenterJacobians, MassIsTheVertexCountTheAreaOrTheVolume) {
+  // The closed 2 x 1 x 1 box above, outward-facing (face 0 at z = 0 has normal -z): 9 vertices,
+  // area 2 (2 + 2 + 1) = 10, volume 2; its triangles are consistently oriented.
+  Eigen::MatrixX3d V(9, 3);
+  V << 0, 0, 0, 2, 0, 0, 2, 1, 0, 0, 1, 0, 0, 0, 1, 2, 0, 1, 2, 1, 1, 0, 1, 1, 0.5, 0, 0;
+  Eigen::MatrixX3i F(13, 3);
+  F << 0, 3, 2, 0, 2, 1, 4, 5, 6, 4, 6, 7, 0, 8, 5, 0, 5, 4, 8, 1, 5, 3, 7, 6, 3, 6, 2, 0, 4, 7, 0,
+      7, 3, 1, 2, 6, 1, 6, 5;
+  const auto used = referenced_vertices(F, 9);
+  constexpr double kTol = 1e-12;
+  EXPECT_EQ(center_of_mass(V, F, used, CenterKind::Discrete).mass, 9);
+  EXPECT_NEAR(center_of_mass(V, F, used, CenterKind::Surface).mass, 10, kTol);
+  const Center v = center_of_mass(V, F, used, CenterKind::Volume);
+  EXPECT_NEAR(v.mass, 2, kTol);
+  EXPECT_NEAR(v.volume_consistency, 1, kTol);
+  // Turned inside out: the signed volume changes sign, the consistency does not.
+  const Eigen::MatrixX3i inward = F.rowwise().reverse();
+  const Center w = center_of_mass(V, inward, used, CenterKind::Volume);
+  EXPECT_NEAR(w.mass, -2, kTol);
+  EXPECT_NEAR(w.volume_consistency, 1, kTol);
+}
+
 TEST(CenterJacobians, ProductsAndCenterOfTheFusedPassAgreeWithTheMatricesAndLongDouble) {
   // center_jacobian_products gathers different per-vertex sums than center_jacobians (a 3-vector
   // and a scalar instead of a matrix): each J_i u_i must match the (finite-difference checked)

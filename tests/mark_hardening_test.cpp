@@ -195,7 +195,7 @@ TEST(MarkHardening, NothingIsWrittenWhenTheFileWouldNotCarryTheMark) {
       test::run_cli("embed " + horse + " " + out + " --payload 123456789abcdef0");
   ASSERT_EQ(ok.code, 0) << ok.out;
   const Mesh back = read_mesh(out);
-  EXPECT_EQ(extract(back.V, back.F).payload(), payload_from_hex("123456789abcdef0", 64));
+  EXPECT_EQ(extract(back.V, back.F).word(), payload_from_hex("123456789abcdef0", 64));
 }
 
 TEST(MarkHardening, BatchRefusesSharedOutputsAndReportsBadLinesPerLine) {
@@ -219,7 +219,7 @@ TEST(MarkHardening, BatchRefusesSharedOutputsAndReportsBadLinesPerLine) {
   EXPECT_NE(r.out.find("jobs.txt:5: ok"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("1 of 5 copies"), std::string::npos) << r.out;
   const Mesh c = read_mesh(dir + "/c.obj");
-  EXPECT_EQ(extract(c.V, c.F).payload(), payload_from_hex("00000000ff000000", 64));
+  EXPECT_EQ(extract(c.V, c.F).word(), payload_from_hex("00000000ff000000", 64));
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 
 #include "embed_problem.h"
 #include "ipopt_reference.h"
+#include "meshmark/admm_qp.h"
 #include "meshmark/decode.h"
 #include "meshmark/embed.h"
 #include "meshmark/io.h"

@@ -21,28 +21,9 @@
 #include <functional>
 
 #include "meshmark/separable_qp.h"
+#include "meshmark/solver_settings.h"
 
 namespace meshmark {
-
-/// How the ADMM x-step solves (2 H + rho I) x = rhs.
-enum class AdmmXStep {
-  ConjugateGradients,  ///< matrix-free, Jacobi-preconditioned, inexact where that suffices
-  Cholesky,            ///< sparse LDL^T (AMD ordering) of the assembled matrix, exact
-};
-
-/// Settings of the ADMM solver.
-struct AdmmSettings {
-  AdmmXStep x_step = AdmmXStep::ConjugateGradients;  ///< Cholesky needs an assembled Hessian
-  double rho = 0;           ///< penalty; 0 picks sqrt(smallest * largest diagonal of 2H)
-  double relaxation = 1.8;  ///< over-relaxation alpha in (0, 2)
-  double tolerance = 1e-7;  ///< on |x - z|_inf and rho |z - z_prev|_inf
-  int max_iterations = 5000;
-  /// Stalled: this many ADMM iterations without halving the best residual so far
-  /// (max(|x - z|_inf, |z - z_prev|_inf)) end the solve.
-  int stall_iterations = 500;
-  double cg_tolerance = 1e-8;  ///< relative residual of each x-step (ADMM tolerates inexact steps)
-  int max_cg_iterations = 1000;  ///< per x-step; an x-step that needs more ends the solve
-};
 
 /// Why the last AdmmQpSolver::solve ended.
 enum class AdmmStop {
@@ -81,7 +62,7 @@ class AdmmQpSolver {
   int factorizations() const { return factorizations_; }
   /// Solves over the constraints of qp (qp.h is ignored). warm_z and warm_u (size n) start the
   /// iteration where a previous solve ended. QpResult::x is z; primal_residual is |x - z|_inf;
-  /// complementarity holds the dual residual rho |z - z_prev|_inf; iterations counts ADMM steps.
+  /// dual_residual is rho |z - z_prev|_inf; iterations counts ADMM steps.
   /// Every outcome is a status (stop_reason() says which way it ended), never an exception,
   /// and the work is bounded: at most max_iterations steps, each of at most max_cg_iterations
   /// operator products and one separable solve (itself bounded, QpSettings).

@@ -19,13 +19,18 @@ struct Center {
   /// False for a volume center of an open or inconsistently oriented mesh (|sum w_f| tiny
   /// against sum |w_f|), or a surface center of a mesh with no area.
   bool well_defined = true;
-  /// Volume center: |sum w_f| / sum |w_f| (1 for a closed, consistently oriented mesh);
-  /// surface center: total area; discrete: number of referenced vertices.
-  double quality = 0;
+  /// The total weight the center averages with: discrete, the number of counted vertices;
+  /// surface, the total area (model units^2); volume, the total signed volume of the
+  /// tetrahedra (O, p0, p1, p2) (model units^3, negative for inward-facing triangles).
+  double mass = 0;
+  /// Volume center only: |sum w_f| / sum |w_f| in [0, 1] over the tetrahedra's signed volumes
+  /// w_f, 1 for a closed, consistently oriented mesh, near 0 for an open or inconsistently
+  /// oriented one (well_defined is false below kVolumeCenterMinConsistency). 1 for D and S.
+  double volume_consistency = 1;
 };
 
-/// Below this |sum w_f| / sum |w_f| the volume center is reported as ill-defined.
-inline constexpr double kVolumeCenterMinQuality = 1e-3;
+/// Below this volume_consistency the volume center is reported as ill-defined.
+inline constexpr double kVolumeCenterMinConsistency = 1e-3;
 
 /// Computes the center of mass of the referenced vertices (D), of the triangles weighted by
 /// area (S), or of the tetrahedra (O, p0, p1, p2) weighted by signed volume with O the

@@ -45,8 +45,8 @@ struct ExtractResult {
   /// Whether the carrier can carry nb bits (carrier_check.h): a warning (Weak) or an error
   /// (Unusable: collapsed, duplicated or far too coarse geometry) to report with the bits.
   CarrierCheck check;
-  /// The bits as a payload, erasures read as 0.
-  Payload payload() const;
+  /// The bits read (bin order; BitLayout::from_bins gives payload order), erasures read as 0.
+  BinWord word() const;
   /// Smallest margin over the bits (0 with an erasure).
   double min_margin() const;
 };

@@ -11,24 +11,17 @@
 #include <string>
 #include <vector>
 
-#include "meshmark/admm_qp.h"
 #include "meshmark/carrier_check.h"
 #include "meshmark/cho.h"
 #include "meshmark/histogram.h"
-#include "meshmark/ipopt_qp.h"
 #include "meshmark/method.h"
 #include "meshmark/payload.h"
 #include "meshmark/roughness.h"
 #include "meshmark/separable_qp.h"
+#include "meshmark/solver_settings.h"
 #include "meshmark/variant.h"
 
 namespace meshmark {
-
-/// Which solver answers each round's quadratic program.
-enum class SolverBackend {
-  Native,  ///< the structured solvers: exact dual Newton (costs S, Q), ADMM (cost L)
-  Ipopt,   ///< the general-purpose interior-point solver, for comparison
-};
 
 /// Options of embed. Units: strength and bin offset are fractions of a bin width.
 struct EmbedOptions {
@@ -51,11 +44,12 @@ struct EmbedOptions {
   double margin_tolerance = 1e-6;
   /// The center may move by at most this many bin widths.
   double center_tolerance = 1e-6;
-  QpSettings solver;                              ///< the exact separable solver (costs S and Q)
-  AdmmSettings admm;                              ///< the sparse solver (cost L)
-  RoughnessOptions roughness;                     ///< direction S: constants of the roughness field
-  SolverBackend backend = SolverBackend::Native;  ///< who solves the rounds
-  IpoptOptions ipopt;                             ///< backend Ipopt's settings
+  RoughnessOptions roughness;  ///< direction S: constants of the roughness field
+  /// Who solves the rounds (the CLI's --solver): the native solvers below, or Ipopt.
+  SolverBackend backend = SolverBackend::Native;
+  QpSettings separable;  ///< backend Native, costs S and Q: the exact separable solver's settings
+  AdmmSettings admm;     ///< backend Native, cost L: the ADMM solver's settings
+  IpoptOptions ipopt;    ///< backend Ipopt's settings
 };
 
 /// Outcome of embed.
@@ -78,7 +72,9 @@ struct EmbedResult {
   int solver_iterations = 0;                  ///< Newton (S, Q) or ADMM (L) iterations, all rounds
   int radial_fallbacks = 0;                   ///< vertices whose direction missed their bin (C1)
   QpStatus solver_status = QpStatus::Solved;  ///< last solve's status
-  double kkt_residual = 0;                    ///< last solve's max KKT residual (bin-width units)
+  /// The last solve's largest residual (bin widths): max of QpResult's primal_residual,
+  /// complementarity and dual_residual, whichever the solver fills (separable_qp.h).
+  double kkt_residual = 0;
   std::vector<double> margins;      ///< per bit, m_j (tbar_j - 1/2) after embedding (signed)
   double min_margin = 0;            ///< smallest of margins
   double squared_displacement = 0;  ///< sum_i |p_i^w - p_i|^2 (model units squared)
@@ -92,7 +88,8 @@ struct EmbedResult {
   CarrierCheck check;
 };
 
-/// Embeds payload (nb = payload.size() bits) into V, F (#V x 3, #F x 3) with options.method
+/// Embeds payload (nb = payload.size() bits, in bin order: bit j moves bin j + 1's mean; a
+/// keyed mark's BitLayout::to_bins gives it) into V, F (#V x 3, #F x 3) with options.method
 /// (the QP framework by default; Cho's mapping: cho.h, with the same status and fields, the
 /// solver's being the exponent search's: solver_iterations counts score evaluations). Unreferenced
 /// vertices do not move. Vertices at bit-identical positions (unwelded seams, split corners)
@@ -100,7 +97,7 @@ struct EmbedResult {
 /// cost, as the decoder counts them (carrier_vertices): a mesh with split corners is marked as
 /// its welded version is. The input is not modified; the result holds the new positions.
 /// \throw InvalidArgumentError for an empty payload or options out of range.
-EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Payload& payload,
+EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const BinWord& payload,
                   const EmbedOptions& options = {});
 
 /// What embed computes from the mesh and the variant alone (the carrier and its groups of
@@ -110,15 +107,16 @@ EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Pa
 /// its own copy of V and F. Safe to use from several threads at once (embed() is const).
 class PreparedEmbedder {
  public:
-  /// Prepares V, F (#V x 3, #F x 3) for options' variant, roughness constants and backend.
+  /// Prepares V, F (#V x 3, #F x 3) for options' variant, roughness constants and solver.
   PreparedEmbedder(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                    const EmbedOptions& options = {});
   /// The same as embed(V, F, payload, options) on the prepared mesh.
   /// \throw InvalidArgumentError as embed, or when options ask for another variant, roughness
-  ///        or backend than prepared (accepts() is false).
-  EmbedResult embed(const Payload& payload, const EmbedOptions& options) const;
-  /// Whether options can use this preparation: the same variant, roughness constants,
-  /// backend and x-step.
+  ///        or solver than prepared (accepts() is false).
+  EmbedResult embed(const BinWord& payload, const EmbedOptions& options) const;
+  /// Whether options can use this preparation: the same variant and roughness constants and,
+  /// when options need cost L's Hessian assembled (backend Ipopt or Cholesky x-steps), a
+  /// preparation for such options.
   bool accepts(const EmbedOptions& options) const;
   const Eigen::MatrixX3d& V() const;  ///< the prepared positions
   const Eigen::MatrixX3i& F() const;  ///< the prepared faces

@@ -2,13 +2,15 @@
 /// \file ipopt_qp.h
 /// A general-purpose backend: the embedding problem handed to Ipopt (an interior-point solver,
 /// coinor-libipopt-dev), for comparison with the structured solvers and as an independent
-/// check. Selected by EmbedOptions::backend (CLI: --solver ipopt).
+/// check. Selected by EmbedOptions::backend (CLI: --solver ipopt); its settings, IpoptOptions,
+/// are in solver_settings.h.
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <vector>
 
 #include "meshmark/separable_qp.h"
+#include "meshmark/solver_settings.h"
 
 namespace meshmark {
 
@@ -26,12 +28,6 @@ struct GeneralQpSolution {
   int status = 0;  ///< Ipopt's ApplicationReturnStatus
   Eigen::VectorXd x;
   double objective = 0;
-};
-
-/// Ipopt's settings.
-struct IpoptOptions {
-  double tolerance = 1e-13;  ///< Ipopt's tol
-  int max_iterations = 1000;
 };
 
 /// Solves with Ipopt (no bound relaxation, exact constant Hessian and Jacobian).

@@ -62,8 +62,9 @@ struct BitLayout {
   /// derive_key(key, "layout"), nb as the stream's nonce (so each length has its own layout).
   static BitLayout keyed(const Key& key, int nb);
 
-  /// The word to embed: bin order, whitened. payload.size() must equal size().
-  Payload to_bins(const Payload& payload) const;
+  /// The word to embed (bin order, whitened) of a payload in payload order.
+  /// payload.size() must equal size().
+  BinWord to_bins(const Payload& payload) const;
   /// Bits read in bin order (0, 1 or an erasure > 1) back in payload order, unwhitened
   /// (erasures stay erasures).
   std::vector<std::uint8_t> from_bins(const std::vector<std::uint8_t>& bin_bits) const;

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace meshmark {
@@ -50,6 +51,21 @@ struct Mesh {
   /// morphed meshes, non-uniform scales, instanced meshes, skipped point or line primitives).
   std::vector<std::string> notes;
 };
+
+/// The preconditions every function taking a mesh states, checked where the library is entered
+/// (embed, extract, the metrics, the attacks, write_mesh): every coordinate of V (#V x 3)
+/// finite, every index of F (#F x 3) in [0, #V). `what` names the mesh in the message ("the
+/// mesh", "the original", ...). O(#V + #F).
+/// \throw InvalidArgumentError naming the first offending element, e.g. "the mesh: face 12 has
+///        vertex index 900 but the mesh has 500 vertices" or "the mesh: vertex 3 has a
+///        non-finite coordinate (nan, 0, 1)".
+void validate_mesh(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                   std::string_view what = "the mesh");
+
+/// validate_mesh(mesh.V, mesh.F, what), and every index of mesh.faces (the polygons a write
+/// gives back) in [0, #V), with consistent offsets.
+/// \throw InvalidArgumentError as validate_mesh.
+void validate_mesh(const Mesh& mesh, std::string_view what = "the mesh");
 
 /// Fan-triangulates polygons: a face (v0, v1, ..., vk) gives (v0, vi, vi+1). Faces with fewer
 /// than three vertices give no triangle. Returns #T x 3.

@@ -14,12 +14,20 @@
 
 namespace meshmark {
 
-/// A payload of nb bits: bits[j] in {0, 1} is carried by bin j + 1.
+/// A vector of nb bits, bits[j] in {0, 1}, in one of two orders:
+/// - payload order: the bits as the caller gives them (the hex form, an ID's codeword);
+/// - bin order: bits[j] is carried by histogram bin j + 1, what embed() writes and extract()
+///   reads (spelled BinWord in signatures).
+/// Without a key the two coincide; under a key, BitLayout (key.h) maps payload order to bin
+/// order (to_bins: a keyed permutation and whitening) and back (from_bins).
 struct Payload {
   std::vector<std::uint8_t> bits;
   int size() const { return static_cast<int>(bits.size()); }
   bool operator==(const Payload&) const = default;
 };
+
+/// A Payload in bin order (bit j in bin j + 1): the name says which order a signature takes.
+using BinWord = Payload;
 
 /// Parses a hexadecimal payload (optional 0x prefix, any case) into nbits bits.
 /// \throw InvalidArgumentError when the text is not hexadecimal, nbits < 1, or the value does

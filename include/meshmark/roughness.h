@@ -41,7 +41,4 @@ struct RoughnessField {
 RoughnessField roughness_field(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                                const RoughnessOptions& options = {});
 
-/// Maps a value in [0, 1] to an RGB color (blue 0 ... red 1), components in [0, 255].
-Eigen::Vector3i heat_color(double value);
-
 }  // namespace meshmark

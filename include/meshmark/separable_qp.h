@@ -48,15 +48,19 @@ enum class QpStatus {
   IterationLimit,  ///< max_iterations reached; x is the best iterate
 };
 
-/// Solution and diagnostics.
+/// Solution and diagnostics, shared by the round solvers (this one, ADMM in admm_qp.h and
+/// Ipopt in ipopt_qp.h); each residual says which solver fills it. Residuals are in x's units.
 struct QpResult {
   QpStatus status = QpStatus::IterationLimit;
-  Eigen::VectorXd x;                 ///< n, the minimizer (bounds hold exactly)
-  Eigen::VectorXd y;                 ///< m + 3 multipliers: rows (>= 0), then the equalities
-  double objective = 0;              ///< sum h_i x_i^2
-  double primal_residual = 0;        ///< max(row violation, |E x|_inf)
-  double complementarity = 0;        ///< max_j |min(y_j, slack_j)|
-  int iterations = 0;                ///< Newton iterations
+  Eigen::VectorXd x;  ///< n, the minimizer (bounds hold exactly)
+  Eigen::VectorXd y;  ///< m + 3 multipliers: rows (>= 0), then the equalities (empty: ADMM, Ipopt)
+  double objective = 0;  ///< sum h_i x_i^2 (ADMM: not filled)
+  /// This solver and Ipopt: max(row violation, |E x - c|_inf). ADMM: |x - z|_inf, its
+  /// splitting's primal residual (z, returned as x, meets every constraint exactly).
+  double primal_residual = 0;
+  double complementarity = 0;        ///< this solver only: max_j |min(y_j, slack_j)|; 0 otherwise
+  double dual_residual = 0;          ///< ADMM only: rho |z - z_prev|_inf; 0 otherwise
+  int iterations = 0;                ///< Newton iterations (ADMM: ADMM steps; Ipopt: 0)
   std::vector<int> infeasible_rows;  ///< rows that cannot reach their right-hand side
 };
 

@@ -33,7 +33,7 @@ BitLayout mark_layout(const std::optional<Key>& key, int nb, bool coded);
 const Key& id_key(const std::optional<Key>& key);
 
 /// The bins' word for the coded id (the codeword, laid out): what embed() takes as payload.
-Payload id_bins(const IdCode& code, std::uint64_t id, const std::optional<Key>& key);
+BinWord id_bins(const IdCode& code, std::uint64_t id, const std::optional<Key>& key);
 
 /// What was read from a mesh, per payload bit (the layout undone).
 struct MarkReading {
@@ -104,11 +104,11 @@ struct WrittenCheck {
 /// when every bit of bins (the embedded word, bin order) decodes right with a signed margin
 /// of at least min_margin. Float32 storage, text rounding or a strength too small for the
 /// coordinates' precision are caught here. Nothing is written otherwise.
-/// \throw IOError when the file cannot be written; InvalidArgumentError for an unknown
-///        extension.
+/// \throw WriteError (an IOError) when the file cannot be written; InvalidArgumentError for an
+///        unknown extension.
 WrittenCheck write_marked_mesh(const std::string& path, const Mesh& mesh,
                                const WriteOptions& options, const ReadOptions& read_options,
-                               const Payload& bins, const ExtractOptions& extract_options,
+                               const BinWord& bins, const ExtractOptions& extract_options,
                                double min_margin);
 
 /// Per-bit strengths for a keyed mark: bit j gets strength * (1 + spread * u_j), u_j uniform in

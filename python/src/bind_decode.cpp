@@ -49,8 +49,8 @@ void bind_extract_types(py::module_& m) {
           "check", [](const ExtractResult& x) { return x.check; }, "CarrierCheck")
       .done(false);
   r.def(
-      "payload", [](const ExtractResult& x) { return vector_array(x.payload().bits); },
-      "The bits as a uint8 array, erasures read as 0.");
+      "word", [](const ExtractResult& x) { return vector_array(x.word().bits); },
+      "The bits read, in bin order, as a uint8 array, erasures read as 0.");
   r.def("min_margin", &ExtractResult::min_margin, "Smallest margin (0 with an erasure).");
   m.attr("ERASURE") = kErasure;
 }

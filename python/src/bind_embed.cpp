@@ -83,7 +83,8 @@ void bind_options(py::module_& m) {
       .rw("max_rounds", &EmbedOptions::max_rounds, "linearize-and-solve rounds at most")
       .rw("margin_tolerance", &EmbedOptions::margin_tolerance, "bin widths")
       .rw("center_tolerance", &EmbedOptions::center_tolerance, "bin widths")
-      .rw("solver", &EmbedOptions::solver, "QpSettings")
+      .rw("separable", &EmbedOptions::separable,
+          "QpSettings: the exact separable solver (backend Native, costs S and Q)")
       .rw("admm", &EmbedOptions::admm, "AdmmSettings")
       .rw("roughness", &EmbedOptions::roughness, "RoughnessOptions")
       .rw("backend", &EmbedOptions::backend, "SolverBackend")

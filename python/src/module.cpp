@@ -127,7 +127,10 @@ void init_carrier(py::module_& m) {
           "point", [](const Center& c) { return vector_array(Eigen::VectorXd(c.point)); },
           "(3,) float64, model units")
       .ro("well_defined", &Center::well_defined, "False for an ill-defined volume center")
-      .ro("quality", &Center::quality, "V: |sum w| / sum |w|; S: area; D: vertex count")
+      .ro("mass", &Center::mass,
+          "total weight: D vertex count; S area (units^2); V signed volume (units^3)")
+      .ro("volume_consistency", &Center::volume_consistency,
+          "V only: |sum w| / sum |w| in [0, 1] (1 closed and oriented); 1 for D and S")
       .done(false);
   py::class_<Histogram> h(m, "Histogram", "The histogram of distances to the center.");
   Fields<Histogram>(h)
