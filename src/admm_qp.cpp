@@ -1,5 +1,6 @@
 #include "meshmark/admm_qp.h"
 
+#include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -7,6 +8,16 @@
 #include "meshmark/error.h"
 
 namespace meshmark {
+
+struct AdmmQpSolver::Factorization {
+  Eigen::SparseMatrix<double> K;  // 2 H + rho I
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+};
+
+AdmmQpSolver::AdmmQpSolver() : factors_(std::make_unique<Factorization>()) {}
+AdmmQpSolver::~AdmmQpSolver() = default;
+AdmmQpSolver::AdmmQpSolver(AdmmQpSolver&&) noexcept = default;
+AdmmQpSolver& AdmmQpSolver::operator=(AdmmQpSolver&&) noexcept = default;
 
 void AdmmQpSolver::set_hessian(HessianOperator H, const AdmmSettings& settings, bool refactor) {
   settings_ = settings;
@@ -36,22 +47,23 @@ void AdmmQpSolver::set_hessian(const Eigen::SparseMatrix<double>& H, const AdmmS
   K.diagonal().array() += rho_;
   K.makeCompressed();
   const bool same_pattern =
-      analyzed_ && K.rows() == K_.rows() && K.nonZeros() == K_.nonZeros() &&
-      std::equal(K.outerIndexPtr(), K.outerIndexPtr() + K.outerSize() + 1, K_.outerIndexPtr()) &&
-      std::equal(K.innerIndexPtr(), K.innerIndexPtr() + K.nonZeros(), K_.innerIndexPtr());
+      analyzed_ && K.rows() == factors_->K.rows() && K.nonZeros() == factors_->K.nonZeros() &&
+      std::equal(K.outerIndexPtr(), K.outerIndexPtr() + K.outerSize() + 1,
+                 factors_->K.outerIndexPtr()) &&
+      std::equal(K.innerIndexPtr(), K.innerIndexPtr() + K.nonZeros(), factors_->K.innerIndexPtr());
   if (same_pattern && had_factors && !refactor &&
-      std::equal(K.valuePtr(), K.valuePtr() + K.nonZeros(), K_.valuePtr())) {
+      std::equal(K.valuePtr(), K.valuePtr() + K.nonZeros(), factors_->K.valuePtr())) {
     factored_k_ = true;  // the same matrix: keep its factors
     return;
   }
   if (!same_pattern) {
-    ldlt_.analyzePattern(K);
+    factors_->ldlt.analyzePattern(K);
     analyzed_ = true;
   }
-  ldlt_.factorize(K);
-  if (ldlt_.info() != Eigen::Success)
+  factors_->ldlt.factorize(K);
+  if (factors_->ldlt.info() != Eigen::Success)
     throw Error("ADMM: the LDL^T factorization failed (is the Hessian positive semidefinite?)");
-  K_ = std::move(K);
+  factors_->K = std::move(K);
   factored_k_ = true;
   ++factorizations_;
 }
@@ -69,7 +81,7 @@ bool AdmmQpSolver::solve_x(const Eigen::VectorXd& rhs, Eigen::VectorXd& x,
                            double looser_target) const {
   if (settings_.x_step == AdmmXStep::Cholesky) {
     if (!factored_k_) throw Error("ADMM: Cholesky x-steps need an assembled Hessian");
-    x = ldlt_.solve(rhs);
+    x = factors_->ldlt.solve(rhs);
     return x.allFinite();
   }
   // The guess is the previous x-step's answer, whose residual against the previous right-hand

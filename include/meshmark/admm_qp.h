@@ -16,9 +16,9 @@
 /// dual residuals measure its optimality.
 
 #include <Eigen/Core>
-#include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <functional>
+#include <memory>
 
 #include "meshmark/separable_qp.h"
 #include "meshmark/solver_settings.h"
@@ -51,6 +51,10 @@ struct HessianOperator {
 /// Reusable solver: set_hessian once per Hessian, solve as often as needed.
 class AdmmQpSolver {
  public:
+  AdmmQpSolver();
+  ~AdmmQpSolver();
+  AdmmQpSolver(AdmmQpSolver&&) noexcept;
+  AdmmQpSolver& operator=(AdmmQpSolver&&) noexcept;
   /// Takes a new Hessian. The first call (or refactor = true) chooses rho; later calls keep it.
   void set_hessian(HessianOperator H, const AdmmSettings& settings = {}, bool refactor = false);
   /// The same for an assembled matrix (n x n, symmetric, both triangles stored). With
@@ -85,8 +89,10 @@ class AdmmQpSolver {
   void apply_k(const Eigen::VectorXd& x, Eigen::VectorXd& Kx) const;  // K = 2 H + rho I
 
   HessianOperator H_;
-  Eigen::SparseMatrix<double> K_;  // Cholesky: 2 H + rho I
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt_;
+  // Cholesky x-steps: K = 2 H + rho I and its sparse LDL^T (defined in admm_qp.cpp, so that
+  // this header does not include Eigen/SparseCholesky).
+  struct Factorization;
+  std::unique_ptr<Factorization> factors_;
   bool analyzed_ = false, factored_k_ = false;
   int factorizations_ = 0;
   Eigen::VectorXd inv_diagonal_;  // Jacobi preconditioner: 1 / diag(K)
