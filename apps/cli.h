@@ -104,11 +104,6 @@ std::optional<Key> resolve_key(const KeyArgs& args);
 /// The ID code for nb payload bits and --id-bits.
 IdCode id_code(const KeyArgs& args, int nb);
 
-/// The copies of an existing registry (a file or a postgresql:// URI) that match query. A
-/// registry is input here: one that does not exist is never created, and one that cannot be
-/// read is unreadable input (InputFailure: exit 2).
-std::vector<IssuedCopy> read_registry_input(const std::string& where, const RegistryQuery& query);
-
 void register_embed(CLI::App& app, int& exit_code);
 void register_registry(CLI::App& app, int& exit_code);
 /// trace; argv: the command line as run (its --report writes it, quoted, in the report).

@@ -12,6 +12,9 @@
 
 namespace meshmark::cli {
 
+namespace {
+
+// A registry is input here: one that cannot be read is unreadable input (exit 2).
 std::vector<IssuedCopy> read_registry_input(const std::string& where, const RegistryQuery& query) {
   try {
     return meshmark::read_registry(where, query);
@@ -19,8 +22,6 @@ std::vector<IssuedCopy> read_registry_input(const std::string& where, const Regi
     throw InputFailure(e.what());
   }
 }
-
-namespace {
 
 nlohmann::json to_json(const IssuedCopy& c) {
   return {{"row", c.row},
