@@ -93,29 +93,21 @@ int run(const TraceArgs& a) {
     refuse_overwrite(a.report, {a.leaked, a.original, a.registry, a.keys.file.value_or("")});
   const Mesh leaked = read_input(a.leaked, a.in);
   const Mesh original = read_input(a.original, a.in);
-  RegistryQuery q;
+  std::string original_hash;
   try {
-    q.original_hash = content_hash(read_file(a.original));  // what the copies were made from
+    original_hash = content_hash(read_file(a.original));  // what the copies were made from
   } catch (const IOError& e) {
     throw InputFailure(e.what());
   }
-  q.key_fingerprint = key_fingerprint(*key);
-  const std::vector<IssuedCopy> candidates = read_registry(a.registry, q);
-  std::size_t under_key = 0;  // copies of other originals under this key
-  if (candidates.empty()) {
-    RegistryQuery by_key;
-    by_key.key_fingerprint = q.key_fingerprint;
-    under_key = read_registry(a.registry, by_key).size();
-  }
   TraceOptions options = a.options;
   options.register_leak = !a.no_register;
-  TraceResult r = trace(leaked, original, candidates, *key, options);
-  if (r.status == TraceStatus::NoCandidates && under_key > 0)
-    r.message = fmt::format(
-        "no copy of this original was issued under this key ({} copies of other originals "
-        "were: is --original the file the copies were made from?)",
-        under_key);
-  if (!a.report.empty()) write_report(a, options, leaked, original, *q.original_hash, r, *key);
+  TraceResult r;
+  try {
+    r = trace_issued(leaked, original, original_hash, a.registry, *key, options);
+  } catch (const IOError& e) {
+    throw InputFailure(e.what());  // the registry is input here
+  }
+  if (!a.report.empty()) write_report(a, options, leaked, original, original_hash, r, *key);
   auto score = [](const CandidateScore& s) {
     return nlohmann::json{{"buyer", s.copy.buyer},     {"id", s.copy.id},
                           {"matches", s.matches},      {"bits", s.compared},

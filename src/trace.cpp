@@ -397,4 +397,23 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
   return r;
 }
 
+TraceResult trace_issued(const Mesh& leaked, const Mesh& original, const std::string& original_hash,
+                         const std::string& registry, const Key& key, const TraceOptions& options) {
+  RegistryQuery q;
+  q.original_hash = original_hash;
+  q.key_fingerprint = key_fingerprint(key);
+  const std::vector<IssuedCopy> candidates = read_registry(registry, q);
+  TraceResult r = trace(leaked, original, candidates, key, options);
+  if (r.status == TraceStatus::NoCandidates) {
+    RegistryQuery by_key;
+    by_key.key_fingerprint = q.key_fingerprint;
+    if (const std::size_t others = read_registry(registry, by_key).size(); others > 0)
+      r.message = fmt::format(
+          "no copy of this original was issued under this key ({} copies of other originals "
+          "were: is the original the file the copies were made from?)",
+          others);
+  }
+  return r;
+}
+
 }  // namespace meshmark

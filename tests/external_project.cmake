@@ -44,5 +44,15 @@ step("configure" ${CMAKE_COMMAND} -S ${SOURCE_DIR}/tests/external_project -B ${c
      -G ${GENERATOR} -DCMAKE_CXX_COMPILER=${CXX} -DCMAKE_BUILD_TYPE=${BUILD_TYPE}
      -DCMAKE_PREFIX_PATH=${prefix})
 step("build" ${CMAKE_COMMAND} --build ${consumer})
-step("run" ${consumer}/meshmark_consumer ${MESH} ${consumer}/marked.off)
+file(WRITE ${consumer}/shop.key "a key the consumer and the installed CLI share")
+step("run" ${consumer}/meshmark_consumer ${MESH} ${consumer}/marked.off ${consumer}/shop.key
+     ${consumer}/issued.ply)
 message(STATUS "${step_output}")
+# The copy the consumer issued through the library reads back with the installed CLI: the same
+# protocol on both sides.
+step("installed CLI reads the consumer's copy" ${prefix}/bin/meshmark extract
+     ${consumer}/issued.ply --coded --key-file ${consumer}/shop.key)
+if(NOT step_output MATCHES "^id 4242 ")
+  message(FATAL_ERROR "external project: the installed CLI read '${step_output}' from the "
+                      "consumer's copy, expected 'id 4242 ...'")
+endif()

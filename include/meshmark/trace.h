@@ -121,4 +121,13 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
                   const std::vector<IssuedCopy>& candidates, const Key& key,
                   const TraceOptions& options = {});
 
+/// Traces leaked against the copies a registry (an SQLite file or a postgresql:// URI, which
+/// must exist) recorded of the original whose file content hash is original_hash, under key.
+/// When none was, the message says how many copies of other originals were issued under
+/// that key (the original given is then likely not the file the copies were made from).
+/// \throw IOError when the registry does not exist or cannot be read; as trace() otherwise.
+TraceResult trace_issued(const Mesh& leaked, const Mesh& original, const std::string& original_hash,
+                         const std::string& registry, const Key& key,
+                         const TraceOptions& options = {});
+
 }  // namespace meshmark

@@ -1,10 +1,13 @@
 // An external program using the installed meshmark: reads a mesh, embeds a 64-bit payload with
-// the public API, writes the marked mesh, reads the file back, and checks every bit. Exit code
-// 0 only when all 64 bits read back right, 1 otherwise (2 on a usage error).
+// the public API, writes the marked mesh, reads the file back, and checks every bit; then issues
+// a copy carrying buyer ID 4242 under the key in KEY_FILE (issue.h), which the installed
+// command line must read back (tests/external_project.cmake). Exit code 0 only when all 64 bits
+// read back right and the copy was issued, 1 otherwise (2 on a usage error).
 
 #include <meshmark/embed.h>
 #include <meshmark/error.h>
 #include <meshmark/io.h>
+#include <meshmark/issue.h>
 #include <meshmark/payload.h>
 #include <meshmark/version.h>
 #include <meshmark/watermark.h>
@@ -19,6 +22,22 @@ namespace {
 /// The payload, chosen here (not by the library): 64 bits, both values in every nibble position.
 constexpr const char* kPayloadHex = "c0ffee0123456789";
 constexpr int kBits = 64;
+
+/// Issues one copy of input carrying ID 4242 under the key file's key to output.
+int issue(const std::string& input, const std::string& key_file, const std::string& output) {
+  using namespace meshmark;
+  IssueSettings settings;
+  settings.key = key_from_file(key_file);
+  CopyRequest request;
+  request.input = input;
+  request.output = output;
+  request.id = 4242;
+  const IssueResult result = issue_copies({request}, settings);
+  const CopyOutcome& copy = result.copies.at(0);
+  std::printf("issued %s: %s: %s\n", output.c_str(), copy_status_name(copy.status),
+              copy.message.c_str());
+  return copy.status == CopyStatus::Written ? 0 : 1;
+}
 
 int run(const std::string& input, const std::string& output) {
   using namespace meshmark;
@@ -56,12 +75,13 @@ int run(const std::string& input, const std::string& output) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 3) {
-    std::fprintf(stderr, "usage: %s MESH OUT\n", argv[0]);
+  if (argc != 5) {
+    std::fprintf(stderr, "usage: %s MESH OUT KEY_FILE ISSUED_OUT\n", argv[0]);
     return 2;
   }
   try {
-    return run(argv[1], argv[2]);
+    const int marked = run(argv[1], argv[2]);
+    return marked != 0 ? marked : issue(argv[1], argv[3], argv[4]);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 1;
