@@ -109,13 +109,26 @@ TEST(CenterJacobians, VolumeCenterWithoutVolumeIsReportedIllDefined) {
   EXPECT_FALSE(center_of_mass(flat.V, flat.F, used, CenterKind::Volume).well_defined);
 }
 
-TEST(CenterJacobians, CentersOfAnAxisAlignedBoxAreItsMiddle) {
-  // A closed box with irregular vertex density: S and V centers are the box's middle, D is not.
+namespace {
+
+// A closed 2 x 1 x 1 box, outward-facing, with irregular vertex density (a ninth vertex on an
+// edge of the bottom).
+Mesh irregular_box() {
   Eigen::MatrixX3d V(9, 3);
   V << 0, 0, 0, 2, 0, 0, 2, 1, 0, 0, 1, 0, 0, 0, 1, 2, 0, 1, 2, 1, 1, 0, 1, 1, 0.5, 0, 0;
   Eigen::MatrixX3i F(13, 3);
   F << 0, 3, 2, 0, 2, 1, 4, 5, 6, 4, 6, 7, 0, 8, 5, 0, 5, 4, 8, 1, 5, 3, 7, 6, 3, 6, 2, 0, 4, 7, 0,
       7, 3, 1, 2, 6, 1, 6, 5;
+  return make_mesh(V, F);
+}
+
+}  // namespace
+
+TEST(CenterJacobians, CentersOfAnAxisAlignedBoxAreItsMiddle) {
+  // A closed box with irregular vertex density: S and V centers are the box's middle, D is not.
+  const Mesh box = irregular_box();
+  const Eigen::MatrixX3d& V = box.V;
+  const Eigen::MatrixX3i& F = box.F;
   const auto used = referenced_vertices(F, 9);
   for (CenterKind kind : {CenterKind::Surface, CenterKind::Volume}) {
     const Center c = center_of_mass(V, F, used, kind);
@@ -129,11 +142,9 @@ TEST(CenterJacobians, CentersOfAnAxisAlignedBoxAreItsMiddle) {
 TEST(CenterJacobians, MassIsTheVertexCountTheAreaOrTheVolume) {
   // The closed 2 x 1 x 1 box above, outward-facing (face 0 at z = 0 has normal -z): 9 vertices,
   // area 2 (2 + 2 + 1) = 10, volume 2; its triangles are consistently oriented.
-  Eigen::MatrixX3d V(9, 3);
-  V << 0, 0, 0, 2, 0, 0, 2, 1, 0, 0, 1, 0, 0, 0, 1, 2, 0, 1, 2, 1, 1, 0, 1, 1, 0.5, 0, 0;
-  Eigen::MatrixX3i F(13, 3);
-  F << 0, 3, 2, 0, 2, 1, 4, 5, 6, 4, 6, 7, 0, 8, 5, 0, 5, 4, 8, 1, 5, 3, 7, 6, 3, 6, 2, 0, 4, 7, 0,
-      7, 3, 1, 2, 6, 1, 6, 5;
+  const Mesh box = irregular_box();
+  const Eigen::MatrixX3d& V = box.V;
+  const Eigen::MatrixX3i& F = box.F;
   const auto used = referenced_vertices(F, 9);
   constexpr double kTol = 1e-12;
   EXPECT_EQ(center_of_mass(V, F, used, CenterKind::Discrete).mass, 9);
