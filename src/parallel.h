@@ -1,16 +1,18 @@
 #pragma once
 // Internal: the library's one way to run work on several threads, under a thread budget.
 //
-// A thread's budget is how many threads the work it starts may use at once: the hardware's
-// thread count (or MESHMARK_THREADS, when that environment variable holds a positive count) on
-// a thread the library did not start. parallel_for and parallel_chunks never start more
-// threads than the calling thread's budget, and split it among the threads they start (a
-// worker of a loop of 2 threads on a budget of 8 has 4); so nested loops, a campaign's trials
-// computing MSDM for instance, use the budget and not its square. A loop on a budget of 1 runs
-// on the calling thread.
+// A budget is a number of threads that may run at once, shared by a loop and every loop nested
+// in it: on a thread the library did not start, the hardware's thread count (or
+// MESHMARK_THREADS, when that environment variable holds a positive count); inside a
+// ThreadBudgetScope, the scope's. A loop starts only the helper threads the budget has free and
+// its thread works beside them; a helper that finds no item left hands its place back, for a
+// loop nested in a body still running to take. So a campaign's trials computing MSDM use the
+// budget and not its square, and the last trial running alone gets the threads the others
+// left. A budget of 1 runs everything on the calling thread.
 //
-// parallel_chunks cuts [0, n) into contiguous chunks, chunk_count(n) of them; each index is
-// computed the same way whatever the count, so results do not depend on it.
+// parallel_chunks cuts [0, n) into contiguous chunks, chunk_count(n) of them (the budget's
+// size, whatever is free); each index is computed the same way whatever the count, so results
+// depend neither on the budget nor on how busy it is.
 
 #include <algorithm>
 #include <atomic>
@@ -32,52 +34,82 @@ inline int default_thread_budget() {
   return static_cast<int>(std::max(1u, std::min(threads, 64u)));
 }
 
-/// The calling thread's budget (0: not set, default_thread_budget()).
-inline int& thread_budget_slot() {
-  thread_local int budget = 0;
+/// Threads that may run at once: the size, and the places free (the thread that made it holds
+/// one). Free places may be negative for a moment (a loop's thread taking its place back).
+class ThreadBudget {
+ public:
+  explicit ThreadBudget(int size) : size_(std::max(1, size)), free_(size_ - 1) {}
+  int size() const { return size_; }
+  /// Takes up to `wanted` free places; returns how many.
+  int take(int wanted) {
+    for (int f = free_.load(); wanted > 0 && f > 0;)
+      if (free_.compare_exchange_weak(f, f - std::min(f, wanted))) return std::min(f, wanted);
+    return 0;
+  }
+  /// Hands n places back.
+  void give(int n) { free_ += n; }
+  /// Takes a place back whether free or not (a thread that waited resumes).
+  void reclaim() { --free_; }
+
+ private:
+  int size_;
+  std::atomic<int> free_;
+};
+
+/// The calling thread's budget, when a loop or a ThreadBudgetScope set one.
+inline ThreadBudget*& thread_budget_slot() {
+  thread_local ThreadBudget* budget = nullptr;
   return budget;
 }
 
-/// How many threads work started from the calling thread may use at once (>= 1).
-inline int thread_budget() {
-  const int b = thread_budget_slot();
-  return b > 0 ? b : default_thread_budget();
+/// The calling thread's budget (a default one of default_thread_budget() per thread).
+inline ThreadBudget& current_thread_budget() {
+  if (ThreadBudget* b = thread_budget_slot()) return *b;
+  thread_local ThreadBudget fallback(default_thread_budget());
+  return fallback;
 }
 
-/// Sets the calling thread's budget for its lifetime (threads <= 0: the default), then
-/// restores the earlier one.
+/// The size of the calling thread's budget (>= 1).
+inline int thread_budget() {
+  return current_thread_budget().size();
+}
+
+/// Gives the calling thread a budget of its own, of `threads` (<= 0: the default), for the
+/// scope's lifetime, then restores the earlier one.
 class ThreadBudgetScope {
  public:
-  explicit ThreadBudgetScope(int threads) : saved_(thread_budget_slot()) {
-    thread_budget_slot() = std::max(0, threads);
+  explicit ThreadBudgetScope(int threads)
+      : budget_(threads > 0 ? threads : default_thread_budget()), saved_(thread_budget_slot()) {
+    thread_budget_slot() = &budget_;
   }
   ~ThreadBudgetScope() { thread_budget_slot() = saved_; }
   ThreadBudgetScope(const ThreadBudgetScope&) = delete;
   ThreadBudgetScope& operator=(const ThreadBudgetScope&) = delete;
 
  private:
-  int saved_;
+  ThreadBudget budget_;
+  ThreadBudget* saved_;
 };
 
-/// Runs body(i) for every i in [0, n) on up to `threads` threads (0: the calling thread's
-/// budget; never more than it), each taking the next index when done with one (for items of
-/// unequal cost). Every thread started runs with its share of the budget; with one thread the
-/// bodies run on the calling thread, with its budget. The first exception
-/// a body throws stops the others taking new items and is rethrown once they have finished.
+/// Runs body(i) for every i in [0, n) on the calling thread and up to threads - 1 helpers
+/// (threads 0: as many as the budget has), as many as the calling thread's budget has free;
+/// each takes the next index when done with one (for items of unequal cost). Loops in the
+/// bodies share the same budget. The first exception a body throws stops the others taking
+/// new items and is rethrown once they have finished.
 template <class Body>
 void parallel_for(std::int64_t n, int threads, Body&& body) {
-  const int budget = thread_budget();
-  const int count = static_cast<int>(
-      std::min<std::int64_t>(std::max(1, threads > 0 ? std::min(threads, budget) : budget), n));
-  if (count <= 1) {
+  ThreadBudget& budget = current_thread_budget();
+  const int wanted =
+      static_cast<int>(std::min<std::int64_t>(n, threads > 0 ? threads : budget.size()));
+  const int helpers = wanted > 1 ? budget.take(wanted - 1) : 0;
+  if (helpers == 0) {
     for (std::int64_t i = 0; i < n; ++i) body(i);
     return;
   }
   std::atomic<std::int64_t> next{0};
   std::exception_ptr error;
   std::mutex error_mutex;
-  auto work = [&](int share) {
-    thread_budget_slot() = share;
+  auto work = [&] {
     for (std::int64_t i; (i = next++) < n;) {
       try {
         body(i);
@@ -89,20 +121,27 @@ void parallel_for(std::int64_t n, int threads, Body&& body) {
     }
   };
   std::vector<std::thread> pool;
-  for (int t = 0; t < count; ++t)
-    pool.emplace_back(work, budget / count + (t < budget % count ? 1 : 0));
+  for (int t = 0; t < helpers; ++t)
+    pool.emplace_back([&] {
+      thread_budget_slot() = &budget;
+      work();
+      budget.give(1);
+    });
+  work();
+  budget.give(1);  // while this thread waits, its place is free
   for (auto& t : pool) t.join();
+  budget.reclaim();
   if (error) std::rethrow_exception(error);
 }
 
 /// Number of chunks parallel_chunks uses for n items on the calling thread (1 below 4096
-/// items, else the thread's budget).
+/// items, else the size of the thread's budget).
 inline int chunk_count(std::int64_t n) {
   return n < 4096 ? 1 : thread_budget();
 }
 
 /// Calls body(chunk, begin, end) for chunk in [0, chunk_count(n)), the chunks covering [0, n)
-/// in order, each on a thread of its own (with a budget of 1).
+/// in order, on the threads the budget has free (parallel_for).
 template <class Body>
 void parallel_chunks(std::int64_t n, Body&& body) {
   const int chunks = chunk_count(n);

@@ -1,5 +1,6 @@
 // parallel.h: loops never run more threads at once than the budget, nested loops included;
-// every index runs once; a body's exception reaches the caller.
+// a place left free goes to a loop still running; every index runs once; a body's exception
+// reaches the caller.
 
 #include <gtest/gtest.h>
 
@@ -42,16 +43,28 @@ TEST(Parallel, NestedLoopsStayWithinTheBudgetAndRunEveryIndexOnce) {
   for (const auto& r : runs) EXPECT_EQ(r, 1);
 }
 
-TEST(Parallel, OuterWorkersShareTheBudgetWithTheirInnerLoops) {
-  const detail::ThreadBudgetScope budget(4);
+TEST(Parallel, TheLastItemRunningGetsTheThreadsTheOthersLeft) {
+  const detail::ThreadBudgetScope budget(2);
   Concurrency c;
-  detail::parallel_for(2, 0, [&](std::int64_t) {
-    EXPECT_EQ(detail::thread_budget(), 2);
-    EXPECT_EQ(detail::chunk_count(100000), 2);
+  detail::parallel_for(2, 0, [&](std::int64_t i) {
+    if (i == 0) return;  // done at once: its thread's place is handed back
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
     detail::parallel_for(40, 0, [&](std::int64_t) { c.enter(); });
   });
-  EXPECT_LE(c.most, 4);
-  const detail::ThreadBudgetScope serial(1);
+  EXPECT_EQ(c.most, 2);
+}
+
+TEST(Parallel, ABudgetOfOneRunsEverythingOnTheCallingThread) {
+  const detail::ThreadBudgetScope budget(1);
+  const std::thread::id caller = std::this_thread::get_id();
+  std::atomic<int> elsewhere{0};
+  detail::parallel_for(50, 0, [&](std::int64_t) {
+    detail::parallel_chunks(100000, [&](int, std::int64_t, std::int64_t) {
+      elsewhere += std::this_thread::get_id() != caller;
+    });
+    elsewhere += std::this_thread::get_id() != caller;
+  });
+  EXPECT_EQ(elsewhere, 0);
   EXPECT_EQ(detail::chunk_count(100000), 1);
 }
 
