@@ -28,10 +28,11 @@ namespace fs = std::filesystem;
 constexpr std::size_t kTrialsPerUnit = 1 + 3 + 1;
 constexpr std::size_t kUnits = 1 * 2 * 2;  // models x variants x payloads
 
-// A small campaign on the horse at a fixed strength (as the CLI's resume tests): 20 trials.
+// A small campaign on spot (2930 vertices) at a fixed strength, as the CLI's resume tests: 20
+// trials, under a second.
 CampaignConfig small_campaign(const std::string& dir) {
   const std::string path = dir + "/small.json";
-  std::ofstream(path) << "{\"name\": \"small\", \"models\": [\"" << test::shared_mesh("horse.ply")
+  std::ofstream(path) << "{\"name\": \"small\", \"models\": [\"" << test::shared_mesh("spot.obj")
                       << "\"], \"variants\": [\"DRS\", \"SRS\"], \"payloads\": 2, \"draws\": 3, "
                          "\"strength\": 0.02, \"attacks\": [{\"kind\": \"noise\", \"strengths\": "
                          "[0.001]}, {\"kind\": \"quant\", \"strengths\": [10]}]}";
@@ -64,7 +65,7 @@ CampaignRunOptions options_for(const std::string& out) {
 }
 
 TEST(CampaignRun, CutJournalResumesToTheRowsOfAFreshRunAndReportsTheCutLine) {
-  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  MESHMARK_REQUIRE(test::shared_mesh("spot.obj"), "spot.obj");
   const std::string dir = test::scratch_dir();
   const CampaignConfig config = small_campaign(dir);
   const CampaignRunResult fresh = run_campaign(config, options_for(dir + "/fresh"));
@@ -107,7 +108,7 @@ TEST(CampaignRun, CutJournalResumesToTheRowsOfAFreshRunAndReportsTheCutLine) {
 }
 
 TEST(CampaignRun, TwoRanksGiveTheRowsOfOneProcess) {
-  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  MESHMARK_REQUIRE(test::shared_mesh("spot.obj"), "spot.obj");
   const std::string dir = test::scratch_dir();
   const CampaignConfig config = small_campaign(dir);
   const auto reference = rows_by_key(run_campaign(config, options_for(dir + "/one")).rows);
@@ -145,7 +146,7 @@ TEST(CampaignRun, TwoRanksGiveTheRowsOfOneProcess) {
 }
 
 TEST(CampaignRun, RefusesADirectoryOfAnotherCampaign) {
-  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  MESHMARK_REQUIRE(test::shared_mesh("spot.obj"), "spot.obj");
   const std::string dir = test::scratch_dir();
   const CampaignConfig config = small_campaign(dir);
   fs::create_directories(dir + "/out");
