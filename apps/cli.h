@@ -14,6 +14,7 @@
 #include "meshmark/coding.h"
 #include "meshmark/embed.h"
 #include "meshmark/io.h"
+#include "meshmark/issue.h"
 #include "meshmark/key.h"
 #include "meshmark/registry.h"
 #include "meshmark/watermark.h"
@@ -58,6 +59,12 @@ struct OutputOptions {
 };
 void add_output_options(CLI::App& app, OutputOptions& options);
 
+/// The library's write options for the output options.
+WriteOptions write_options(const OutputOptions& options);
+
+/// The library's read options for the input options.
+ReadOptions read_options(const InputOptions& options);
+
 /// Reads a mesh with the options (throws the library's errors).
 Mesh read_input(const std::string& path, const InputOptions& options);
 
@@ -81,14 +88,6 @@ void write_heat_map(const std::string& path, std::initializer_list<std::string> 
 void write_output(const std::string& path, const std::string& input_path, const Mesh& mesh,
                   const OutputOptions& options);
 
-/// Writes a watermarked mesh only if the bytes carry bins (every bit right, margins at least
-/// half the strength, read with the embedding's center and method): write_marked_mesh;
-/// refuses to write over the input file.
-WrittenCheck write_marked_output(const std::string& path, const std::string& input_path,
-                                 const Mesh& mesh, const OutputOptions& options,
-                                 const InputOptions& input, const Payload& bins,
-                                 const EmbedOptions& embedding);
-
 /// Largest --bits any command takes (a payload needs at least one vertex per bin).
 inline constexpr int kMaxBits = 4096;
 
@@ -102,57 +101,22 @@ void add_key_options(CLI::App& app, KeyArgs& args);
 /// The key of --key or --key-file, or none (a key file that cannot be read is bad input).
 std::optional<Key> resolve_key(const KeyArgs& args);
 
-/// Parses an ID: decimal, or hexadecimal with 0x. \throw InvalidArgumentError otherwise.
-std::uint64_t parse_id(const std::string& text);
-
 /// The ID code for nb payload bits and --id-bits.
 IdCode id_code(const KeyArgs& args, int nb);
-
-/// The registry record of a copy about to be issued from input (its content hash read from
-/// the file), with the settings of options; output fields are filled by record_copies.
-IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::uint64_t id,
-                       int id_bits, int bits, const std::string& variant,
-                       const EmbedOptions& options, double strength_spread, const Key& key);
 
 /// The copies of an existing registry (a file or a postgresql:// URI) that match query. A
 /// registry is input here: one that does not exist is never created, and one that cannot be
 /// read is unreadable input (InputFailure: exit 2).
-std::vector<IssuedCopy> read_registry(const std::string& where, const RegistryQuery& query);
-
-/// An output path as the registry records it (absolute, normalized).
-std::string recorded_path(const std::string& output);
-
-/// Records copies written to outputs (their content hashes read back) in one transaction.
-/// When that fails, the outputs are removed (no issued copy goes unrecorded) and the error
-/// is thrown again.
-void record_copies(Registry& registry, std::vector<IssuedCopy> copies,
-                   const std::vector<std::string>& outputs);
+std::vector<IssuedCopy> read_registry_input(const std::string& where, const RegistryQuery& query);
 
 void register_embed(CLI::App& app, int& exit_code);
 void register_registry(CLI::App& app, int& exit_code);
 /// trace; argv: the command line as run (its --report writes it, quoted, in the report).
 void register_trace(CLI::App& app, int& exit_code, std::vector<std::string> argv);
 
-/// What embed --batch applies to every line.
-struct BatchSettings {
-  int bits = 64;
-  EmbedOptions options;
-  InputOptions in;
-  OutputOptions out;
-  std::optional<Key> key;      ///< keyed layout (raw payloads), and the key of coded IDs
-  IdCodeOptions code;          ///< the ID code of id:N lines
-  int id_bits = 32;            ///< recorded with each coded copy
-  double strength_spread = 0;  ///< keyed per-bit strengths
-  std::string registry;        ///< record coded copies there (one transaction), or ""
-  /// Fidelity limits: each copy gets the strongest mark within them (calibrate.h), or none:
-  /// every copy at options.strength.
-  std::optional<CalibrateOptions> limits;
-};
-
-/// embed --batch: runs every line of the manifest (INPUT OUTPUT PAYLOAD, or INPUT OUTPUT id:N
-/// BUYER) on all cores, each distinct input read once; prints one line per job; kOk when
-/// every job succeeded.
-int run_batch(const std::string& manifest, const BatchSettings& settings);
+/// embed --batch: issues every line of the manifest (issue.h: INPUT OUTPUT PAYLOAD, or INPUT
+/// OUTPUT id:N BUYER) with settings; prints one line per copy; kOk when every copy was issued.
+int run_batch(const std::string& manifest, const IssueSettings& settings);
 void register_extract(CLI::App& app, int& exit_code);
 void register_attack(CLI::App& app, int& exit_code);
 void register_roughness(CLI::App& app, int& exit_code);

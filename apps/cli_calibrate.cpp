@@ -4,22 +4,15 @@
 
 #include <fmt/format.h>
 
-#include <cstdlib>
-#include <filesystem>
-#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "meshmark/calibrate.h"
-#include "meshmark/campaign.h"
+#include "meshmark/calibration_cache.h"
 #include "meshmark/error.h"
-#include "meshmark/key.h"
 #include "meshmark/variant.h"
 
 namespace meshmark::cli {
-
-namespace fs = std::filesystem;
 
 namespace {
 
@@ -32,104 +25,39 @@ struct CalibrateArgs {
   bool no_cache = false, json = false;
 };
 
-std::string default_cache() {
-  if (const char* d = std::getenv("XDG_CACHE_HOME"); d && *d)
-    return (fs::path(d) / "meshmark" / "calibration.jsonl").string();
-  if (const char* h = std::getenv("HOME"); h && *h)
-    return (fs::path(h) / ".cache" / "meshmark" / "calibration.jsonl").string();
-  return "meshmark-calibration.jsonl";
-}
-
-// Content hash of the file (BLAKE2b-128 through the public key), hex.
-std::string file_hash(const std::string& path) {
-  std::string bytes;
+int run(const CalibrateArgs& a) {
+  FileCalibrationOptions o;
+  o.variant = parse_variant(a.variant);
+  o.method = parse_method(a.method);
+  o.bits = a.bits;
+  o.bin_offset = a.bin_offset;
+  o.limits = a.options;
+  o.limits.bin_offset =
+      a.bin_offset_rule == "fixed" ? BinOffsetRule::Fixed : BinOffsetRule::AtMostStrength;
+  o.read = read_options(a.in);
+  o.cache = a.no_cache ? "" : a.cache.empty() ? default_calibration_cache() : a.cache;
+  FileCalibration c;
   try {
-    bytes = read_file(path);
+    c = calibrate_file(a.input, o);
   } catch (const IOError& e) {
     throw InputFailure(e.what());
   }
-  const std::vector<std::uint8_t> data(bytes.begin(), bytes.end());
-  const std::vector<std::uint8_t> bits =
-      keyed_hash_bits(public_key(), "meshmark/file/v1", data, 128);
-  return payload_to_hex(Payload{bits});
-}
-
-int run(const CalibrateArgs& a) {
-  const Variant variant = parse_variant(a.variant);
-  const Method method = parse_method(a.method);
-  CalibrateOptions options = a.options;
-  options.bin_offset =
-      a.bin_offset_rule == "fixed" ? BinOffsetRule::Fixed : BinOffsetRule::AtMostStrength;
-  const std::string key = fmt::format(
-      "{}|{}|{}|rms {}|msdm {}|range {} {}|steps {}|precision {}|G {} {}|{}|v2", file_hash(a.input),
-      variant.name(), a.bits, options.max_rms_percent, options.max_msdm, options.min_strength,
-      options.max_strength, options.iterations, options.precision, a.bin_offset,
-      bin_offset_rule_name(options.bin_offset), method_name(method));
-  const std::string cache = a.cache.empty() ? default_cache() : a.cache;
-  nlohmann::json found;
-  if (!a.no_cache && fs::exists(cache)) {
-    std::ifstream in(cache);
-    for (std::string line; std::getline(in, line);) {
-      try {
-        const nlohmann::json j = nlohmann::json::parse(line);
-        if (j.value("key", "") == key) found = j;  // the last entry wins
-      } catch (const nlohmann::json::exception&) {
-      }
-    }
-  }
-  const bool cached = !found.is_null();
-  if (!cached) {
-    const Mesh mesh = read_input(a.input, a.in);
-    EmbedOptions eo;
-    eo.variant = variant;
-    eo.method = method;
-    eo.bin_offset = a.bin_offset;
-    const CalibrateResult r =
-        calibrate_strength(mesh.V, mesh.F, calibration_payload(a.bits, 1), eo, options);
-    found = {{"key", key},
-             {"input", a.input},
-             {"method", method_name(method)},
-             {"variant", variant.name()},
-             {"bits", a.bits},
-             {"status", calibrate_status_name(r.status)},
-             {"strength", r.strength},
-             {"bin_offset", r.bin_offset},
-             {"bin_offset_rule", bin_offset_rule_name(options.bin_offset)},
-             {"cause", calibrate_cause_name(r.cause)},
-             {"diagnostics", r.diagnostics},
-             {"rms_percent", r.rms_percent},
-             {"msdm", r.msdm},
-             {"evaluations", r.evaluations},
-             {"seconds", r.seconds},
-             {"message", r.message}};
-    if (!a.no_cache) {
-      std::error_code ec;
-      fs::create_directories(
-          fs::path(cache).parent_path().empty() ? fs::path(".") : fs::path(cache).parent_path(),
-          ec);
-      std::ofstream out(cache, std::ios::app);
-      out << found.dump() << "\n";
-      if (!out) fmt::print(stderr, "meshmark: warning: {}: cannot save the calibration\n", cache);
-    }
-  }
-  const double strength = found["strength"].get<double>();
+  if (!c.warning.empty()) fmt::print(stderr, "meshmark: warning: {}\n", printable(c.warning));
   if (a.json) {
-    nlohmann::json j = found;
-    j["cached"] = cached;
-    j["cache"] = a.no_cache ? "" : cache;
+    nlohmann::json j = nlohmann::json::parse(file_calibration_to_json(c));
+    j["cached"] = c.cached;
+    j["cache"] = o.cache;
     fmt::print("{}\n", j.dump(2));
   } else {
     fmt::print(
         "strength {:.5f}  bin offset {:.4f}  ({}: RMS {:.5f} % of the diagonal, MSDM {:.4f}; "
         "limits {} % and {}){}\n",
-        strength, found.value("bin_offset", 0.0), found["status"].get<std::string>(),
-        found["rms_percent"].get<double>(), found["msdm"].get<double>(), options.max_rms_percent,
-        options.max_msdm, cached ? " [cached]" : "");
-    for (const auto& line : found.value("diagnostics", nlohmann::json::array()))
-      fmt::print("  {}\n", line.get<std::string>());
-    if (!a.no_cache) fmt::print("cache    {}\n", cache);
+        c.strength, c.bin_offset, c.status, c.rms_percent, c.msdm, o.limits.max_rms_percent,
+        o.limits.max_msdm, c.cached ? " [cached]" : "");
+    for (const std::string& line : c.diagnostics) fmt::print("  {}\n", line);
+    if (!o.cache.empty()) fmt::print("cache    {}\n", o.cache);
   }
-  return strength > 0 ? kOk : kNotEmbedded;
+  return c.strength > 0 ? kOk : kNotEmbedded;
 }
 
 }  // namespace

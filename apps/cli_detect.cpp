@@ -30,20 +30,12 @@ int run(const DetectArgs& a) {
     throw InvalidArgumentError("detect needs one of --expect ID or --expect-payload HEX");
   const bool coded = !a.expect_id.empty();
   const std::optional<Key> key = resolve_key(a.keys);
-  std::optional<IdCode> code;
-  if (coded) {
-    code.emplace(id_code(a.keys, a.bits));
-    // One codeword among 2^k: no match can be rarer than 2^-k.
-    if (std::exp2(-code->message_bits()) >= a.threshold)
-      throw InvalidArgumentError(fmt::format(
-          "a code of {} message bits ({} payload bits, {}-bit IDs) can never give a p-value below "
-          "2^-{} = {:.2g}, above the threshold {:g}: use more payload bits or a larger threshold",
-          code->message_bits(), a.bits, a.keys.id_bits, code->message_bits(),
-          std::exp2(-code->message_bits()), a.threshold));
-  }
-  const Payload expected = coded ? code->encode(parse_id(a.expect_id), id_key(key))
-                                 : payload_from_hex(a.expect_payload, a.bits);
-  const BitLayout layout = mark_layout(key, a.bits, coded);
+  MarkExpectation expect;
+  expect.id_bits = a.keys.id_bits;
+  if (coded)
+    expect.id = parse_id(a.expect_id);
+  else
+    expect.payload = payload_from_hex(a.expect_payload, a.bits);
   DetectOptions options;
   options.threshold = a.threshold;
   ExtractOptions eo;
@@ -51,14 +43,10 @@ int run(const DetectArgs& a) {
   eo.center = parse_variant(a.variant).center;
   eo.method = parse_method(a.method);
   const Mesh mesh = read_input(a.input, a.in);
-  const ExtractResult r = extract(mesh.V, mesh.F, eo);
-  report_carrier(a.input, r.check);
-  const std::vector<std::uint8_t> bits = layout.from_bins(r.bits);
-  IdDecodeResult decoded;
-  if (coded) decoded = code->decode(bits, layout.values_from_bins(r.margins), id_key(key));
-  const DetectResult d = coded ? detect_id(bits, expected, CodewordNull(*code, bits, id_key(key)),
-                                           options, &decoded, parse_id(a.expect_id))
-                               : detect(bits, expected, options);
+  const MarkDetection found = detect_mark(mesh.V, mesh.F, eo, expect, key, options);
+  report_carrier(a.input, found.extract.check);
+  const DetectResult& d = found.detection;
+  const Payload& expected = found.expected;
   if (a.json) {
     nlohmann::json j = {
         {"input", a.input},

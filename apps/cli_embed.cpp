@@ -9,6 +9,7 @@
 #include "meshmark/calibrate.h"
 #include "meshmark/embed.h"
 #include "meshmark/error.h"
+#include "meshmark/issue.h"
 #include "meshmark/registry.h"
 
 namespace meshmark::cli {
@@ -49,125 +50,91 @@ std::optional<CalibrateOptions> fidelity_limits(const EmbedArgs& a, bool strengt
   return c;
 }
 
+// Exit code and stderr line of a copy that was not issued.
+[[noreturn]] void fail(const CopyOutcome& c, const std::string& input) {
+  if (c.status == CopyStatus::Refused) throw InvalidArgumentError(c.message);
+  if (c.status == CopyStatus::Unreadable) throw InputFailure(c.message);
+  if (c.status == CopyStatus::WriteFailed) throw IOError(c.message);
+  throw IOError(fmt::format("{}: {}", input, c.message));  // NotRecorded
+}
+
 int run(const EmbedArgs& a, bool strength_given) {
-  EmbedOptions options = a.embed;
-  const std::optional<CalibrateOptions> limits = fidelity_limits(a, strength_given);
+  IssueSettings settings;
+  EmbedOptions& options = settings.embedding;
+  options = a.embed;
+  settings.limits = fidelity_limits(a, strength_given);
   options.variant = parse_variant(a.variant);
   options.method = parse_method(a.method);
   options.backend = a.solver == "ipopt" ? SolverBackend::Ipopt : SolverBackend::Native;
   options.admm.x_step =
       a.x_step == "cholesky" ? AdmmXStep::Cholesky : AdmmXStep::ConjugateGradients;
+  settings.bits = a.bits;
+  settings.read = read_options(a.in);
+  settings.write = write_options(a.out);
+  settings.key = resolve_key(a.keys);
+  settings.id_bits = a.keys.id_bits;
+  settings.strength_spread = a.strength_spread;
+  settings.registry = a.registry;
   if (!a.batch.empty()) {
     if (!a.input.empty() || !a.payload.empty() || !a.id.empty())
       throw InvalidArgumentError(
           "--batch takes its inputs, outputs and payloads from the manifest");
     if (!a.buyer.empty())
       throw InvalidArgumentError("--batch takes each buyer from its manifest line");
-    BatchSettings b;
-    b.bits = a.bits;
-    b.options = options;
-    b.in = a.in;
-    b.out = a.out;
-    b.key = resolve_key(a.keys);
-    b.code.bits = a.bits;
-    b.code.id_bits = a.keys.id_bits;
-    b.id_bits = a.keys.id_bits;
-    b.strength_spread = a.strength_spread;
-    b.registry = a.registry;
-    b.limits = limits;
-    return run_batch(a.batch, b);
+    return run_batch(a.batch, settings);
   }
   if (!a.payload.empty() && !a.id.empty())
     throw InvalidArgumentError("give --payload or --id, not both");
   if (a.input.empty() || a.output.empty() || a.payload.empty() == a.id.empty())
     throw InvalidArgumentError(
         "embed needs IN, OUT and one of --payload or --id (or --batch MANIFEST)");
-  const std::optional<Key> key = resolve_key(a.keys);
+  if (a.registry.empty() && !a.buyer.empty())
+    throw InvalidArgumentError("--buyer is recorded in a registry: give --registry DB");
+  const std::optional<Key>& key = settings.key;
   const bool coded = !a.id.empty();
   if (coded && !key)
     fmt::print(stderr,
                "meshmark: warning: --id without --key-file or --key codes the ID under the public "
                "key: anyone can read it, remove it, or write any other buyer's ID\n");
-  const Payload payload = coded ? id_code(a.keys, a.bits).encode(parse_id(a.id), id_key(key))
-                                : payload_from_hex(a.payload, a.bits);
-  const Payload bins = mark_layout(key, a.bits, coded).to_bins(payload);
-  options.strengths = mark_strengths(key, a.bits, coded, options.strength, a.strength_spread);
-  // The registry: refuse an ID already issued from this original under this key before
-  // anything is embedded.
-  std::optional<Registry> registry;
-  IssuedCopy copy;
-  if (!a.registry.empty()) {
-    if (!coded) throw InvalidArgumentError("--registry records coded IDs: give --id");
-    registry.emplace(a.registry);
-    copy = issued_copy(a.input, a.buyer, parse_id(a.id), a.keys.id_bits, a.bits, a.variant, options,
-                       a.strength_spread, id_key(key));
-    const std::vector<IssuedCopy> taken = registry->conflicts({copy});
-    if (!taken.empty())
-      throw InvalidArgumentError(
-          fmt::format("ID {} was already issued from {} under this key, to '{}' on {} ({}): choose "
-                      "another ID",
-                      copy.id, a.input, taken[0].buyer, taken[0].issued_at, taken[0].output_path));
-    const std::vector<CloseCodeword> close = close_codewords(*registry, {copy}, id_key(key));
-    if (!close.empty())
-      throw InvalidArgumentError(fmt::format(
-          "ID {}'s codeword is {} bits from that of ID {} (issued to '{}'), closer than {}: a "
-          "copy of one could be taken for the other; choose another ID",
-          copy.id, close[0].distance, close[0].near.id, close[0].near.buyer, kIssuedSpacing));
-  } else if (!a.buyer.empty()) {
-    throw InvalidArgumentError("--buyer is recorded in a registry: give --registry DB");
-  }
-  Mesh mesh = read_input(a.input, a.in);
-  EmbedResult r;
-  std::optional<CalibrateResult> calibration;
-  if (limits) {
-    CalibrateOptions co = *limits;
-    co.strengths = [&](double alpha) {
-      return mark_strengths(key, a.bits, coded, alpha, a.strength_spread);
-    };
-    calibration = calibrate_strength(mesh.V, mesh.F, bins, options, co);
-    options.strength = calibration->strength > 0 ? calibration->strength : co.min_strength;
-    options.bin_offset = calibration->bin_offset;
-    options.strengths = calibration->strengths;
-    r = std::move(calibration->embedding);
-    if (calibration->status == CalibrateStatus::BelowMinimum) {
-      r.status = EmbedStatus::NotConverged;
-      r.message = calibration->message;
-    }
-    copy.strength = options.strength;
-    copy.bin_offset = options.bin_offset;
-  } else {
-    r = embed(mesh.V, mesh.F, bins, options);
-  }
-  if (r.check.status == CarrierHealth::Weak) report_carrier(a.input, r.check);
-  std::string status = embed_status_name(r.status);
-  if (calibration && calibration->status == CalibrateStatus::BelowMinimum)
-    status = "not within the fidelity limits";
-  if (r.status == EmbedStatus::Embedded) {
-    mesh.V = r.V;
-    const WrittenCheck written =
-        write_marked_output(a.output, a.input, mesh, a.out, a.in, bins, options);
-    if (!written.carried) r.status = EmbedStatus::NotConverged, r.message = written.message;
-    if (!written.carried) status = "not carried by the file";
-    if (written.carried && registry) record_copies(*registry, {copy}, {a.output});
-  }
-  const bool ok = r.status == EmbedStatus::Embedded;
+  CopyRequest request;
+  request.input = a.input;
+  request.output = a.output;
+  if (coded) request.id = parse_id(a.id);
+  request.payload_hex = a.payload;
+  request.buyer = a.buyer;
+  settings.resume = false;  // one copy asked for by hand: an ID issued before is refused
+  const IssueResult issued = issue_copies({request}, settings);
+  const CopyOutcome& c = issued.copies.at(0);
+  for (const std::string& w : c.warnings)
+    fmt::print(stderr, "meshmark: warning: {}\n", printable(w));
+  const bool ran = c.status == CopyStatus::Written || c.status == CopyStatus::NotEmbedded ||
+                   c.status == CopyStatus::NotWithinFidelity || c.status == CopyStatus::NotCarried;
+  if (!ran) fail(c, a.input);
+  const EmbedResult& r = c.result;
+  const EmbedOptions& used = c.embedding;
+  const std::optional<CalibrateResult>& calibration = c.calibration;
+  const std::optional<CalibrateOptions>& limits = settings.limits;
+  const Payload& payload = c.word;
+  const std::string status =
+      c.status == CopyStatus::Written ? embed_status_name(r.status) : copy_status_name(c.status);
+  const bool ok = c.status == CopyStatus::Written;
   if (a.json) {
     nlohmann::json j = {
         {"status", status},
-        {"message", r.message},
+        {"message", ok ? r.message : c.message},
         {"input", a.input},
         {"output", ok ? a.output : ""},
-        {"method", method_name(options.method)},
+        {"method", method_name(used.method)},
         {"variant", a.variant},
         {"solver", a.solver},
         {"payload", payload_to_hex(payload)},
         {"id", coded ? nlohmann::json(parse_id(a.id)) : nlohmann::json(nullptr)},
         {"keyed", key.has_value()},
         {"bits", a.bits},
-        {"strength", options.strength},
+        {"strength", used.strength},
         {"strength_spread", key || coded ? a.strength_spread : 0.0},
-        {"bin_offset", options.bin_offset},
-        {"vertices", mesh.V.rows()},
+        {"bin_offset", used.bin_offset},
+        {"vertices", c.vertices},
         {"rounds", r.rounds},
         {"solver_iterations", r.solver_iterations},
         {"radial_fallbacks", r.radial_fallbacks},
@@ -199,23 +166,22 @@ int run(const EmbedArgs& a, bool strength_given) {
           {"diagnostics", r.check.diagnostics}}}};
     fmt::print("{}\n", j.dump(2));
   } else {
-    fmt::print("{}: {}\n", ok ? "embedded" : "NOT embedded", r.message);
+    fmt::print("{}: {}\n", ok ? "embedded" : "NOT embedded", ok ? r.message : c.message);
     if (coded)
       fmt::print("  ID               {} ({} bits, coded)\n", parse_id(a.id), a.keys.id_bits);
-    fmt::print("  payload          {} ({} bits, {}, {} {}, strength {}{})\n",
-               payload_to_hex(payload), a.bits,
-               key ? "keyed layout" : (coded ? "public whitening" : "canonical layout"),
-               options.method == Method::Qp ? "variant" : method_name(options.method), a.variant,
-               options.strength,
-               options.method == Method::Qp ? fmt::format(", bin offset {}", options.bin_offset)
-                                            : std::string());
-    if (options.method == Method::Qp)
+    fmt::print(
+        "  payload          {} ({} bits, {}, {} {}, strength {}{})\n", payload_to_hex(payload),
+        a.bits, key ? "keyed layout" : (coded ? "public whitening" : "canonical layout"),
+        used.method == Method::Qp ? "variant" : method_name(used.method), a.variant, used.strength,
+        used.method == Method::Qp ? fmt::format(", bin offset {}", used.bin_offset)
+                                  : std::string());
+    if (used.method == Method::Qp)
       fmt::print("  rounds           {} ({} solver iterations, KKT residual {:.2e})\n", r.rounds,
                  r.solver_iterations, r.kkt_residual);
     else
       fmt::print("  rounds           {} ({} evaluations of the exponent search)\n", r.rounds,
                  r.solver_iterations);
-    fmt::print("  smallest margin  {:.6f} (target {})\n", r.min_margin, options.strength);
+    fmt::print("  smallest margin  {:.6f} (target {})\n", r.min_margin, used.strength);
     fmt::print("  RMS displacement {:.6f} % of the bounding-box diagonal\n", r.rms_percent);
     if (calibration)
       fmt::print(
@@ -232,7 +198,7 @@ int run(const EmbedArgs& a, bool strength_given) {
     if (ok)
       fmt::print("  written          {} (read back: every bit decodes)\n", printable(a.output));
   }
-  if (!ok) fmt::print(stderr, "meshmark: error: {}: {}\n", a.input, r.message);
+  if (!ok) fmt::print(stderr, "meshmark: error: {}: {}\n", a.input, c.message);
   if (!ok && calibration)
     for (std::size_t k = 1; k < calibration->diagnostics.size(); ++k)
       fmt::print(stderr, "meshmark:   {}\n", calibration->diagnostics[k]);

@@ -3,9 +3,6 @@
 
 #include <fmt/format.h>
 
-#include <cerrno>
-#include <cstdlib>
-
 #include "cli.h"
 #include "meshmark/error.h"
 
@@ -32,18 +29,6 @@ std::optional<Key> resolve_key(const KeyArgs& args) {
     }
   }
   return std::nullopt;
-}
-
-std::uint64_t parse_id(const std::string& text) {
-  if (text.empty() || text[0] == '-' || text[0] == '+')
-    throw InvalidArgumentError(fmt::format("ID '{}' is not a non-negative integer", text));
-  errno = 0;
-  char* end = nullptr;
-  const unsigned long long value = std::strtoull(text.c_str(), &end, 0);
-  if (errno != 0 || end == text.c_str() || *end != '\0')
-    throw InvalidArgumentError(
-        fmt::format("ID '{}' is not an integer (decimal, or hexadecimal with 0x)", text));
-  return value;
 }
 
 IdCode id_code(const KeyArgs& args, int nb) {

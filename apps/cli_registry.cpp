@@ -12,58 +12,11 @@
 
 namespace meshmark::cli {
 
-IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::uint64_t id,
-                       int id_bits, int bits, const std::string& variant,
-                       const EmbedOptions& options, double strength_spread, const Key& key) {
-  IssuedCopy c;
+std::vector<IssuedCopy> read_registry_input(const std::string& where, const RegistryQuery& query) {
   try {
-    c.original_hash = content_hash(read_file(input));
+    return meshmark::read_registry(where, query);
   } catch (const IOError& e) {
     throw InputFailure(e.what());
-  }
-  std::error_code ec;
-  const std::filesystem::path absolute = std::filesystem::absolute(input, ec);
-  c.original_path = ec ? input : absolute.lexically_normal().string();
-  c.buyer = buyer;
-  c.id = id;
-  c.id_bits = id_bits;
-  c.bits = bits;
-  c.variant = variant;
-  c.strength = options.strength;
-  c.strength_spread = strength_spread;
-  c.bin_offset = options.bin_offset;
-  c.key_fingerprint = key_fingerprint(key);
-  c.method = method_name(options.method);
-  return c;
-}
-
-std::vector<IssuedCopy> read_registry(const std::string& where, const RegistryQuery& query) {
-  if (where.find("://") == std::string::npos && !std::filesystem::exists(where))
-    throw InputFailure(fmt::format("{}: no such registry", where));
-  try {
-    return Registry(where).list(query);
-  } catch (const IOError& e) {
-    throw InputFailure(e.what());
-  }
-}
-
-std::string recorded_path(const std::string& output) {
-  std::error_code ec;
-  const std::filesystem::path absolute = std::filesystem::absolute(output, ec);
-  return ec ? output : absolute.lexically_normal().string();
-}
-
-void record_copies(Registry& registry, std::vector<IssuedCopy> copies,
-                   const std::vector<std::string>& outputs) {
-  try {
-    for (std::size_t k = 0; k < copies.size(); ++k) {
-      copies[k].output_path = recorded_path(outputs[k]);
-      copies[k].output_hash = content_hash(read_file(outputs[k]));
-    }
-    registry.record(std::move(copies));
-  } catch (...) {
-    for (const std::string& out : outputs) std::remove(out.c_str());
-    throw;
   }
 }
 
@@ -117,7 +70,7 @@ RegistryQuery query_of(const RegistryArgs& a) {
 }
 
 int run_list(const RegistryArgs& a) {
-  const std::vector<IssuedCopy> copies = read_registry(a.db, query_of(a));
+  const std::vector<IssuedCopy> copies = read_registry_input(a.db, query_of(a));
   if (a.format == "json" || a.format == "jsonl") {
     nlohmann::json all = nlohmann::json::array();
     for (const IssuedCopy& c : copies) {

@@ -100,12 +100,12 @@ int run(const TraceArgs& a) {
     throw InputFailure(e.what());
   }
   q.key_fingerprint = key_fingerprint(*key);
-  const std::vector<IssuedCopy> candidates = read_registry(a.registry, q);
+  const std::vector<IssuedCopy> candidates = read_registry_input(a.registry, q);
   std::size_t under_key = 0;  // copies of other originals under this key
   if (candidates.empty()) {
     RegistryQuery by_key;
     by_key.key_fingerprint = q.key_fingerprint;
-    under_key = read_registry(a.registry, by_key).size();
+    under_key = read_registry_input(a.registry, by_key).size();
   }
   TraceOptions options = a.options;
   options.register_leak = !a.no_register;

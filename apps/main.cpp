@@ -52,10 +52,8 @@ void add_output_options(CLI::App& app, OutputOptions& options) {
 }
 
 Mesh read_input(const std::string& path, const InputOptions& options) {
-  ReadOptions ro;
-  ro.weld_tolerance = options.weld_tolerance;
   try {
-    Mesh mesh = read_mesh(path, ro);
+    Mesh mesh = read_mesh(path, read_options(options));
     for (const std::string& note : mesh.notes)
       fmt::print(stderr, "warning: {}: {}\n", printable(path), printable(note));
     return mesh;
@@ -97,8 +95,6 @@ void write_heat_map(const std::string& path, std::initializer_list<std::string> 
   write_mesh(path, mesh, wo);
 }
 
-namespace {
-
 WriteOptions write_options(const OutputOptions& options) {
   WriteOptions wo;
   if (!options.format.empty()) wo.format = format_from_path("x." + options.format);
@@ -110,26 +106,16 @@ WriteOptions write_options(const OutputOptions& options) {
   return wo;
 }
 
-}  // namespace
+ReadOptions read_options(const InputOptions& options) {
+  ReadOptions ro;
+  ro.weld_tolerance = options.weld_tolerance;
+  return ro;
+}
 
 void write_output(const std::string& path, const std::string& input_path, const Mesh& mesh,
                   const OutputOptions& options) {
   refuse_overwrite(path, {input_path});
   write_mesh(path, mesh, write_options(options));
-}
-
-WrittenCheck write_marked_output(const std::string& path, const std::string& input_path,
-                                 const Mesh& mesh, const OutputOptions& options,
-                                 const InputOptions& input, const Payload& bins,
-                                 const EmbedOptions& embedding) {
-  refuse_overwrite(path, {input_path});
-  ReadOptions ro;
-  ro.weld_tolerance = input.weld_tolerance;
-  ExtractOptions eo;
-  eo.center = embedding.variant.center;
-  eo.method = embedding.method;
-  return write_marked_mesh(path, mesh, write_options(options), ro, bins, eo,
-                           0.5 * embedding.strength);
 }
 
 }  // namespace meshmark::cli

@@ -3,13 +3,27 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <numeric>
 #include <set>
 
 #include "meshmark/error.h"
 
 namespace meshmark {
+
+std::uint64_t parse_id(const std::string& text) {
+  if (text.empty() || text[0] == '-' || text[0] == '+')
+    throw InvalidArgumentError(fmt::format("ID '{}' is not a non-negative integer", text));
+  errno = 0;
+  char* end = nullptr;
+  const unsigned long long value = std::strtoull(text.c_str(), &end, 0);
+  if (errno != 0 || end == text.c_str() || *end != '\0')
+    throw InvalidArgumentError(
+        fmt::format("ID '{}' is not an integer (decimal, or hexadecimal with 0x)", text));
+  return value;
+}
 
 namespace {
 

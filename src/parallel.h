@@ -20,6 +20,7 @@
 #include <cstdlib>
 #include <exception>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -91,20 +92,29 @@ class ThreadBudgetScope {
   ThreadBudget* saved_;
 };
 
-/// Runs body(i) for every i in [0, n) on the calling thread and up to threads - 1 helpers
-/// (threads 0: as many as the budget has), as many as the calling thread's budget has free;
-/// each takes the next index when done with one (for items of unequal cost). Loops in the
-/// bodies share the same budget. The first exception a body throws stops the others taking
-/// new items and is rethrown once they have finished.
+/// Runs body(i) for every i in [0, n), each index once, on the calling thread and helpers,
+/// each taking the next index when done with one (for items of unequal cost). threads <= 0:
+/// as many as the calling thread's budget has free; threads > 0: at most that many, and on a
+/// thread without a budget (not in a loop or a ThreadBudgetScope) the loop's budget is
+/// threads. Loops in the bodies share the same budget. The first exception a body throws stops
+/// the others taking new items and is rethrown once they have finished. Returns the threads
+/// used (1: the calling thread alone).
 template <class Body>
-void parallel_for(std::int64_t n, int threads, Body&& body) {
-  ThreadBudget& budget = current_thread_budget();
+int parallel_for(std::int64_t n, int threads, Body&& body) {
+  std::optional<ThreadBudget> own;  // an explicit count on a thread without a budget
+  if (threads > 0 && !thread_budget_slot()) own.emplace(threads);
+  ThreadBudget& budget = own ? *own : current_thread_budget();
+  struct Slot {  // the calling thread works under the loop's budget, then gets its own back
+    ThreadBudget* saved = thread_budget_slot();
+    ~Slot() { thread_budget_slot() = saved; }
+  } slot;
+  thread_budget_slot() = &budget;
   const int wanted =
       static_cast<int>(std::min<std::int64_t>(n, threads > 0 ? threads : budget.size()));
   const int helpers = wanted > 1 ? budget.take(wanted - 1) : 0;
   if (helpers == 0) {
     for (std::int64_t i = 0; i < n; ++i) body(i);
-    return;
+    return 1;
   }
   std::atomic<std::int64_t> next{0};
   std::exception_ptr error;
@@ -132,6 +142,7 @@ void parallel_for(std::int64_t n, int threads, Body&& body) {
   for (auto& t : pool) t.join();
   budget.reclaim();
   if (error) std::rethrow_exception(error);
+  return helpers + 1;
 }
 
 /// Number of chunks parallel_chunks uses for n items on the calling thread (1 below 4096
@@ -146,7 +157,7 @@ template <class Body>
 void parallel_chunks(std::int64_t n, Body&& body) {
   const int chunks = chunk_count(n);
   if (chunks == 1) return body(0, std::int64_t{0}, n);
-  parallel_for(chunks, chunks, [&](std::int64_t c) {
+  (void)parallel_for(chunks, chunks, [&](std::int64_t c) {
     body(static_cast<int>(c), n * c / chunks, n * (c + 1) / chunks);
   });
 }

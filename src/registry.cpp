@@ -4,6 +4,7 @@
 #include <sodium.h>
 
 #include <ctime>
+#include <filesystem>
 #include <set>
 #include <tuple>
 
@@ -46,6 +47,12 @@ bool is_postgres(const std::string& location) {
 std::string key_fingerprint(const Key& key) {
   const Key k = derive_key(key, "fingerprint");
   return hex(k.bytes.data(), 16);
+}
+
+std::string normalized_path(const std::string& path) {
+  std::error_code ec;
+  const std::filesystem::path absolute = std::filesystem::absolute(path, ec);
+  return ec ? path : absolute.lexically_normal().string();
 }
 
 std::string content_hash(const std::string& bytes) {
@@ -126,6 +133,12 @@ std::vector<IssuedCopy> Registry::record(std::vector<IssuedCopy> copies) {
 
 std::vector<IssuedCopy> Registry::list(const RegistryQuery& query) const {
   return impl_->store->list(query);
+}
+
+std::vector<IssuedCopy> read_registry(const std::string& where, const RegistryQuery& query) {
+  if (where.find("://") == std::string::npos && !std::filesystem::exists(where))
+    throw IOError(fmt::format("{}: no such registry", where));
+  return Registry(where).list(query);
 }
 
 }  // namespace meshmark

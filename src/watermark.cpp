@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <tuple>
 
@@ -117,6 +118,45 @@ std::vector<CloseCodeword> close_codewords(const Registry& registry,
     }
     if (!close) it->second.emplace_back(c, word);
   }
+  return out;
+}
+
+MarkDetection detect_mark(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                          const ExtractOptions& options, const MarkExpectation& expect,
+                          const std::optional<Key>& key, const DetectOptions& detect_options) {
+  const bool coded = expect.id.has_value();
+  std::optional<IdCode> code;
+  MarkDetection out;
+  if (coded) {
+    IdCodeOptions co;
+    co.bits = options.bits;
+    co.id_bits = expect.id_bits;
+    code.emplace(co);
+    // One codeword among 2^k: no match can be rarer than 2^-k.
+    if (std::exp2(-code->message_bits()) >= detect_options.threshold)
+      throw InvalidArgumentError(fmt::format(
+          "a code of {} message bits ({} payload bits, {}-bit IDs) can never give a p-value below "
+          "2^-{} = {:.2g}, above the threshold {:g}: use more payload bits or a larger threshold",
+          code->message_bits(), options.bits, expect.id_bits, code->message_bits(),
+          std::exp2(-code->message_bits()), detect_options.threshold));
+    out.expected = code->encode(*expect.id, id_key(key));
+  } else {
+    if (static_cast<int>(expect.payload.size()) != options.bits)
+      throw InvalidArgumentError(fmt::format("the expected payload has {} bits, not {}",
+                                             expect.payload.size(), options.bits));
+    out.expected = expect.payload;
+  }
+  const BitLayout layout = mark_layout(key, options.bits, coded);
+  out.extract = extract(V, F, options);
+  const std::vector<std::uint8_t> bits = layout.from_bins(out.extract.bits);
+  if (!coded) {
+    out.detection = detect(bits, out.expected, detect_options);
+    return out;
+  }
+  const IdDecodeResult decoded =
+      code->decode(bits, layout.values_from_bins(out.extract.margins), id_key(key));
+  out.detection = detect_id(bits, out.expected, CodewordNull(*code, bits, id_key(key)),
+                            detect_options, &decoded, *expect.id);
   return out;
 }
 

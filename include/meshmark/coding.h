@@ -79,6 +79,10 @@ struct IdDecodeResult {
   std::string message;       ///< what was found, or why nothing
 };
 
+/// Parses a buyer ID: decimal, or hexadecimal with 0x.
+/// \throw InvalidArgumentError for anything else (a sign, other characters, out of range).
+std::uint64_t parse_id(const std::string& text);
+
 /// A code for IDs of IdCodeOptions::id_bits bits in nb-bit payloads.
 class IdCode {
  public:

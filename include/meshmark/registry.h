@@ -59,6 +59,10 @@ struct RegistryQuery {
 /// derive_key(key, "fingerprint"), in hexadecimal (32 characters).
 std::string key_fingerprint(const Key& key);
 
+/// A path as the registry records it: absolute and lexically normal (path itself when it has
+/// no absolute form).
+std::string normalized_path(const std::string& path);
+
 /// BLAKE2b-256 of bytes, in hexadecimal (64 characters).
 std::string content_hash(const std::string& bytes);
 
@@ -100,5 +104,10 @@ class Registry {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+/// The copies of an existing registry (an SQLite file or a postgresql:// URI) that match
+/// query. A registry is only read here: one that does not exist is not created.
+/// \throw IOError when it does not exist, cannot be opened or is not a registry.
+std::vector<IssuedCopy> read_registry(const std::string& where, const RegistryQuery& query = {});
 
 }  // namespace meshmark

@@ -18,6 +18,7 @@
 
 #include "meshmark/coding.h"
 #include "meshmark/decode.h"
+#include "meshmark/detect.h"
 #include "meshmark/io.h"
 #include "meshmark/key.h"
 #include "meshmark/payload.h"
@@ -63,6 +64,30 @@ struct IdReading {
 /// ("ambiguous"). The code's false-accept bound covers every reading.
 IdReading read_id(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                   const ExtractOptions& options, const IdCode& code, const std::optional<Key>& key);
+
+/// What detect_mark tests for: an expected coded ID, or an expected raw payload.
+struct MarkExpectation {
+  std::optional<std::uint64_t> id;  ///< the expected coded ID; none: payload is expected
+  Payload payload;                  ///< the expected raw payload (payload order), without an ID
+  int id_bits = 32;                 ///< the ID code's ID length (1..32)
+};
+
+/// What detect_mark found.
+struct MarkDetection {
+  DetectResult detection;  ///< matches, erasures, p-value and verdict
+  Payload expected;        ///< payload order: the expected word (an ID's codeword)
+  ExtractResult extract;   ///< the blind decoder's output (its carrier check), bin order
+};
+
+/// Tests whether V, F carries the expected mark: the options.bits bits read (options' center
+/// and method) through mark_layout(key, ...), compared with the expected raw payload
+/// (binomial null) or with the expected ID's codeword under id_key(key) (exact codeword null,
+/// and the ID the mark decodes to when it is another), detected below detect.threshold.
+/// \throw InvalidArgumentError when the ID code can never give a p-value below the threshold
+///        (2^-message bits >= threshold), or the expected payload is not options.bits long.
+MarkDetection detect_mark(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                          const ExtractOptions& options, const MarkExpectation& expect,
+                          const std::optional<Key>& key, const DetectOptions& detect = {});
 
 /// The per-bin strengths (bin order, as EmbedOptions::strengths takes them) of a mark: keyed
 /// ones (keyed_strengths under id_key(key), laid out like the bits) for keyed or coded marks,

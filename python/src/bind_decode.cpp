@@ -140,30 +140,6 @@ IdCode id_code(int bits, int id_bits) {
   return IdCode(o);
 }
 
-// The CLI's detect: bits read through the layout, compared with the expected raw payload
-// (binomial null) or the expected ID's codeword (exact codeword null).
-DetectResult detect_mark(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
-                         const ExtractOptions& eo, const std::optional<Key>& key,
-                         const std::optional<std::uint64_t>& id, const Payload& raw, int id_bits,
-                         double threshold) {
-  DetectOptions options;
-  options.threshold = threshold;
-  const bool coded = id.has_value();
-  const BitLayout layout = mark_layout(key, eo.bits, coded);
-  const ExtractResult r = extract(V, F, eo);
-  const std::vector<std::uint8_t> bits = layout.from_bins(r.bits);
-  if (!coded) return detect(bits, raw, options);
-  const IdCode code = id_code(eo.bits, id_bits);
-  if (std::exp2(-code.message_bits()) >= threshold)
-    throw InvalidArgumentError(fmt::format(
-        "a code of {} message bits can never give a p-value below 2^-{}, above the threshold "
-        "{:g}: use more payload bits or a larger threshold",
-        code.message_bits(), code.message_bits(), threshold));
-  const IdDecodeResult decoded = code.decode(bits, layout.values_from_bins(r.margins), id_key(key));
-  return detect_id(bits, code.encode(*id, id_key(key)), CodewordNull(code, bits, id_key(key)),
-                   options, &decoded, *id);
-}
-
 void bind_functions(py::module_& m) {
   m.def(
       "extract",
@@ -222,15 +198,17 @@ void bind_functions(py::module_& m) {
         ExtractOptions eo;
         eo.bits = bits;
         eo.center = to_variant(variant).center;
-        std::optional<std::uint64_t> id;
-        Payload raw;
+        MarkExpectation expected;
+        expected.id_bits = id_bits;
         if (!expect.is_none())
-          id = to_id(expect, "expect");
+          expected.id = to_id(expect, "expect");
         else
-          raw = to_payload(expect_payload, py::int_(bits), "expect_payload");
+          expected.payload = to_payload(expect_payload, py::int_(bits), "expect_payload");
         const std::optional<Key> k = resolve_key(key, key_file);
+        DetectOptions options;
+        options.threshold = threshold;
         py::gil_scoped_release unlocked;
-        return detect_mark(v, f, eo, k, id, raw, id_bits, threshold);
+        return detect_mark(v, f, eo, expected, k, options).detection;
       },
       py::arg("V"), py::arg("F"), py::kw_only(), py::arg("expect") = py::none(),
       py::arg("expect_payload") = py::none(), py::arg("bits") = 64, py::arg("variant") = "DRS",

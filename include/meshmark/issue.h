@@ -1,0 +1,130 @@
+#pragma once
+/// \file issue.h
+/// Issuing watermarked copies: each copy of an original carries a buyer's coded ID (or a raw
+/// payload), is written only when its bytes carry the mark, and is recorded in the registry of
+/// issued copies. One copy (the command line's `embed`) and a manifest of many (`embed
+/// --batch`) go through the same rules:
+///
+/// - Before anything is embedded: no two copies write the same file and no copy writes a file
+///   any copy reads; an ID already issued from the same original under the same key, an ID
+///   given twice, or an ID whose codeword is closer than kIssuedSpacing bits to one already
+///   issued is refused (a buyer must never get a copy that could be taken for another's).
+/// - Each distinct original is read and prepared once, then the copies are embedded on
+///   IssueSettings::threads threads, each at the fixed strength or at the strongest within
+///   fidelity limits (calibrate.h).
+/// - A copy is written (atomically) only when the written bytes, read back, carry every bit
+///   with at least half the strength (write_marked_mesh).
+/// - With a registry, every copy written is recorded in one transaction; when recording fails,
+///   the copies written are removed: no issued copy goes unrecorded.
+/// - A copy recorded by an earlier run with the same settings and output, its file intact, is
+///   skipped when IssueSettings::resume is set (a batch run again after a kill).
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "meshmark/calibrate.h"
+#include "meshmark/embed.h"
+#include "meshmark/io.h"
+#include "meshmark/key.h"
+#include "meshmark/payload.h"
+#include "meshmark/registry.h"
+
+namespace meshmark {
+
+/// What every copy of one issue shares.
+struct IssueSettings {
+  int bits = 64;           ///< payload length nb
+  EmbedOptions embedding;  ///< method, variant, strength, solver (strengths are set here)
+  ReadOptions read;        ///< how originals are read, and written copies read back
+  WriteOptions write;      ///< output format settings (format from the path when unset)
+  std::optional<Key> key;  ///< keyed layout; the key of coded IDs (public_key() without)
+  int id_bits = 32;        ///< length of a coded ID in bits (1..32)
+  double strength_spread =
+      0.25;  ///< keyed or coded marks: per-bit strength spread (keyed_strengths)
+  /// Fidelity limits: each copy gets the strongest mark within them; none: every copy at
+  /// embedding.strength.
+  std::optional<CalibrateOptions> limits;
+  std::string registry;  ///< record coded copies there (SQLite file or postgresql:// URI); "" none
+  bool resume = true;    ///< skip copies an earlier run issued and recorded, their files intact
+  int threads = 0;       ///< copies embedded at once; 0: one per hardware thread
+};
+
+/// One copy to issue.
+struct CopyRequest {
+  std::string input;                ///< the original's path
+  std::string output;               ///< where the copy goes (format from its extension)
+  std::optional<std::uint64_t> id;  ///< a coded buyer ID, or none: a raw payload
+  std::string payload_hex;          ///< the raw payload (hexadecimal), when there is no ID
+  std::string buyer;                ///< the buyer's label, recorded with a coded ID
+  std::size_t line = 0;             ///< its manifest line (1-based), 0 when not from one
+  std::string refusal;              ///< why the request is refused before it runs, or ""
+};
+
+/// What became of a copy.
+enum class CopyStatus {
+  Written,            ///< written, carrying the mark (and recorded, with a registry)
+  Skipped,            ///< issued and recorded by an earlier run, its file intact
+  Refused,            ///< not run: a malformed request, a clash or the registry refuses it
+  Unreadable,         ///< its original cannot be read
+  NotEmbedded,        ///< the embedding failed (infeasible, not converged, no usable carrier)
+  NotWithinFidelity,  ///< no strength within the fidelity limits carries the mark
+  NotCarried,         ///< the bytes it would write do not carry the mark (nothing written)
+  WriteFailed,        ///< the file cannot be written
+  NotRecorded,        ///< written, but the registry could not record it: removed
+};
+
+/// "written", "skipped", "refused", "unreadable", "not embedded", "not within the fidelity
+/// limits", "not carried by the file", "write failed", "not recorded".
+const char* copy_status_name(CopyStatus status);
+
+/// One copy's outcome.
+struct CopyOutcome {
+  CopyStatus status = CopyStatus::Refused;
+  std::string message;                ///< why it failed, or a one-line summary of the copy
+  std::vector<std::string> warnings;  ///< the reader's notes and a weak carrier's diagnostics
+  Payload word;                       ///< payload order (a coded ID's codeword)
+  Payload bins;                       ///< bin order: what was embedded
+  EmbedOptions embedding;             ///< as embedded (the strength found by a search)
+  EmbedResult result;                 ///< the embedding (positions dropped once written)
+  std::optional<CalibrateResult> calibration;  ///< the fidelity search, with limits
+  IssuedCopy record;                           ///< the registry record (coded IDs with a registry)
+  std::int64_t vertices = 0;                   ///< the original's vertex count
+  bool ok() const { return status == CopyStatus::Written || status == CopyStatus::Skipped; }
+};
+
+/// What issue_copies did.
+struct IssueResult {
+  std::vector<CopyOutcome> copies;             ///< one per request, in order
+  std::size_t inputs = 0;                      ///< distinct originals
+  int threads = 1;                             ///< threads the copies were embedded on
+  double seconds = 0;                          ///< wall time
+  std::size_t count(CopyStatus status) const;  ///< copies with this status
+};
+
+/// Issues one copy per request (see the file's comment for the rules). Never throws for one
+/// copy's failure: each outcome says what happened to it.
+/// \throw InvalidArgumentError for settings out of range; IOError when the registry cannot be
+///        opened.
+IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings& settings);
+
+/// Reads a manifest: one copy per line, `INPUT OUTPUT PAYLOAD` (hexadecimal) or `INPUT OUTPUT
+/// id:N BUYER...` (a coded ID and the buyer's label); `#` starts a comment; blank lines are
+/// skipped. A malformed line is a request with its refusal set, so that it is reported like
+/// any other failure. \throw IOError when the file cannot be read (at most 64 MiB).
+std::vector<CopyRequest> read_manifest(const std::string& path);
+
+/// The registry record of a copy of input (its content hash read from the file) carrying the
+/// coded id for buyer, under key, with settings' embedding. \throw IOError when input cannot
+/// be read.
+IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::uint64_t id,
+                       const IssueSettings& settings);
+
+/// Records copies written to outputs (their content hashes read back) in one transaction.
+/// When that fails, the outputs are removed (no issued copy goes unrecorded) and the error is
+/// thrown again.
+void record_copies(Registry& registry, std::vector<IssuedCopy> copies,
+                   const std::vector<std::string>& outputs);
+
+}  // namespace meshmark

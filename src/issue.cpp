@@ -1,0 +1,391 @@
+// Issuing watermarked copies (issue.h): the registry's refusals, each original read once, the
+// copies embedded in parallel, written only when they carry the mark, recorded in one
+// transaction.
+
+#include "meshmark/issue.h"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <memory>
+
+#include "meshmark/coding.h"
+#include "meshmark/error.h"
+#include "meshmark/watermark.h"
+#include "parallel.h"
+
+namespace meshmark {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// The same file for two names (an existing file by identity, a new one by its absolute path).
+std::string file_identity(const std::string& path) {
+  std::error_code ec;
+  const auto absolute = fs::absolute(path, ec);
+  if (ec) return path;
+  const auto canonical = fs::weakly_canonical(absolute, ec);
+  return ec ? absolute.lexically_normal().string() : canonical.lexically_normal().string();
+}
+
+void refuse(CopyOutcome& outcome, std::string message) {
+  outcome.status = CopyStatus::Refused;
+  outcome.message = std::move(message);
+}
+
+bool pending(const CopyOutcome& outcome) {
+  return outcome.status == CopyStatus::Written && outcome.message.empty();
+}
+
+// Before anything is embedded: no two copies write the same file, and no copy writes a file
+// any copy reads. Every copy involved is refused.
+void refuse_clashes(const std::vector<CopyRequest>& requests, std::vector<CopyOutcome>& out) {
+  const auto where = [&](std::size_t k) {
+    return requests[k].line ? fmt::format("line {}", requests[k].line)
+                            : fmt::format("copy {}", k + 1);
+  };
+  std::map<std::string, std::vector<std::size_t>> writers;
+  std::map<std::string, std::size_t> readers;
+  for (std::size_t k = 0; k < requests.size(); ++k) {
+    if (!pending(out[k])) continue;
+    const std::string output = file_identity(requests[k].output);
+    const std::string input = file_identity(requests[k].input);
+    if (output == input) {
+      refuse(out[k], fmt::format("{}: refusing to overwrite the input file", requests[k].output));
+      continue;
+    }
+    writers[output].push_back(k);
+    readers.emplace(input, k);
+  }
+  for (const auto& [file, ks] : writers) {
+    if (ks.size() > 1) {
+      std::string names;
+      for (const std::size_t k : ks) names += (names.empty() ? "" : ", ") + where(k);
+      for (const std::size_t k : ks)
+        refuse(out[k], fmt::format("{} all write this output: none of them is run", names));
+    }
+    const auto r = readers.find(file);
+    if (r != readers.end())
+      for (const std::size_t k : ks)
+        if (pending(out[k]))
+          refuse(out[k], fmt::format("the output is the input of {}", where(r->second)));
+  }
+}
+
+// Whether the recorded copy is this one, issued by an earlier run, with its file as recorded.
+// searched: the strength and G were searched within fidelity limits, so the recorded ones are
+// whatever the search found for that copy.
+bool resumable(const IssuedCopy& taken, IssuedCopy wanted, const std::string& output,
+               bool searched) {
+  wanted.output_path = normalized_path(output);
+  if (searched) wanted.strength = taken.strength, wanted.bin_offset = taken.bin_offset;
+  if (!same_copy(taken, wanted)) return false;
+  try {
+    return content_hash(read_file(output)) == taken.output_hash;
+  } catch (const std::exception&) {
+    return false;  // gone or unreadable: not resumable, refused as already issued
+  }
+}
+
+// The registry's refusals: coded IDs only, an ID issued before or given twice (or skipped, an
+// intact copy of an earlier run), a codeword too close to an issued one.
+void check_registry(const Registry& registry, const std::vector<CopyRequest>& requests,
+                    const IssueSettings& settings, std::vector<CopyOutcome>& out) {
+  std::vector<std::size_t> candidates;
+  for (std::size_t k = 0; k < requests.size(); ++k) {
+    if (!pending(out[k])) continue;
+    if (!requests[k].id) {
+      refuse(out[k], "a registry records coded IDs only (id:N, --id)");
+      continue;
+    }
+    try {
+      out[k].record = issued_copy(requests[k].input, requests[k].buyer, *requests[k].id, settings);
+      candidates.push_back(k);
+    } catch (const IOError& e) {
+      out[k].status = CopyStatus::Unreadable, out[k].message = e.what();
+    }
+  }
+  const auto same = [&](std::size_t k, const IssuedCopy& c) {
+    return pending(out[k]) && out[k].record.id == c.id &&
+           out[k].record.original_hash == c.original_hash;
+  };
+  std::vector<IssuedCopy> wanted;
+  for (const std::size_t k : candidates) wanted.push_back(out[k].record);
+  for (const IssuedCopy& taken : registry.conflicts(wanted))
+    for (const std::size_t k : candidates) {
+      if (!same(k, taken)) continue;
+      if (taken.row && settings.resume &&
+          resumable(taken, out[k].record, requests[k].output, settings.limits.has_value())) {
+        out[k].status = CopyStatus::Skipped;
+        out[k].message = fmt::format("already issued to '{}' on {} and its file is intact: skipped",
+                                     taken.buyer, taken.issued_at);
+        continue;
+      }
+      refuse(out[k], taken.row
+                         ? fmt::format("ID {} already issued from this original under this "
+                                       "key to '{}' on {} ({}): choose another ID",
+                                       taken.id, taken.buyer, taken.issued_at, taken.output_path)
+                         : fmt::format("ID {} is given twice for this original", taken.id));
+    }
+  wanted.clear();
+  std::vector<std::size_t> index;
+  for (const std::size_t k : candidates)
+    if (pending(out[k])) wanted.push_back(out[k].record), index.push_back(k);
+  for (const CloseCodeword& c : close_codewords(registry, wanted, id_key(settings.key)))
+    for (const std::size_t k : index)
+      if (same(k, c.copy))
+        refuse(out[k], fmt::format("ID {}'s codeword is {} bits from that of ID {} ('{}'), closer "
+                                   "than {}: a copy of one could be taken for the other; choose "
+                                   "another ID",
+                                   c.copy.id, c.distance, c.near.id, c.near.buyer, kIssuedSpacing));
+}
+
+// An original, read and prepared once for every copy made from it.
+struct Original {
+  Mesh mesh;
+  PreparedEmbedder embedder;
+};
+
+// Embeds and writes one copy (out[k] pending).
+void make_copy(const CopyRequest& request, const Original& original, const IssueSettings& settings,
+               const IdCode* code, CopyOutcome& out) {
+  const int nb = settings.bits;
+  const bool coded = request.id.has_value();
+  out.vertices = original.mesh.V.rows();
+  for (const std::string& note : original.mesh.notes)
+    out.warnings.push_back(fmt::format("{}: {}", request.input, note));
+  out.word = coded ? code->encode(*request.id, id_key(settings.key))
+                   : payload_from_hex(request.payload_hex, nb);
+  out.bins = mark_layout(settings.key, nb, coded).to_bins(out.word);
+  EmbedOptions& o = out.embedding;
+  o.strengths = mark_strengths(settings.key, nb, coded, o.strength, settings.strength_spread);
+  if (settings.limits) {
+    CalibrateOptions co = *settings.limits;
+    co.strengths = [&](double alpha) {
+      return mark_strengths(settings.key, nb, coded, alpha, settings.strength_spread);
+    };
+    out.calibration = calibrate_strength(original.embedder, out.bins, o, co);
+    const CalibrateResult& c = *out.calibration;
+    o.strength = c.strength > 0 ? c.strength : co.min_strength;
+    o.bin_offset = c.bin_offset, o.strengths = c.strengths;
+    out.result = c.embedding;
+    out.calibration->embedding.V.resize(0, 3);
+    if (c.status == CalibrateStatus::BelowMinimum) {
+      out.status = CopyStatus::NotWithinFidelity, out.message = c.message;
+      return;
+    }
+  } else {
+    out.result = original.embedder.embed(out.bins, o);
+  }
+  out.record.strength = o.strength, out.record.bin_offset = o.bin_offset;
+  if (out.result.check.status == CarrierHealth::Weak)
+    for (const std::string& d : out.result.check.diagnostics)
+      out.warnings.push_back(fmt::format("{}: {}", request.input, d));
+  if (out.result.status != EmbedStatus::Embedded) {
+    out.status = CopyStatus::NotEmbedded, out.message = out.result.message;
+    return;
+  }
+  std::error_code ec;
+  if (fs::equivalent(request.output, request.input, ec)) {
+    refuse(out, fmt::format("{}: refusing to overwrite the input file", request.output));
+    return;
+  }
+  Mesh copy = original.mesh;
+  copy.V = std::move(out.result.V);
+  out.result.V.resize(0, 3);
+  ExtractOptions eo;
+  eo.center = o.variant.center;
+  eo.method = o.method;
+  try {
+    const WrittenCheck written = write_marked_mesh(request.output, copy, settings.write,
+                                                   settings.read, out.bins, eo, 0.5 * o.strength);
+    if (!written.carried) {
+      out.status = CopyStatus::NotCarried, out.message = written.message;
+      return;
+    }
+  } catch (const IOError& e) {
+    out.status = CopyStatus::WriteFailed, out.message = e.what();
+    return;
+  }
+  out.message =
+      fmt::format("{} rounds, RMS {:.5f} %{}, {:.1f} ms", out.result.rounds, out.result.rms_percent,
+                  out.calibration ? fmt::format(", strength {:.5f}, MSDM {:.4f}",
+                                                out.calibration->strength, out.calibration->msdm)
+                                  : "",
+                  1e3 * out.result.seconds);
+  if (out.result.check.status == CarrierHealth::Weak)
+    out.message += fmt::format(" (warning: {})", out.result.check.summary());
+}
+
+}  // namespace
+
+const char* copy_status_name(CopyStatus status) {
+  switch (status) {
+    case CopyStatus::Written:
+      return "written";
+    case CopyStatus::Skipped:
+      return "skipped";
+    case CopyStatus::Refused:
+      return "refused";
+    case CopyStatus::Unreadable:
+      return "unreadable";
+    case CopyStatus::NotEmbedded:
+      return "not embedded";
+    case CopyStatus::NotWithinFidelity:
+      return "not within the fidelity limits";
+    case CopyStatus::NotCarried:
+      return "not carried by the file";
+    case CopyStatus::WriteFailed:
+      return "write failed";
+    case CopyStatus::NotRecorded:
+      return "not recorded";
+  }
+  return "unknown";
+}
+
+std::size_t IssueResult::count(CopyStatus status) const {
+  std::size_t n = 0;
+  for (const CopyOutcome& c : copies) n += c.status == status;
+  return n;
+}
+
+IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::uint64_t id,
+                       const IssueSettings& settings) {
+  IssuedCopy c;
+  c.original_hash = content_hash(read_file(input));
+  c.original_path = normalized_path(input);
+  c.buyer = buyer;
+  c.id = id;
+  c.id_bits = settings.id_bits;
+  c.bits = settings.bits;
+  c.variant = settings.embedding.variant.name();
+  c.strength = settings.embedding.strength;
+  c.strength_spread = settings.strength_spread;
+  c.bin_offset = settings.embedding.bin_offset;
+  c.key_fingerprint = key_fingerprint(id_key(settings.key));
+  c.method = method_name(settings.embedding.method);
+  return c;
+}
+
+void record_copies(Registry& registry, std::vector<IssuedCopy> copies,
+                   const std::vector<std::string>& outputs) {
+  try {
+    for (std::size_t k = 0; k < copies.size(); ++k) {
+      copies[k].output_path = normalized_path(outputs[k]);
+      copies[k].output_hash = content_hash(read_file(outputs[k]));
+    }
+    registry.record(std::move(copies));
+  } catch (...) {
+    for (const std::string& out : outputs) std::remove(out.c_str());
+    throw;
+  }
+}
+
+IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings& settings) {
+  const auto start = std::chrono::steady_clock::now();
+  if (settings.bits < 1)
+    throw InvalidArgumentError(fmt::format("{} payload bits: at least 1", settings.bits));
+  IssueResult result;
+  std::vector<CopyOutcome>& out = result.copies;
+  out.resize(requests.size());
+  bool any_coded = false;
+  for (std::size_t k = 0; k < requests.size(); ++k) {
+    out[k].status = CopyStatus::Written;  // pending: Written with no message yet
+    out[k].embedding = settings.embedding;
+    const CopyRequest& r = requests[k];
+    if (!r.refusal.empty()) {
+      refuse(out[k], r.refusal);
+      continue;
+    }
+    any_coded = any_coded || r.id.has_value();
+    if (!r.id) {
+      try {
+        payload_from_hex(r.payload_hex, settings.bits);
+      } catch (const Error& e) {
+        refuse(out[k], e.what());
+      }
+    }
+  }
+  // The ID code (its options checked once, for every coded copy).
+  std::optional<IdCode> code;
+  if (any_coded) {
+    IdCodeOptions co;
+    co.bits = settings.bits;
+    co.id_bits = settings.id_bits;
+    code.emplace(co);
+  }
+  refuse_clashes(requests, out);
+  std::optional<Registry> registry;
+  if (!settings.registry.empty()) {
+    registry.emplace(settings.registry);
+    check_registry(*registry, requests, settings, out);
+  }
+  // Each distinct original read and prepared once, before the work is shared out.
+  // An original that cannot be read is Unreadable; options its preparation refuses make every
+  // copy of it Refused.
+  std::map<std::string, std::shared_ptr<const Original>> originals;
+  std::map<std::string, std::pair<CopyStatus, std::string>> failed;
+  for (std::size_t k = 0; k < requests.size(); ++k) {
+    const std::string& input = requests[k].input;
+    if (!pending(out[k]) || originals.count(input) || failed.count(input)) continue;
+    try {
+      Mesh mesh = read_mesh(input, settings.read);
+      PreparedEmbedder embedder(mesh.V, mesh.F, settings.embedding);
+      originals[input] =
+          std::make_shared<const Original>(Original{std::move(mesh), std::move(embedder)});
+    } catch (const IOError& e) {
+      failed[input] = {CopyStatus::Unreadable, e.what()};
+    } catch (const InvalidInputError& e) {
+      failed[input] = {CopyStatus::Unreadable, e.what()};
+    } catch (const InvalidArgumentError& e) {
+      failed[input] = {CopyStatus::Refused, e.what()};
+    } catch (const std::exception& e) {
+      failed[input] = {CopyStatus::NotEmbedded, e.what()};
+    }
+  }
+  result.inputs = originals.size() + failed.size();
+  std::vector<std::size_t> jobs;
+  for (std::size_t k = 0; k < requests.size(); ++k) {
+    if (!pending(out[k])) continue;
+    const auto bad = failed.find(requests[k].input);
+    if (bad != failed.end())
+      out[k].status = bad->second.first, out[k].message = bad->second.second;
+    else
+      jobs.push_back(k);
+  }
+  result.threads = detail::parallel_for(jobs.size(), settings.threads, [&](std::size_t j) {
+    const std::size_t k = jobs[j];
+    try {
+      make_copy(requests[k], *originals.at(requests[k].input), settings, code ? &*code : nullptr,
+                out[k]);
+    } catch (const InvalidArgumentError& e) {  // options this copy's embedding refuses
+      refuse(out[k], e.what());
+    } catch (const std::exception& e) {
+      out[k].status = CopyStatus::NotEmbedded, out[k].message = e.what();
+    }
+  });
+  // One transaction for every copy written: all recorded, or none and their files removed.
+  if (registry) {
+    std::vector<IssuedCopy> done;
+    std::vector<std::string> outputs;
+    for (std::size_t k = 0; k < requests.size(); ++k)
+      if (out[k].status == CopyStatus::Written)
+        done.push_back(out[k].record), outputs.push_back(requests[k].output);
+    try {
+      if (!done.empty()) record_copies(*registry, done, outputs);
+    } catch (const std::exception& e) {
+      for (CopyOutcome& c : out)
+        if (c.status == CopyStatus::Written)
+          c.status = CopyStatus::NotRecorded,
+          c.message = fmt::format("not recorded, removed: {}", e.what());
+    }
+  }
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+}  // namespace meshmark

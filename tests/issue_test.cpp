@@ -1,0 +1,237 @@
+// Issuing copies through the library (issue.h), as a program using meshmark would: consecutive
+// buyer IDs into one registry, each copy naming its buyer and no neighbour, clashes refused
+// before anything is written, a rerun skipping what was issued, and the calibration cache
+// (calibration_cache.h) and parallel loop the issue relies on.
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <sodium.h>
+
+#include <atomic>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <thread>
+
+#include "meshmark/calibration_cache.h"
+#include "meshmark/error.h"
+#include "meshmark/io.h"
+#include "meshmark/issue.h"
+#include "meshmark/watermark.h"
+#include "parallel.h"
+#include "test_data.h"
+
+namespace meshmark {
+namespace {
+
+namespace fs = std::filesystem;
+
+// BLAKE2b-256 of a file's bytes, computed here with libsodium (not through content_hash).
+std::string blake2b_hex(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  unsigned char h[32];
+  crypto_generichash(h, sizeof h, reinterpret_cast<const unsigned char*>(bytes.data()),
+                     bytes.size(), nullptr, 0);
+  std::string hex;
+  for (unsigned char c : h) hex += fmt::format("{:02x}", c);
+  return hex;
+}
+
+IssueSettings shop_settings(const std::string& registry) {
+  IssueSettings s;
+  s.bits = 64;
+  s.embedding.strength = 0.05;
+  s.key = key_from_passphrase("issue test key");
+  s.registry = registry;
+  return s;
+}
+
+// Consecutive IDs, five copies of one original on two threads: each written copy carries its
+// own ID (read back blind by read_id) and its neighbours' are not detected in it; the registry
+// holds exactly these copies with the hashes of the bytes on disk.
+TEST(Issue, ConsecutiveIdsEachNameTheirBuyerAndAreRecordedWithTheirBytes) {
+  const std::string original = test::cgal_mesh("elephant.off");
+  MESHMARK_REQUIRE(original, "libcgal-demo's elephant.off");
+  const std::string dir = test::scratch_dir() + "/issue-consecutive";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  IssueSettings settings = shop_settings(dir + "/shop.db");
+  settings.threads = 2;
+  std::vector<CopyRequest> requests;
+  for (std::uint64_t id = 700; id < 705; ++id) {
+    CopyRequest r;
+    r.input = original;
+    r.output = fmt::format("{}/copy-{}.ply", dir, id);
+    r.id = id;
+    r.buyer = fmt::format("buyer {}", id);
+    requests.push_back(r);
+  }
+  const IssueResult result = issue_copies(requests, settings);
+  ASSERT_EQ(result.copies.size(), requests.size());
+  EXPECT_EQ(result.inputs, 1u);
+  EXPECT_EQ(result.threads, 2);
+  EXPECT_EQ(result.count(CopyStatus::Written), requests.size());
+  IdCodeOptions co;
+  const IdCode code(co);
+  for (std::size_t k = 0; k < requests.size(); ++k) {
+    SCOPED_TRACE(requests[k].output);
+    const Mesh copy = read_mesh(requests[k].output);
+    ExtractOptions eo;
+    const IdReading read = read_id(copy.V, copy.F, eo, code, settings.key);
+    ASSERT_TRUE(read.id.valid) << read.id.message;
+    EXPECT_EQ(read.id.id, *requests[k].id);
+    for (const std::uint64_t other : {*requests[k].id - 1, *requests[k].id + 1}) {
+      MarkExpectation expect;
+      expect.id = other;
+      const MarkDetection d = detect_mark(copy.V, copy.F, eo, expect, settings.key);
+      EXPECT_FALSE(d.detection.detected) << "ID " << other << " p " << d.detection.p_value;
+    }
+    MarkExpectation own;
+    own.id = requests[k].id;
+    EXPECT_TRUE(detect_mark(copy.V, copy.F, eo, own, settings.key).detection.detected);
+  }
+  const std::vector<IssuedCopy> recorded = read_registry(settings.registry);
+  ASSERT_EQ(recorded.size(), requests.size());
+  for (const IssuedCopy& c : recorded) {
+    const std::string output = fmt::format("{}/copy-{}.ply", dir, c.id);
+    EXPECT_EQ(c.output_hash, blake2b_hex(output));
+    EXPECT_EQ(c.original_hash, blake2b_hex(original));
+    EXPECT_EQ(c.buyer, fmt::format("buyer {}", c.id));
+    EXPECT_EQ(c.output_path, fs::absolute(output).lexically_normal().string());
+  }
+  // Run again: every copy was issued and is intact, so each is skipped, nothing re-recorded.
+  const IssueResult again = issue_copies(requests, settings);
+  EXPECT_EQ(again.count(CopyStatus::Skipped), requests.size());
+  EXPECT_EQ(read_registry(settings.registry).size(), requests.size());
+  // Asked for by hand (no resume), an ID issued before is refused, naming its buyer.
+  settings.resume = false;
+  const IssueResult by_hand = issue_copies({requests[2]}, settings);
+  EXPECT_EQ(by_hand.copies[0].status, CopyStatus::Refused);
+  EXPECT_NE(by_hand.copies[0].message.find("already issued"), std::string::npos);
+  EXPECT_NE(by_hand.copies[0].message.find("buyer 702"), std::string::npos);
+}
+
+// Refusals before anything is embedded: two copies writing one file, a copy over its own
+// original, an ID given twice (neither copy gets it), a raw payload into a registry, malformed
+// manifest lines. None of them writes a file; the one sound copy is written and recorded.
+TEST(Issue, ClashesAndMalformedRequestsAreRefusedAndWriteNothing) {
+  const std::string original = test::cgal_mesh("fandisk.off");
+  MESHMARK_REQUIRE(original, "libcgal-demo's fandisk.off");
+  const std::string dir = test::scratch_dir() + "/issue-clashes";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string own = dir + "/original.off";
+  fs::copy_file(original, own);
+  const std::string manifest = dir + "/jobs.txt";
+  std::ofstream(manifest) << fmt::format(
+      "{0} {1}/a.ply id:1 Ann\n"
+      "{0} {1}/a.ply id:2 Bo\n"  // same output as line 1
+      "{0} {0} id:3 Cy\n"        // over its original
+      "{0} {1}/d.ply id:4 Di\n"
+      "{0} {1}/e.ply id:4 Ed\n"           // ID 4 again: neither gets it
+      "{0} {1}/f.ply 0123456789abcdef\n"  // raw payload into a registry
+      "{0} {1}/g.ply\n"                   // malformed
+      "# a comment\n\n"
+      "{0} {1}/h.ply id:-5 Hal\n"  // not an ID
+      "{0} {1}/i.ply id:9 Ivy\n",
+      own, dir);
+  const std::vector<CopyRequest> requests = read_manifest(manifest);
+  ASSERT_EQ(requests.size(), 9u);
+  EXPECT_EQ(requests[6].line, 7u);
+  EXPECT_FALSE(requests[6].refusal.empty());
+  EXPECT_EQ(requests[7].line, 10u);
+  EXPECT_FALSE(requests[7].refusal.empty());
+  const std::string before = blake2b_hex(own);
+  const IssueResult r = issue_copies(requests, shop_settings(dir + "/shop.db"));
+  const std::vector<CopyStatus> want = {
+      CopyStatus::Refused, CopyStatus::Refused, CopyStatus::Refused,
+      CopyStatus::Refused, CopyStatus::Refused, CopyStatus::Refused,
+      CopyStatus::Refused, CopyStatus::Refused, CopyStatus::Written};
+  for (std::size_t k = 0; k < want.size(); ++k)
+    EXPECT_EQ(r.copies[k].status, want[k])
+        << "line " << requests[k].line << ": " << r.copies[k].message;
+  EXPECT_NE(r.copies[0].message.find("line 1, line 2"), std::string::npos) << r.copies[0].message;
+  EXPECT_NE(r.copies[2].message.find("overwrite"), std::string::npos) << r.copies[2].message;
+  EXPECT_NE(r.copies[4].message.find("given twice"), std::string::npos) << r.copies[4].message;
+  EXPECT_NE(r.copies[5].message.find("coded IDs only"), std::string::npos) << r.copies[5].message;
+  EXPECT_EQ(blake2b_hex(own), before);  // the original untouched
+  for (const char* name : {"a.ply", "d.ply", "e.ply", "f.ply", "g.ply", "h.ply"})
+    EXPECT_FALSE(fs::exists(dir + "/" + name)) << name;
+  EXPECT_TRUE(fs::exists(dir + "/i.ply"));
+  const std::vector<IssuedCopy> recorded = read_registry(dir + "/shop.db");
+  ASSERT_EQ(recorded.size(), 1u);
+  EXPECT_EQ(recorded[0].id, 9u);
+  EXPECT_EQ(recorded[0].buyer, "Ivy");
+}
+
+// A registry that does not exist is not created by reading it.
+TEST(Issue, ReadingARegistryThatDoesNotExistCreatesNothing) {
+  const std::string db = test::scratch_dir() + "/no-such-registry.db";
+  fs::remove(db);
+  EXPECT_THROW(read_registry(db), IOError);
+  EXPECT_FALSE(fs::exists(db));
+}
+
+// The calibration cache: the second ask answers from the cache with the same figures; other
+// limits or another file content compute anew; a line that is not JSON is ignored.
+TEST(CalibrationCache, AnswersAgainFromTheCacheOnlyForTheSameContentAndSettings) {
+  const std::string original = test::cgal_mesh("elephant.off");
+  MESHMARK_REQUIRE(original, "libcgal-demo's elephant.off");
+  const std::string dir = test::scratch_dir() + "/calibration-cache";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  FileCalibrationOptions o;
+  o.variant = parse_variant("SRS");
+  o.limits.iterations = 4;
+  o.cache = dir + "/sub/cache.jsonl";  // its folder is created
+  const FileCalibration first = calibrate_file(original, o);
+  EXPECT_FALSE(first.cached);
+  EXPECT_GT(first.strength, 0);
+  EXPECT_LE(first.rms_percent, o.limits.max_rms_percent * (1 + 1e-9));
+  std::ofstream(o.cache, std::ios::app) << "not json\n";
+  const FileCalibration second = calibrate_file(original, o);
+  EXPECT_TRUE(second.cached);
+  EXPECT_EQ(second.strength, first.strength);
+  EXPECT_EQ(second.msdm, first.msdm);
+  EXPECT_EQ(second.key, first.key);
+  FileCalibrationOptions tighter = o;
+  tighter.limits.max_msdm = 0.8 * first.msdm;  // elephant: MSDM limits the mark here
+  const FileCalibration other = calibrate_file(original, tighter);
+  EXPECT_FALSE(other.cached);
+  EXPECT_LE(other.msdm, tighter.limits.max_msdm * (1 + 1e-9));
+  // The same bytes under another name hit; other bytes (one coordinate changed) miss.
+  const std::string renamed = dir + "/renamed.off";
+  fs::copy_file(original, renamed);
+  EXPECT_TRUE(calibrate_file(renamed, o).cached);
+  Mesh m = read_mesh(original);
+  m.V(0, 0) += 1e-3;
+  const std::string changed = dir + "/changed.off";
+  write_mesh(changed, m);
+  EXPECT_FALSE(calibrate_file(changed, o).cached);
+}
+
+// parallel_for: every index exactly once, never more threads than asked or than items, and a
+// loop nested in a worker shares the outer loop's budget (no cores-squared threads;
+// parallel_test.cpp counts the threads running at once).
+TEST(Parallel, EveryIndexOnceWithinTheBudgetAndNestedLoopsShareIt) {
+  for (const std::size_t n : {0u, 1u, 3u, 1000u}) {
+    std::vector<std::atomic<int>> seen(n);
+    const int used = detail::parallel_for(n, 3, [&](std::size_t i) { ++seen[i]; });
+    EXPECT_LE(used, std::max<int>(1, std::min<int>(3, static_cast<int>(n))));
+    for (std::size_t i = 0; i < n; ++i) EXPECT_EQ(seen[i].load(), 1) << i;
+  }
+  std::atomic<int> nested_chunks{0}, nested_threads{0};
+  detail::parallel_for(4, 2, [&](std::size_t) {
+    nested_chunks += detail::chunk_count(1 << 20);
+    nested_threads += detail::parallel_for(8, 0, [](std::size_t) {});
+  });
+  // The budget is the outer loop's 2 threads: chunks of its size, and a nested loop gets a
+  // second thread only from a worker that has finished.
+  EXPECT_EQ(nested_chunks.load(), 4 * 2);
+  EXPECT_GE(nested_threads.load(), 4);
+  EXPECT_LE(nested_threads.load(), 4 * 2);
+}
+
+}  // namespace
+}  // namespace meshmark
