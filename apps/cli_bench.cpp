@@ -1,22 +1,17 @@
 // meshmark bench CONFIG [--out DIR] [--jobs N] [--fresh]
 //
-// Runs a campaign on every core, and over several processes under mpirun (each rank takes every
-// size-th calibration and unit). Rows are appended, one whole line per write, to a journal
-// (rows.jsonl) that a restarted campaign reads to skip what is done; a line cut by a kill is
-// dropped. At the end rank 0 rewrites the journal in canonical order, writes rows.csv, the
-// summary, the figures and the report.
+// Runs a campaign (the library's run_campaign, campaign_run.h: journals, resume, merge,
+// report) on every core, and over several processes under mpirun: this file parses the
+// options, provides the rank hooks (OpenMPI, opened at run time), draws the progress and prints
+// the summary.
 
-#include <fcntl.h>
 #include <fmt/format.h>
 #include <unistd.h>
 
-#include <atomic>
+#include <algorithm>
 #include <chrono>
-#include <filesystem>
-#include <map>
+#include <cstdlib>
 #include <memory>
-#include <mutex>
-#include <set>
 #include <thread>
 
 #ifdef MESHMARK_HAVE_MPI
@@ -27,13 +22,10 @@
 
 #include "cli.h"
 #include "meshmark/campaign.h"
+#include "meshmark/campaign_run.h"
 #include "meshmark/error.h"
-#include "meshmark/io.h"
-#include "meshmark/key.h"
 
 namespace meshmark::cli {
-
-namespace fs = std::filesystem;
 
 namespace {
 
@@ -106,92 +98,32 @@ class Mpi {
 };
 #endif
 
-// The processes of the run: one, or the ranks of an MPI job (started by mpirun).
+// The processes of the run: one, or the ranks of an MPI job (started by mpirun), as the
+// library's rank hooks.
 class World {
  public:
   World() {
 #ifdef MESHMARK_HAVE_MPI
-    if (std::getenv("OMPI_COMM_WORLD_SIZE")) {
-      mpi_ = std::make_unique<Mpi>();
-      rank_ = mpi_->rank();
-      size_ = mpi_->size();
-    }
+    if (std::getenv("OMPI_COMM_WORLD_SIZE")) mpi_ = std::make_unique<Mpi>();
 #endif
   }
-  int rank() const {
-    return rank_;
-  }
-  int size() const {
-    return size_;
-  }
-  void barrier() const {
+  CampaignRanks ranks() const {
+    CampaignRanks r;
 #ifdef MESHMARK_HAVE_MPI
-    if (mpi_) mpi_->barrier();
+    if (!mpi_) return r;
+    r.rank = mpi_->rank();
+    r.size = mpi_->size();
+    r.barrier = [this] { mpi_->barrier(); };
+    r.all = [this](bool ok) { return mpi_->min(ok ? 1 : 0) != 0; };  // a failed rank stops all
 #endif
-  }
-  // Whether every rank says ok (a failed rank makes all stop).
-  bool all(bool ok) const {
-#ifdef MESHMARK_HAVE_MPI
-    if (mpi_) return mpi_->min(ok ? 1 : 0) != 0;
-#endif
-    return ok;
+    return r;
   }
 
  private:
-  int rank_ = 0, size_ = 1;
 #ifdef MESHMARK_HAVE_MPI
   std::unique_ptr<Mpi> mpi_;
 #endif
 };
-
-// An append-only file of JSON lines, written one whole line per write(2) (O_APPEND).
-class Journal {
- public:
-  explicit Journal(const std::string& path) : path_(path) {
-    fd_ = ::open(path.c_str(), O_WRONLY | O_APPEND | O_CREAT | O_CLOEXEC, 0644);
-    if (fd_ < 0) throw IOError(fmt::format("{}: cannot open for appending", path));
-  }
-  ~Journal() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  Journal(const Journal&) = delete;
-  Journal& operator=(const Journal&) = delete;
-  void append(const std::string& line) {
-    const std::string text = line + "\n";
-    std::lock_guard<std::mutex> lock(mutex_);
-    std::size_t done = 0;
-    while (done < text.size()) {
-      const ssize_t n = ::write(fd_, text.data() + done, text.size() - done);
-      if (n < 0) throw IOError(fmt::format("{}: write failed", path_));
-      done += static_cast<std::size_t>(n);
-    }
-  }
-
- private:
-  std::string path_;
-  int fd_ = -1;
-  std::mutex mutex_;
-};
-
-// Drops a trailing line cut short by a kill (no final newline).
-void repair_journal(const std::string& path) {
-  if (!fs::exists(path)) return;
-  const std::string text = read_file(path);
-  if (text.empty() || text.back() == '\n') return;
-  const std::size_t keep = text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1;
-  fs::resize_file(path, keep);
-}
-
-// The complete lines of a journal (a cut last line is ignored).
-std::vector<std::string> journal_lines(const std::string& path) {
-  std::vector<std::string> lines;
-  if (!fs::exists(path)) return lines;
-  const std::string text = read_file(path);
-  std::size_t start = 0;
-  for (std::size_t nl; (nl = text.find('\n', start)) != std::string::npos; start = nl + 1)
-    if (nl > start) lines.push_back(text.substr(start, nl - start));
-  return lines;
-}
 
 std::string format_duration(double s) {
   if (!(s >= 0) || s > 1e7) return "?";
@@ -200,82 +132,67 @@ std::string format_duration(double s) {
                    : fmt::format("{}m{:02}s", t / 60, t % 60);
 }
 
-// Progress on a terminal (a bar with an ETA, redrawn), or plain log lines.
+// Progress on a terminal (a bar with an ETA, redrawn), or plain log lines; the library reports
+// one phase after the other, each starting with done 0.
 class Progress {
  public:
   enum Mode { Bar, Lines, Quiet };
-  Progress(std::string what, long total, Mode mode, std::string prefix)
-      : what_(std::move(what)), total_(total), mode_(mode), prefix_(std::move(prefix)) {}
-  void step(long n, const std::string& note) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    done_ += n;
+  Progress(Mode mode, std::string prefix) : mode_(mode), prefix_(std::move(prefix)) {}
+  void report(const std::string& phase, long done, long total, const std::string& note) {
+    if (done == 0) {  // a phase starts
+      finish();
+      start_ = Clock::now();
+      started_ = true;
+      return;
+    }
     const double elapsed = std::chrono::duration<double>(Clock::now() - start_).count();
-    const double eta = done_ > 0 ? elapsed / done_ * (total_ - done_) : -1;
-    if (mode_ == Quiet) return;
+    const double eta = elapsed / done * (total - done);
     if (mode_ == Bar) {
       const int width = 30;
-      const int filled = total_ > 0 ? static_cast<int>(width * done_ / total_) : width;
-      fmt::print(stderr, "\r{}{} [{}{}] {}/{} ETA {}   ", prefix_, what_, std::string(filled, '#'),
-                 std::string(width - filled, ' '), done_, total_, format_duration(eta));
-    } else {
-      fmt::print(stderr, "{}{} {}/{} ({}) elapsed {} ETA {}\n", prefix_, what_, done_, total_, note,
+      const int filled = total > 0 ? static_cast<int>(width * done / total) : width;
+      fmt::print(stderr, "\r{}{} [{}{}] {}/{} ETA {}   ", prefix_, phase, std::string(filled, '#'),
+                 std::string(width - filled, ' '), done, total, format_duration(eta));
+    } else if (mode_ == Lines) {
+      fmt::print(stderr, "{}{} {}/{} ({}) elapsed {} ETA {}\n", prefix_, phase, done, total, note,
                  format_duration(elapsed), format_duration(eta));
     }
   }
+  // Ends the bar's line.
   void finish() {
-    if (mode_ == Bar) fmt::print(stderr, "\n");
+    if (started_ && mode_ == Bar) fmt::print(stderr, "\n");
+    started_ = false;
   }
 
  private:
-  std::string what_;
-  long total_, done_ = 0;
   Mode mode_;
   std::string prefix_;
-  std::mutex mutex_;
+  bool started_ = false;
   Clock::time_point start_ = Clock::now();
 };
 
-// Runs body(i) for every i in items on `jobs` threads, dynamically; the first exception is
-// rethrown after all threads stop.
-template <class Body>
-void run_parallel(const std::vector<int>& items, int jobs, Body&& body) {
-  std::atomic<std::size_t> next{0};
-  std::exception_ptr error;
-  std::mutex error_mutex;
-  std::vector<std::thread> pool;
-  for (int t = 0; t < std::max(1, jobs); ++t)
-    pool.emplace_back([&] {
-      for (std::size_t k; (k = next++) < items.size();) {
-        try {
-          body(items[k]);
-        } catch (...) {
-          std::lock_guard<std::mutex> lock(error_mutex);
-          if (!error) error = std::current_exception();
-          next = items.size();
-        }
-      }
-    });
-  for (auto& t : pool) t.join();
-  if (error) std::rethrow_exception(error);
-}
-
-// Models are read once per process, on first use.
-class ModelCache {
- public:
-  explicit ModelCache(const CampaignConfig& c)
-      : config_(c), meshes_(c.models.size()), flags_(new std::once_flag[c.models.size()]) {}
-  const Mesh& get(int m) {
-    std::call_once(flags_[m], [&] {
-      meshes_[m] = std::make_shared<const Mesh>(read_input(config_.models[m].path, {}));
-    });
-    return *meshes_[m];
+// The run's summary on stdout: the files, and the medians (the outcomes in trace mode).
+void print_summary(const CampaignConfig& config, const CampaignRunResult& r, int processes) {
+  fmt::print(
+      "campaign {}: {} trials ({} run now on {} process(es) x {} threads) in {:.1f} s ({:.1f} s "
+      "over all runs)\n",
+      config.name, r.rows.size(), r.trials_run, processes, r.jobs, r.wall_seconds,
+      r.total_wall_seconds);
+  fmt::print("rows     {}\nsummary  {}\nreport   {}\n", r.rows_csv, r.summary_csv, r.report);
+  if (config.trace) {
+    for (const TraceSummaryRow& s : summarize_trace(config, r.rows))
+      fmt::print("  {:<34} trace right/none/wrong {}/{}/{}, blind {}/{}/{}\n",
+                 fmt::format("{}{}:{:g}", s.colluders == 2 ? "average of 2, " : "", s.attack,
+                             s.attack_strength),
+                 s.trace_right, s.trace_none, s.trace_wrong, s.blind_right, s.blind_none,
+                 s.blind_wrong);
+    return;
   }
-
- private:
-  const CampaignConfig& config_;
-  std::vector<std::shared_ptr<const Mesh>> meshes_;
-  std::unique_ptr<std::once_flag[]> flags_;
-};
+  for (const SummaryRow& s : summarize(config, r.rows))
+    if (s.attack != "none")
+      fmt::print("  {}{} {:<12} {:<8g} median BER {:.3f} ({} trials)\n", s.variant,
+                 s.protocol.empty() ? "" : " " + s.protocol, s.attack, s.attack_strength,
+                 s.median_ber, s.trials);
+}
 
 int run(const BenchArgs& a) {
   World world;
@@ -285,204 +202,30 @@ int run(const BenchArgs& a) {
   } catch (const IOError& e) {
     throw InputFailure(e.what());  // a missing campaign file is bad input, not a failed write
   }
-  const fs::path out = a.out.empty() ? fs::path("bench-results") / config.name : fs::path(a.out);
-  const std::string rows_path = (out / "rows.jsonl").string();
-  const std::string calib_path = (out / "calibration.jsonl").string();
-  const std::string stamp_path = (out / "campaign.json").string();
-  // On a terminal rank 0 draws a bar and the other ranks stay quiet; otherwise log lines.
-  const bool tty = isatty(STDERR_FILENO);
-  const std::string prefix = world.size() > 1 ? fmt::format("[rank {}] ", world.rank()) : "";
-  const Progress::Mode mode = !tty                ? Progress::Lines
-                              : world.rank() == 0 ? Progress::Bar
-                                                  : Progress::Quiet;
-  int local = 1;
+  CampaignRunOptions options;
+  options.ranks = world.ranks();
+  options.out_dir = a.out;
+  options.fresh = a.fresh;
+  int local = 1;  // ranks on this machine share its cores
   if (const char* s = std::getenv("OMPI_COMM_WORLD_LOCAL_SIZE")) local = std::max(1, std::atoi(s));
-  const int jobs = a.jobs > 0
-                       ? a.jobs
-                       : std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / local);
-  const auto wall_start = Clock::now();
-
-  // Rank 0 prepares the directory: a fresh start, or a check that it holds this campaign.
-  bool ok = true;
-  std::string problem;
-  if (world.rank() == 0) {
-    try {
-      const std::string stamp = read_file(a.config);
-      if (a.fresh) fs::remove_all(out);
-      fs::create_directories(out);
-      if (fs::exists(stamp_path) && read_file(stamp_path) != stamp)
-        throw InvalidArgumentError(fmt::format(
-            "{} holds the results of another campaign file: use --fresh to start over, or "
-            "--out elsewhere",
-            out.string()));
-      if (!fs::exists(stamp_path)) write_file_atomically(stamp_path, stamp);
-      repair_journal(rows_path);
-      repair_journal(calib_path);
-    } catch (const std::exception& e) {
-      ok = false;
-      problem = e.what();
-    }
-  }
-  if (!world.all(ok)) {
-    if (world.rank() == 0) throw InvalidArgumentError(problem);
-    return kUsage;
-  }
-
-  ModelCache models(config);
-  // Phase 1: calibrations not yet in the journal, every size-th pair on this rank.
-  std::map<std::string, CalibrationRecord> calibrations;
-  auto read_calibrations = [&] {
-    calibrations.clear();
-    for (const std::string& line : journal_lines(calib_path)) {
-      try {
-        const CalibrationRecord r = calibration_from_json(line);
-        calibrations.emplace(r.model + "|" + r.variant + "|" + r.protocol, r);
-      } catch (const InvalidInputError&) {
-      }
-    }
+  options.jobs = a.jobs > 0
+                     ? a.jobs
+                     : std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / local);
+  // On a terminal rank 0 draws a bar and the other ranks stay quiet; otherwise log lines.
+  const int rank = options.ranks.rank, size = options.ranks.size;
+  Progress progress(!isatty(STDERR_FILENO) ? Progress::Lines
+                    : rank == 0            ? Progress::Bar
+                                           : Progress::Quiet,
+                    size > 1 ? fmt::format("[rank {}] ", rank) : "");
+  options.progress = [&](const std::string& phase, long done, long total, const std::string& note) {
+    progress.report(phase, done, total, note);
   };
-  read_calibrations();
-  {
-    // Calibration i: model, variant and protocol, protocol-minor.
-    const int nv = static_cast<int>(config.variants.size());
-    const int np = static_cast<int>(config.protocols.size());
-    auto name_of = [&](int i) {
-      return config.models[i / (nv * np)].name + "|" + config.variants[i / np % nv] + "|" +
-             config.protocols[i % np].name;
-    };
-    std::vector<int> mine;
-    const int pairs = static_cast<int>(config.models.size()) * nv * np;
-    for (int i = 0; i < pairs; ++i)
-      if (i % world.size() == world.rank() && !calibrations.count(name_of(i))) mine.push_back(i);
-    if (!mine.empty()) {
-      Journal journal(calib_path);
-      Progress progress("calibrating", static_cast<long>(mine.size()), mode, prefix);
-      run_parallel(mine, jobs, [&](int i) {
-        const int m = i / (nv * np);
-        const CalibrationRecord r =
-            calibrate_for_campaign(config, m, i / np % nv, models.get(m), i % np);
-        journal.append(calibration_to_json(r));
-        progress.step(
-            1, fmt::format("{} {}{}: alpha {:.4f}, {}", r.model, r.variant,
-                           r.protocol.empty() ? "" : " " + r.protocol, r.strength, r.status));
-      });
-      progress.finish();
-    }
-  }
-  world.barrier();
-  read_calibrations();
-
-  // Phase 2: units, every size-th on this rank, skipping trials already in the journal.
-  std::set<std::string> done;
-  for (const std::string& line : journal_lines(rows_path)) {
-    try {
-      done.insert(row_from_json(line).key);
-    } catch (const InvalidInputError&) {
-    }
-  }
-  const std::vector<CampaignUnit> units = campaign_units(config);
-  std::vector<int> mine;
-  long todo = 0;
-  for (int i = 0; i < static_cast<int>(units.size()); ++i) {
-    if (i % world.size() != world.rank()) continue;
-    const CampaignUnit& u = units[i];
-    long missing = 0;
-    for (const std::string& key : unit_trial_keys(config, u)) missing += !done.count(key);
-    if (missing > 0) mine.push_back(i), todo += missing;
-  }
-  {
-    Journal journal(rows_path);
-    Progress progress("trials", todo, mode, prefix);
-    run_parallel(mine, jobs, [&](int i) {
-      const CampaignUnit& u = units[i];
-      const std::string key = config.models[u.model].name + "|" + config.variants[u.variant] + "|" +
-                              config.protocols[u.protocol].name;
-      const auto it = calibrations.find(key);
-      if (it == calibrations.end()) throw Error(fmt::format("no calibration for {} (a bug)", key));
-      long n = 0;
-      run_campaign_unit(
-          config, u, models.get(u.model), it->second,
-          [&](const std::string& k) { return done.count(k) > 0; },
-          [&](const TrialRow& row) {
-            journal.append(row_to_json(row));
-            ++n;
-          });
-      progress.step(n, fmt::format("{} {} payload {}", config.models[u.model].name,
-                                   config.variants[u.variant], u.payload));
-    });
-    progress.finish();
-  }
-  world.barrier();
-  if (world.rank() != 0) return kOk;
-
-  // Rank 0: merge, in canonical order, one row per key.
-  std::map<std::string, TrialRow> by_key;
-  int unreadable = 0;
-  std::string first_unreadable;
-  for (const std::string& line : journal_lines(rows_path)) {
-    try {
-      TrialRow r = row_from_json(line);
-      by_key.emplace(r.key, std::move(r));
-    } catch (const InvalidInputError& e) {
-      if (unreadable++ == 0)
-        first_unreadable = fmt::format("{} ({})", line.substr(0, 200), e.what());
-    }
-  }
-  std::vector<TrialRow> rows;
-  std::vector<std::string> missing;
-  for (const CampaignUnit& u : units)
-    for (const std::string& key : unit_trial_keys(config, u)) {
-      auto it = by_key.find(key);
-      if (it == by_key.end())
-        missing.push_back(key);
-      else
-        rows.push_back(it->second);
-    }
-  if (!missing.empty())
-    throw Error(fmt::format(
-        "{} trials missing after the run, first {} (a bug){}", missing.size(), missing.front(),
-        unreadable
-            ? fmt::format("; {} journal lines unreadable, first: {}", unreadable, first_unreadable)
-            : ""));
-  std::string jsonl, csv = csv_header(config.trace) + "\n";
-  for (const TrialRow& r : rows)
-    jsonl += row_to_json(r) + "\n", csv += row_to_csv(r, config.trace) + "\n";
-  write_file_atomically(rows_path, jsonl);
-  write_file_atomically((out / "rows.csv").string(), csv);
-  std::vector<CalibrationRecord> records;
-  for (const auto& [k, r] : calibrations) records.push_back(r);
-  // Wall time of this run, and of every run of the campaign (kept beside the rows).
-  const double wall = std::chrono::duration<double>(Clock::now() - wall_start).count();
-  const std::string wall_path = (out / "wall_seconds.txt").string();
-  double total_wall = wall;
-  if (fs::exists(wall_path)) {
-    try {
-      total_wall += std::stod(read_file(wall_path));
-    } catch (const std::exception&) {
-    }
-  }
-  write_file_atomically(wall_path, fmt::format("{}\n", total_wall));
-  const std::string report = write_campaign_report(out.string(), config, records, rows, total_wall);
-  fmt::print(
-      "campaign {}: {} trials ({} run now on {} process(es) x {} threads) in {:.1f} s ({:.1f} s "
-      "over all runs)\n",
-      config.name, rows.size(), todo, world.size(), jobs, wall, total_wall);
-  fmt::print("rows     {}\nsummary  {}\nreport   {}\n", (out / "rows.csv").string(),
-             (out / "summary.csv").string(), report);
-  if (config.trace) {
-    for (const TraceSummaryRow& s : summarize_trace(config, rows))
-      fmt::print("  {:<34} trace right/none/wrong {}/{}/{}, blind {}/{}/{}\n",
-                 fmt::format("{}{}:{:g}", s.colluders == 2 ? "average of 2, " : "", s.attack,
-                             s.attack_strength),
-                 s.trace_right, s.trace_none, s.trace_wrong, s.blind_right, s.blind_none,
-                 s.blind_wrong);
-    return kOk;
-  }
-  for (const SummaryRow& s : summarize(config, rows))
-    if (s.attack != "none")
-      fmt::print("  {}{} {:<12} {:<8g} median BER {:.3f} ({} trials)\n", s.variant,
-                 s.protocol.empty() ? "" : " " + s.protocol, s.attack, s.attack_strength,
-                 s.median_ber, s.trials);
+  options.warn = [](const std::string& m) { fmt::print(stderr, "warning: {}\n", printable(m)); };
+  const CampaignRunResult r = run_campaign(config, options);
+  progress.finish();
+  for (const std::string& d : r.diagnostics) fmt::print(stderr, "note: {}\n", printable(d));
+  if (r.status == CampaignRunResult::Status::Refused) return kUsage;
+  if (rank == 0) print_summary(config, r, size);
   return kOk;
 }
 

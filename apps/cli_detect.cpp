@@ -26,7 +26,7 @@ struct DetectArgs {
 };
 
 int run(const DetectArgs& a) {
-  if (a.expect_id.empty() == a.expect_payload.empty())
+  if (a.expect_id.empty() && a.expect_payload.empty())
     throw InvalidArgumentError("detect needs one of --expect ID or --expect-payload HEX");
   const bool coded = !a.expect_id.empty();
   const std::optional<Key> key = resolve_key(a.keys);
@@ -92,7 +92,8 @@ void register_detect(CLI::App& app, int& exit_code) {
   sub->add_option("IN", args->input, "mesh to test")->required();
   sub->add_option("--expect", args->expect_id, "expected ID (embed --id): decimal or 0x hex");
   sub->add_option("--expect-payload", args->expect_payload,
-                  "expected raw payload (embed --payload), hexadecimal");
+                  "expected raw payload (embed --payload), hexadecimal")
+      ->excludes("--expect");
   sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, kMaxBits));
   sub->add_option("--variant", args->variant, "the embedding's variant (its center matters)");
   add_method_option(*sub, args->method, "the embedding's method (its bin statistic is read)");

@@ -31,11 +31,8 @@ struct EmbedArgs {
 };
 
 // The limits of --fidelity, --max-rms and --max-msdm, or none (a fixed --strength).
-std::optional<CalibrateOptions> fidelity_limits(const EmbedArgs& a, bool strength_given) {
+std::optional<CalibrateOptions> fidelity_limits(const EmbedArgs& a) {
   if (a.fidelity.empty() && a.max_rms == 0 && a.max_msdm == 0) return std::nullopt;
-  if (strength_given)
-    throw InvalidArgumentError(
-        "--strength fixes the strength; --fidelity, --max-rms and --max-msdm search it: give one");
   CalibrateOptions c;
   if (a.fidelity == "paper") {
     c.max_rms_percent = kPaperMaxRmsPercent;
@@ -58,11 +55,11 @@ std::optional<CalibrateOptions> fidelity_limits(const EmbedArgs& a, bool strengt
   throw IOError(fmt::format("{}: {}", input, c.message));  // NotRecorded
 }
 
-int run(const EmbedArgs& a, bool strength_given) {
+int run(const EmbedArgs& a) {
   IssueSettings settings;
   EmbedOptions& options = settings.embedding;
   options = a.embed;
-  settings.limits = fidelity_limits(a, strength_given);
+  settings.limits = fidelity_limits(a);
   options.variant = parse_variant(a.variant);
   options.method = parse_method(a.method);
   options.backend = a.solver == "ipopt" ? SolverBackend::Ipopt : SolverBackend::Native;
@@ -76,15 +73,10 @@ int run(const EmbedArgs& a, bool strength_given) {
   settings.strength_spread = a.strength_spread;
   settings.registry = a.registry;
   if (!a.batch.empty()) {
-    if (!a.input.empty() || !a.payload.empty() || !a.id.empty())
-      throw InvalidArgumentError(
-          "--batch takes its inputs, outputs and payloads from the manifest");
-    if (!a.buyer.empty())
-      throw InvalidArgumentError("--batch takes each buyer from its manifest line");
+    if (!a.input.empty())
+      throw InvalidArgumentError("--batch takes its inputs and outputs from the manifest");
     return run_batch(a.batch, settings);
   }
-  if (!a.payload.empty() && !a.id.empty())
-    throw InvalidArgumentError("give --payload or --id, not both");
   if (a.input.empty() || a.output.empty() || a.payload.empty() == a.id.empty())
     throw InvalidArgumentError(
         "embed needs IN, OUT and one of --payload or --id (or --batch MANIFEST)");
@@ -213,13 +205,16 @@ void register_embed(CLI::App& app, int& exit_code) {
       app.add_subcommand("embed", "Embed a payload into a mesh and write the watermarked mesh");
   sub->add_option("IN", args->input, "input mesh (.off .obj .ply .stl .gltf .glb .drc .3mf)");
   sub->add_option("OUT", args->output, "output mesh; format from its extension");
-  sub->add_option("--batch", args->batch,
-                  "manifest: one 'INPUT OUTPUT PAYLOAD' or 'INPUT OUTPUT id:N BUYER' per line, "
-                  "run on all cores");
-  sub->add_option("--payload", args->payload, "payload in hexadecimal (bin 1's bit first)");
-  sub->add_option("--id", args->id,
-                  "buyer ID to embed with error correction and an integrity check (decimal or "
-                  "0x hex; --id-bits long)");
+  CLI::Option* batch =
+      sub->add_option("--batch", args->batch,
+                      "manifest: one 'INPUT OUTPUT PAYLOAD' or 'INPUT OUTPUT id:N BUYER' per line, "
+                      "run on all cores");
+  CLI::Option* payload =
+      sub->add_option("--payload", args->payload, "payload in hexadecimal (bin 1's bit first)");
+  CLI::Option* id =
+      sub->add_option("--id", args->id,
+                      "buyer ID to embed with error correction and an integrity check (decimal or "
+                      "0x hex; --id-bits long)");
   sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, kMaxBits));
   add_method_option(*sub, args->method, "who moves the vertices");
   sub->add_option("--variant", args->variant,
@@ -229,17 +224,21 @@ void register_embed(CLI::App& app, int& exit_code) {
   CLI::Option* strength =
       sub->add_option("--strength", args->embed.strength,
                       "alpha in (0, 1/2): target distance of bin means from 1/2 (default 0.05)");
-  sub->add_option("--fidelity", args->fidelity,
-                  "search the strongest mark within named limits for this payload: paper (vertex "
-                  "RMS 0.04 % of the diagonal and MSDM 0.25, TIFS 2014)")
-      ->check(CLI::IsMember({"paper"}));
-  sub->add_option("--max-rms", args->max_rms,
-                  "search the strongest mark whose vertex RMS stays within this % of the "
-                  "bounding-box diagonal (with --max-msdm; default 0.04 with either)")
-      ->check(CLI::PositiveNumber);
-  sub->add_option("--max-msdm", args->max_msdm,
-                  "search the strongest mark whose MSDM stays within this (default 0.25)")
-      ->check(CLI::PositiveNumber);
+  CLI::Option* fidelity =
+      sub->add_option(
+             "--fidelity", args->fidelity,
+             "search the strongest mark within named limits for this payload: paper (vertex "
+             "RMS 0.04 % of the diagonal and MSDM 0.25, TIFS 2014)")
+          ->check(CLI::IsMember({"paper"}));
+  CLI::Option* max_rms =
+      sub->add_option("--max-rms", args->max_rms,
+                      "search the strongest mark whose vertex RMS stays within this % of the "
+                      "bounding-box diagonal (with --max-msdm; default 0.04 with either)")
+          ->check(CLI::PositiveNumber);
+  CLI::Option* max_msdm =
+      sub->add_option("--max-msdm", args->max_msdm,
+                      "search the strongest mark whose MSDM stays within this (default 0.25)")
+          ->check(CLI::PositiveNumber);
   sub->add_option("--bin-offset-rule", args->bin_offset_rule,
                   "with a fidelity search: at-most-strength (G = min(--bin-offset, alpha), the "
                   "default) or fixed (G = --bin-offset, the paper's)")
@@ -264,12 +263,17 @@ void register_embed(CLI::App& app, int& exit_code) {
   sub->add_option("--registry", args->registry,
                   "record the issued copy (coded ID) in this SQLite registry; an ID already "
                   "issued from this original under this key is refused");
-  sub->add_option("--buyer", args->buyer, "the buyer's label recorded with --registry");
+  CLI::Option* buyer =
+      sub->add_option("--buyer", args->buyer, "the buyer's label recorded with --registry");
   sub->add_flag("--json", args->json, "print a JSON report");
   add_key_options(*sub, args->keys);
   add_input_options(*sub, args->in);
   add_output_options(*sub, args->out);
-  sub->callback([args, strength, &exit_code] { exit_code = run(*args, strength->count() > 0); });
+  // Options that cannot go together: CLI11 refuses them (exit 1) naming both.
+  payload->excludes(id);
+  for (CLI::Option* per_copy : {payload, id, buyer}) batch->excludes(per_copy);
+  for (CLI::Option* search : {fidelity, max_rms, max_msdm}) strength->excludes(search);
+  sub->callback([args, &exit_code] { exit_code = run(*args); });
 }
 
 }  // namespace meshmark::cli

@@ -12,14 +12,12 @@ void add_key_options(CLI::App& app, KeyArgs& args) {
   app.add_option("--key", args.passphrase,
                  "secret passphrase: keyed layout of the bits (visible to other users of this "
                  "machine in the process list; prefer --key-file)");
-  app.add_option("--key-file", args.file, "secret key file (its bytes, hashed)");
+  app.add_option("--key-file", args.file, "secret key file (its bytes, hashed)")->excludes("--key");
   app.add_option("--id-bits", args.id_bits, "length of a coded ID in bits (1..32)")
       ->check(CLI::Range(1, 32));
 }
 
 std::optional<Key> resolve_key(const KeyArgs& args) {
-  if (args.passphrase && args.file)
-    throw InvalidArgumentError("give --key or --key-file, not both");
   if (args.passphrase) return key_from_passphrase(*args.passphrase);  // refuses an empty one
   if (args.file) {
     try {

@@ -1,6 +1,6 @@
 #pragma once
-// Internal: the trials of a campaign unit and the figures' files, shared by the blind engine
-// (campaign.cpp, campaign_report.cpp) and the trace mode (campaign_trace.cpp,
+// Internal: the trials of a campaign unit, shared by the blind engine (campaign_plan.cpp,
+// campaign_unit.cpp, campaign_report.cpp) and the trace mode (campaign_trace.cpp,
 // campaign_trace_report.cpp).
 
 #include <cstdint>
@@ -38,13 +38,6 @@ void run_trace_unit(const CampaignConfig& config, const CampaignUnit& unit, cons
                     const CalibrationRecord& record,
                     const std::function<bool(const std::string& key)>& done,
                     const std::function<void(const TrialRow&)>& emit);
-
-/// An SVG document of w x h pixels around body, on white.
-std::string svg_document(double w, double h, const std::string& body);
-
-/// Writes dir/name.svg, and dir/name.png when rsvg-convert is installed; returns whether the
-/// PNG was written.
-bool write_figure(const std::string& dir, const std::string& name, const std::string& svg);
 
 /// The report's section comparing the campaign with the LIRIS benchmark's published results
 /// (campaign_published.cpp): per protocol, the published columns of equal distortion beside

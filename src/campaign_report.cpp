@@ -1,12 +1,11 @@
-// The campaign's summary, figures (SVG, and PNG through rsvg-convert when installed) and
-// Markdown report.
+// The campaign's summary (summary.csv), figures (svg_plot.h, svg_png.h) and Markdown report
+// (report.md).
 
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cctype>
 #include <cmath>
-#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -15,113 +14,22 @@
 #include "meshmark/attack.h"
 #include "meshmark/campaign.h"
 #include "meshmark/io.h"
-#include "svg_markup.h"
+#include "svg_plot.h"
+#include "svg_png.h"
 
 namespace meshmark {
 
 namespace fs = std::filesystem;
+using detail::plot_legend_extra;
+using detail::PlotCurve;
 using detail::svg_document;
 using detail::write_figure;
 
 namespace {
 
-struct Curve {
-  std::string name;
-  std::vector<std::pair<double, double>> points;  // (attack strength, median BER)
-};
-
-const char* kColors[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd",
-                         "#ff7f0e", "#8c564b", "#e377c2", "#17becf"};
-const char* kDashes[] = {"", "6,3", "2,3", "8,3,2,3", "", "6,3", "2,3", "8,3,2,3"};
-
-// The legend's entries (a line sample and the curve's name) flow left to right between the
-// title and the frame, wrapping at the frame's width: each entry's (x offset, row).
-constexpr double kLegendRow = 14, kLegendLeft = 56, kLegendRight = 12;
-std::vector<std::pair<double, int>> legend_layout(const std::vector<Curve>& curves, double w) {
-  std::vector<std::pair<double, int>> at;
-  double x = 0;
-  int row = 0;
-  for (const Curve& c : curves) {
-    const double width = 30 + 6.2 * static_cast<double>(c.name.size());  // 11 px text
-    if (x > 0 && x + width > w - kLegendLeft - kLegendRight) x = 0, ++row;
-    at.emplace_back(x, row);
-    x += width + 10;
-  }
-  return at;
-}
-
-// The legend's height beyond its first row: what a panel of these curves needs added.
-double legend_extra(const std::vector<Curve>& curves, double w) {
-  const auto at = legend_layout(curves, w);
-  return at.empty() ? 0 : kLegendRow * at.back().second;
-}
-
-// One panel: median BER in [0, 0.5] against the attack's strength, a curve per variant. h
-// holds the plot and a one-row legend; legend_extra(curves, w) more is taken for the others.
-std::string panel(double x0, double y0, double w, double h, const std::string& title,
-                  const std::string& xlabel, const std::vector<Curve>& curves) {
-  double lo = INFINITY, hi = -INFINITY;
-  for (const Curve& c : curves)
-    for (const auto& p : c.points) lo = std::min(lo, p.first), hi = std::max(hi, p.first);
-  if (!std::isfinite(lo)) lo = 0, hi = 1;
-  if (hi == lo) lo -= 0.5, hi += 0.5;
-  const auto legend = legend_layout(curves, w);
-  const double extra = legend.empty() ? 0 : kLegendRow * legend.back().second;
-  h += extra;
-  const double ml = kLegendLeft, mr = kLegendRight, mt = 46 + extra, mb = 44;
-  const double pw = w - ml - mr, ph = h - mt - mb;
-  auto X = [&](double x) { return x0 + ml + (x - lo) / (hi - lo) * pw; };
-  double top = 0.5;  // BER axis [0, 0.5], wider if a median lies above chance
-  for (const Curve& c : curves)
-    for (const auto& p : c.points) top = std::max(top, std::ceil(p.second * 10) / 10);
-  auto Y = [&](double y) { return y0 + mt + (1 - y / top) * ph; };
-  std::string s;
-  s += fmt::format(
-      "<text x='{:.1f}' y='{:.1f}' font-size='14' text-anchor='middle' "
-      "font-weight='bold'>{}</text>\n",
-      x0 + ml + pw / 2, y0 + 18, detail::xml_escape(title));
-  s += fmt::format(
-      "<rect x='{:.1f}' y='{:.1f}' width='{:.1f}' height='{:.1f}' fill='none' "
-      "stroke='#444'/>\n",
-      x0 + ml, y0 + mt, pw, ph);
-  for (const double t : detail::nice_ticks(0, top)) {
-    s += fmt::format("<line x1='{:.1f}' y1='{:.1f}' x2='{:.1f}' y2='{:.1f}' stroke='#ddd'/>\n",
-                     x0 + ml, Y(t), x0 + ml + pw, Y(t));
-    s += fmt::format("<text x='{:.1f}' y='{:.1f}' font-size='11' text-anchor='end'>{:g}</text>\n",
-                     x0 + ml - 4, Y(t) + 4, t);
-  }
-  for (const double t : detail::nice_ticks(lo, hi))
-    s +=
-        fmt::format("<text x='{:.1f}' y='{:.1f}' font-size='11' text-anchor='middle'>{:g}</text>\n",
-                    X(t), y0 + mt + ph + 16, t);
-  s += fmt::format("<text x='{:.1f}' y='{:.1f}' font-size='12' text-anchor='middle'>{}</text>\n",
-                   x0 + ml + pw / 2, y0 + h - 8, detail::xml_escape(xlabel));
-  s += fmt::format(
-      "<text x='{:.1f}' y='{:.1f}' font-size='12' text-anchor='middle' "
-      "transform='rotate(-90 {:.1f} {:.1f})'>median BER</text>\n",
-      x0 + 14, y0 + mt + ph / 2, x0 + 14, y0 + mt + ph / 2);
-  for (std::size_t k = 0; k < curves.size(); ++k) {
-    const Curve& c = curves[k];
-    const char* color = kColors[k % 8];
-    std::string pts;
-    for (const auto& p : c.points) pts += fmt::format("{:.1f},{:.1f} ", X(p.first), Y(p.second));
-    s += fmt::format(
-        "<polyline points='{}' fill='none' stroke='{}' stroke-width='2' "
-        "stroke-dasharray='{}'/>\n",
-        pts, color, kDashes[(k + k / 8) % 8]);
-    for (const auto& p : c.points)
-      s += fmt::format("<circle cx='{:.1f}' cy='{:.1f}' r='3' fill='{}'/>\n", X(p.first),
-                       Y(p.second), color);
-    // Legend: rows between the title and the frame.
-    const double lx = x0 + ml + legend[k].first, ly = y0 + 36 + kLegendRow * legend[k].second;
-    s += fmt::format(
-        "<line x1='{:.1f}' y1='{:.1f}' x2='{:.1f}' y2='{:.1f}' stroke='{}' "
-        "stroke-width='2' stroke-dasharray='{}'/>\n",
-        lx, ly - 4, lx + 22, ly - 4, color, kDashes[(k + k / 8) % 8]);
-    s += fmt::format("<text x='{:.1f}' y='{:.1f}' font-size='11'>{}</text>\n", lx + 26, ly,
-                     detail::xml_escape(c.name));
-  }
-  return s;
+// A median-BER panel's axes: BER from 0 to 0.5 (wider if a median lies above chance).
+detail::PlotAxes ber_axes(const std::string& title, const std::string& x_label) {
+  return {title, x_label, "median BER", 0.5};
 }
 
 std::string strength_label(const AttackSeries& a) {
@@ -194,27 +102,6 @@ std::string left_out(const std::vector<TrialRow>& rows) {
 
 }  // namespace
 
-std::string detail::svg_document(double w, double h, const std::string& body) {
-  return fmt::format(
-      "<?xml version='1.0' encoding='UTF-8'?>\n<svg xmlns='http://www.w3.org/2000/svg' "
-      "width='{0:.0f}' height='{1:.0f}' viewBox='0 0 {0:.0f} {1:.0f}' "
-      "font-family='DejaVu Sans, Helvetica, Arial, sans-serif'>\n<rect width='100%' height='100%' "
-      "fill='white'/>\n{2}</svg>\n",
-      w, h, body);
-}
-
-bool detail::write_figure(const std::string& out, const std::string& name, const std::string& svg) {
-  const fs::path dir(out), svg_path = dir / (name + ".svg");
-  write_file_atomically(svg_path.string(), svg);
-  if (std::system("command -v rsvg-convert >/dev/null 2>&1") != 0) return false;
-  const fs::path png = dir / (name + ".png"), tmp = dir / (name + ".png.tmp");
-  const std::string cmd =
-      fmt::format("rsvg-convert -f png -o '{}' '{}' 2>/dev/null", tmp.string(), svg_path.string());
-  if (std::system(cmd.c_str()) != 0) return false;
-  fs::rename(tmp, png);
-  return true;
-}
-
 std::string write_campaign_report(const std::string& out_dir, const CampaignConfig& c,
                                   const std::vector<CalibrationRecord>& calibrations,
                                   const std::vector<TrialRow>& rows, double wall_seconds) {
@@ -243,12 +130,12 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
   for (const AttackSeries& a : c.attacks)
     if (a.kind != "none" && a.strengths.size() > 1) plotted.push_back(&a);
   auto curves_of = [&](const AttackSeries& a, const std::vector<std::string>& variants) {
-    std::vector<Curve> curves;
+    std::vector<PlotCurve> curves;
     std::vector<double> xs = a.strengths;
     std::sort(xs.begin(), xs.end());
     for (const Column& col : columns) {
       if (std::find(variants.begin(), variants.end(), col.variant) == variants.end()) continue;
-      Curve curve{col.name, {}};
+      PlotCurve curve{col.name, {}};
       for (const double x : xs)
         if (const SummaryRow* s = lookup(col, series_label(a), x))
           curve.points.emplace_back(x, s->median_ber);
@@ -265,13 +152,14 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
     std::string panels;
     double extra = 0;  // every panel's legend as tall as the tallest
     for (const AttackSeries* a : attacks)
-      extra = std::max(extra, legend_extra(curves_of(*a, variants), pw));
+      extra = std::max(extra, plot_legend_extra(curves_of(*a, variants), pw));
     for (std::size_t i = 0; i < attacks.size(); ++i) {
-      const std::vector<Curve> curves = curves_of(*attacks[i], variants);
-      panels +=
-          panel((i % 3) * pw, (i / 3) * (ph + extra), pw, ph + extra - legend_extra(curves, pw),
-                fmt::format("({}) {}", char('a' + i), series_label(*attacks[i])),
-                attacks[i]->kind + " strength", curves);
+      const std::vector<PlotCurve> curves = curves_of(*attacks[i], variants);
+      panels += detail::plot_panel(
+          (i % 3) * pw, (i / 3) * (ph + extra), pw, ph + extra - plot_legend_extra(curves, pw),
+          ber_axes(fmt::format("({}) {}", char('a' + i), series_label(*attacks[i])),
+                   attacks[i]->kind + " strength"),
+          curves);
     }
     const std::size_t cols = std::min<std::size_t>(3, attacks.size());
     png |= write_figure(dir, name,
@@ -281,11 +169,12 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
   std::string md_figures;
   for (std::size_t i = 0; i < plotted.size(); ++i) {
     const AttackSeries& a = *plotted[i];
-    const std::vector<Curve> curves = curves_of(a, c.variants);
-    png |=
-        write_figure(dir, "figure-" + file_slug(series_label(a)),
-                     svg_document(pw, ph + legend_extra(curves, pw),
-                                  panel(0, 0, pw, ph, series_label(a), strength_label(a), curves)));
+    const std::vector<PlotCurve> curves = curves_of(a, c.variants);
+    png |= write_figure(
+        dir, "figure-" + file_slug(series_label(a)),
+        svg_document(pw, ph + plot_legend_extra(curves, pw),
+                     detail::plot_panel(0, 0, pw, ph, ber_axes(series_label(a), strength_label(a)),
+                                        curves)));
   }
   const std::string all = grid("figure-all", plotted, c.variants);
   if (!all.empty()) md_figures += "All attacks, every variant:\n\n![all](figure-all.svg)\n\n";

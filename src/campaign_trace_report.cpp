@@ -12,6 +12,8 @@
 #include "meshmark/campaign.h"
 #include "meshmark/io.h"
 #include "svg_markup.h"
+#include "svg_plot.h"
+#include "svg_png.h"
 
 namespace meshmark::detail {
 

@@ -240,7 +240,16 @@ TEST(MarkHardening, CommandLineRefusesAmbiguousKeysAndPayloads) {
   EXPECT_EQ(r.code, 1) << r.out;
   r = test::run_cli("embed " + spot + " " + out + " --id 5 --payload 00");
   EXPECT_EQ(r.code, 1) << r.out;
-  EXPECT_NE(r.out.find("not both"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("--payload excludes --id"), std::string::npos) << r.out;
+  r = test::run_cli("embed " + spot + " " + out + " --id 5 --key a --key-file /dev/null");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("--key excludes --key-file"), std::string::npos) << r.out;
+  r = test::run_cli("embed " + spot + " " + out + " --id 5 --strength 0.04 --fidelity paper");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("--strength excludes --fidelity"), std::string::npos) << r.out;
+  r = test::run_cli("detect " + spot + " --expect 5 --expect-payload 00");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("excludes"), std::string::npos) << r.out;
   r = test::run_cli("extract " + spot + " --bits 100000");
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_LT(r.out.size(), 2000u);

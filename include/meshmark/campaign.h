@@ -55,6 +55,9 @@
 /// the leaker's copy and the next ID's (the previous one's for the last ID): right is then at
 /// least one colluder named and no innocent. Rows carry both outcomes; keys of averaged trials
 /// end in "|avg2". bits and the 32-bit ID must make an IdCode (coding.h).
+///
+/// This header holds the parts (configuration, planning, one unit's trials, rows, statistics,
+/// report); run_campaign (campaign_run.h) runs a whole campaign into a results directory.
 
 #include <cstdint>
 #include <functional>
@@ -281,7 +284,8 @@ std::vector<TraceSummaryRow> summarize_trace(const CampaignConfig& config,
 /// report.md (calibrations, distortions, medians, Loop table, timings, the published results
 /// of section 8 beside DRS's). Returns the report's path. In trace mode: summary.csv of
 /// summarize_trace, figure-trace.svg (right / none / wrong bars, trace beside blind, per
-/// attack and strength) and a report.md that lists every wrong outcome first.
+/// attack and strength) and a report.md that lists every wrong outcome first. \throw IOError
+/// when a file cannot be written or rsvg-convert fails on a figure (its message quoted).
 std::string write_campaign_report(const std::string& dir, const CampaignConfig& config,
                                   const std::vector<CalibrationRecord>& calibrations,
                                   const std::vector<TrialRow>& rows, double wall_seconds);

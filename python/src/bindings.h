@@ -142,5 +142,6 @@ void init_embed(py::module_& m);
 void init_decode(py::module_& m);
 void init_attack(py::module_& m);
 void init_metrics(py::module_& m);
+void init_issue(py::module_& m);
 
 }  // namespace meshmark::python

@@ -214,4 +214,5 @@ PYBIND11_MODULE(meshmark, m) {
   mp::init_decode(m);
   mp::init_attack(m);
   mp::init_metrics(m);
+  mp::init_issue(m);
 }

@@ -1,0 +1,146 @@
+// Issuing copies (issue.h: the CLI's embed and embed --batch) and tracing a leak through the
+// registry (trace.h's trace_issued: the CLI's trace), with the same rules as the command line.
+
+#include <fmt/format.h>
+
+#include "bindings.h"
+#include "meshmark/coding.h"
+#include "meshmark/error.h"
+#include "meshmark/issue.h"
+#include "meshmark/trace.h"
+
+namespace meshmark::python {
+
+namespace {
+
+// One request from a dict with keys input, output, and id (int) or payload (hex str), and
+// optionally buyer.
+CopyRequest to_request(py::handle item, std::size_t k) {
+  if (!py::isinstance<py::dict>(item))
+    throw InvalidArgumentError(fmt::format("copies[{}] is not a dict", k));
+  const py::dict d = py::reinterpret_borrow<py::dict>(item);
+  for (const auto& [name, value] : d) {
+    const std::string key = py::str(name);
+    if (key != "input" && key != "output" && key != "id" && key != "payload" && key != "buyer")
+      throw InvalidArgumentError(fmt::format(
+          "copies[{}] has key '{}' (known: input, output, id, payload, buyer)", k, key));
+  }
+  if (!d.contains("input") || !d.contains("output"))
+    throw InvalidArgumentError(fmt::format("copies[{}] needs 'input' and 'output'", k));
+  if (d.contains("id") == d.contains("payload"))
+    throw InvalidArgumentError(fmt::format("copies[{}] needs one of 'id' or 'payload'", k));
+  CopyRequest r;
+  r.input = to_path(d["input"]);
+  r.output = to_path(d["output"]);
+  if (d.contains("id")) r.id = to_id(d["id"], "id");
+  if (d.contains("payload")) r.payload_hex = py::str(d["payload"]);
+  if (d.contains("buyer")) r.buyer = py::str(d["buyer"]);
+  return r;
+}
+
+py::dict to_dict(const CopyOutcome& c) {
+  py::dict out;
+  out["status"] = copy_status_name(c.status);
+  out["ok"] = c.ok();
+  out["message"] = c.message;
+  out["warnings"] = c.warnings;
+  out["strength"] = c.embedding.strength;
+  out["bin_offset"] = c.embedding.bin_offset;
+  out["rms_percent"] = c.result.rms_percent;
+  out["min_margin"] = c.result.min_margin;
+  out["rounds"] = c.result.rounds;
+  out["msdm"] = c.calibration ? py::cast(c.calibration->msdm) : py::none();
+  return out;
+}
+
+py::dict score_dict(const CandidateScore& s) {
+  py::dict d;
+  d["buyer"] = s.copy.buyer;
+  d["id"] = s.copy.id;
+  d["matches"] = s.matches;
+  d["bits"] = s.compared;
+  d["p_value"] = s.p_value;
+  d["corrected_p"] = s.corrected_p;
+  d["copy"] = s.copy.output_path;
+  return d;
+}
+
+}  // namespace
+
+void init_issue(py::module_& m) {
+  m.def(
+      "issue",
+      [](py::iterable copies, const std::string& registry, py::handle key, py::handle key_file,
+         int bits, int id_bits, double strength_spread, py::handle options, int threads,
+         bool resume) {
+        IssueSettings s;
+        std::vector<CopyRequest> requests;
+        std::size_t k = 0;
+        for (py::handle item : copies) requests.push_back(to_request(item, k++));
+        s.registry = registry;
+        s.key = resolve_key(key, key_file);
+        s.bits = bits;
+        s.id_bits = id_bits;
+        s.strength_spread = strength_spread;
+        if (!options.is_none()) s.embedding = options.cast<EmbedOptions>();
+        s.threads = threads;
+        s.resume = resume;
+        IssueResult r;
+        {
+          py::gil_scoped_release unlocked;
+          r = issue_copies(std::move(requests), s);
+        }
+        py::list out;
+        for (const CopyOutcome& c : r.copies) out.append(to_dict(c));
+        return out;
+      },
+      py::arg("copies"), py::kw_only(), py::arg("registry") = "", py::arg("key") = py::none(),
+      py::arg("key_file") = py::none(), py::arg("bits") = 64, py::arg("id_bits") = 32,
+      py::arg("strength_spread") = 0.25, py::arg("options") = py::none(), py::arg("threads") = 0,
+      py::arg("resume") = true,
+      "Issues watermarked copies as the CLI's embed --batch does: copies is a list of dicts "
+      "{input, output, id (a coded buyer ID) or payload (hex), buyer}; with a registry, IDs "
+      "issued before, given twice or with codewords too close are refused and the copies "
+      "written are recorded in one transaction. options: an EmbedOptions (strength, variant, "
+      "method). Returns one dict per copy: status, ok, message, warnings, strength, bin_offset, "
+      "rms_percent, min_margin, rounds, msdm (with fidelity limits).");
+  m.def(
+      "trace",
+      [](py::handle leaked, py::handle original, const std::string& registry, py::handle key,
+         py::handle key_file, double threshold, bool register_leak) {
+        const std::optional<Key> k = resolve_key(key, key_file);
+        if (!k) throw InvalidArgumentError("trace needs the key the copies were issued under");
+        const std::string original_path = to_path(original);
+        const Mesh leak = read_mesh(to_path(leaked));
+        const Mesh orig = read_mesh(original_path);
+        TraceOptions o;
+        o.threshold = threshold;
+        o.register_leak = register_leak;
+        TraceResult r;
+        {
+          py::gil_scoped_release unlocked;
+          r = trace_issued(leak, orig, content_hash(read_file(original_path)), registry, *k, o);
+        }
+        py::dict out;
+        out["status"] = trace_status_name(r.status);
+        out["message"] = r.message;
+        out["candidates"] = r.candidates;
+        py::list named, ranking;
+        for (const CandidateScore& s : r.named) named.append(score_dict(s));
+        for (const CandidateScore& s : r.ranking) ranking.append(score_dict(s));
+        out["named"] = named;
+        out["ranking"] = ranking;
+        out["registration"] = r.registration.message;
+        return out;
+      },
+      py::arg("leaked"), py::arg("original"), py::arg("registry"), py::kw_only(),
+      py::arg("key") = py::none(), py::arg("key_file") = py::none(), py::arg("threshold") = 1e-6,
+      py::arg("register") = true,
+      "Names the buyers whose copies the leaked mesh file came from, as the CLI's trace does: "
+      "the copies the registry recorded of the original file under the key, each scored with "
+      "an exact p-value, family-wise below threshold. Returns a dict: status, message, "
+      "candidates, named and ranking (dicts: buyer, id, matches, bits, p_value, corrected_p, "
+      "copy), registration.");
+}
+
+}  // namespace meshmark::python

@@ -1,0 +1,63 @@
+"""Issuing copies and tracing a leak from Python: the same rules and answers as the CLI."""
+
+import json
+
+import pytest
+
+import meshmark
+from conftest import run_cli
+
+KEY = "python shop key"
+
+
+def issue_four(fandisk, tmp_path, **kwargs):
+    copies = [{"input": fandisk, "output": tmp_path / f"copy-{i}.ply", "id": i,
+               "buyer": f"buyer {i}"} for i in range(20, 24)]
+    return copies, meshmark.issue(copies, registry=str(tmp_path / "shop.db"), key=KEY, **kwargs)
+
+
+def test_consecutive_ids_are_issued_and_each_reads_back_with_the_cli(fandisk, tmp_path):
+    copies, out = issue_four(fandisk, tmp_path, threads=2)
+    assert [o["status"] for o in out] == ["written"] * 4, out
+    for c in copies:
+        read = run_cli("extract", c["output"], "--coded", "--key", KEY, "--json")
+        assert read["id_valid"] and read["id"] == c["id"]
+    listed = [json.loads(line) for line in run_cli(
+        "registry", "export", tmp_path / "shop.db", "--format", "jsonl").splitlines()]
+    assert sorted((r["id"], r["buyer"]) for r in listed) == [(i, f"buyer {i}") for i in
+                                                              range(20, 24)]
+    # Issued again: every copy is intact in the registry, so each is skipped.
+    _, again = issue_four(fandisk, tmp_path)
+    assert [o["status"] for o in again] == ["skipped"] * 4, again
+    # By hand (no resume), an ID issued before is refused.
+    _, refused = issue_four(fandisk, tmp_path, resume=False)
+    assert all(o["status"] == "refused" and "already issued" in o["message"] for o in refused)
+
+
+def test_trace_names_the_leaker_alone_as_the_cli_does(fandisk, tmp_path):
+    copies, out = issue_four(fandisk, tmp_path)
+    assert all(o["ok"] for o in out), out
+    leak = copies[1]["output"]
+    found = meshmark.trace(leak, fandisk, str(tmp_path / "shop.db"), key=KEY)
+    assert found["status"] == "named", found
+    assert [n["buyer"] for n in found["named"]] == ["buyer 21"]
+    assert found["candidates"] == 4
+    cli = run_cli("trace", leak, "--original", fandisk, "--registry", tmp_path / "shop.db",
+                  "--key", KEY, "--json")
+    assert [(n["buyer"], n["id"]) for n in cli["named"]] == \
+        [(n["buyer"], n["id"]) for n in found["named"]]
+    assert cli["named"][0]["p_value"] == pytest.approx(found["named"][0]["p_value"], rel=1e-12)
+    # An unmarked mesh names nobody.
+    nobody = meshmark.trace(fandisk, fandisk, str(tmp_path / "shop.db"), key=KEY)
+    assert nobody["status"] == "no-buyer" and nobody["named"] == []
+
+
+def test_malformed_requests_are_refused_clearly(fandisk, tmp_path):
+    with pytest.raises(meshmark.InvalidArgumentError, match="known: input, output"):
+        meshmark.issue([{"input": fandisk, "output": tmp_path / "a.ply", "id": 1, "buyr": "x"}])
+    with pytest.raises(meshmark.InvalidArgumentError, match="one of 'id' or 'payload'"):
+        meshmark.issue([{"input": fandisk, "output": tmp_path / "a.ply"}])
+    with pytest.raises(meshmark.IOError, match="no such registry"):
+        meshmark.trace(fandisk, fandisk, str(tmp_path / "none.db"), key=KEY)
+    out = meshmark.issue([{"input": fandisk, "output": fandisk, "id": 1}], key=KEY)
+    assert out[0]["status"] == "refused" and "overwrite" in out[0]["message"]
