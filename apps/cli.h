@@ -43,6 +43,38 @@ struct InputOptions {
   double weld_tolerance = 0;
 };
 
+/// The names the command line gives an enum's values, in the order --help lists them.
+template <class E>
+using EnumNames = std::vector<std::pair<std::string, E>>;
+
+/// --bin-offset-rule (calibrate.h's names).
+inline const EnumNames<BinOffsetRule> kBinOffsetRuleNames = {
+    {bin_offset_rule_name(BinOffsetRule::AtMostStrength), BinOffsetRule::AtMostStrength},
+    {bin_offset_rule_name(BinOffsetRule::Fixed), BinOffsetRule::Fixed}};
+/// --solver.
+inline const EnumNames<SolverBackend> kSolverNames = {{"native", SolverBackend::Native},
+                                                      {"ipopt", SolverBackend::Ipopt}};
+/// --x-step.
+inline const EnumNames<AdmmXStep> kXStepNames = {{"cg", AdmmXStep::ConjugateGradients},
+                                                 {"cholesky", AdmmXStep::Cholesky}};
+
+/// Adds an option bound to an enum value: CLI11 accepts only the names (any case) and stores
+/// the value they name.
+template <class E>
+CLI::Option* add_enum_option(CLI::App& app, const std::string& flag, E& value,
+                             const EnumNames<E>& names, const std::string& help) {
+  return app.add_option(flag, value, help)
+      ->transform(CLI::CheckedTransformer(names, CLI::ignore_case));
+}
+
+/// The command line's name of value.
+template <class E>
+std::string enum_name(const EnumNames<E>& names, E value) {
+  for (const auto& [name, v] : names)
+    if (v == value) return name;
+  return "?";
+}
+
 /// Adds --method to a subcommand: the embedding method (method.h), parsed by parse_method.
 /// purpose: what the method is for in this command ("the embedding's method").
 void add_method_option(CLI::App& app, std::string& method, const std::string& purpose);

@@ -17,7 +17,8 @@ namespace meshmark::cli {
 namespace {
 
 struct CalibrateArgs {
-  std::string input, variant = "DRS", cache, bin_offset_rule = "at-most-strength", method = "qp";
+  std::string input, variant = "DRS", cache, method = "qp";
+  BinOffsetRule bin_offset_rule = BinOffsetRule::AtMostStrength;
   double bin_offset = 0.05;
   int bits = 64;
   CalibrateOptions options;
@@ -32,8 +33,7 @@ int run(const CalibrateArgs& a) {
   o.bits = a.bits;
   o.bin_offset = a.bin_offset;
   o.limits = a.options;
-  o.limits.bin_offset =
-      a.bin_offset_rule == "fixed" ? BinOffsetRule::Fixed : BinOffsetRule::AtMostStrength;
+  o.limits.bin_offset = a.bin_offset_rule;
   o.read = read_options(a.in);
   o.cache = a.no_cache ? "" : a.cache.empty() ? default_calibration_cache() : a.cache;
   FileCalibration c;
@@ -85,9 +85,8 @@ void register_calibrate(CLI::App& app, int& exit_code) {
   sub->add_option("--bin-offset", args->bin_offset,
                   "G in [0, 1/2): vertices stay in [G, 1-G] of their bin (default 0.05)")
       ->check(CLI::Range(0.0, 0.4999));
-  sub->add_option("--bin-offset-rule", args->bin_offset_rule,
-                  "at-most-strength (G = min(G, alpha), the default) or fixed (the paper's)")
-      ->check(CLI::IsMember({"fixed", "at-most-strength"}));
+  add_enum_option(*sub, "--bin-offset-rule", args->bin_offset_rule, kBinOffsetRuleNames,
+                  "at-most-strength (G = min(G, alpha), the default) or fixed (the paper's)");
   sub->add_option("--cache", args->cache,
                   "cache file (default $XDG_CACHE_HOME or ~/.cache/meshmark/calibration.jsonl)");
   sub->add_flag("--no-cache", args->no_cache, "neither read nor write the cache");

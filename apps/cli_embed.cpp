@@ -17,8 +17,9 @@ namespace meshmark::cli {
 namespace {
 
 struct EmbedArgs {
-  std::string input, output, payload, id, variant = "DRS", solver = "native", batch;
-  std::string x_step = "cg", registry, buyer, fidelity, bin_offset_rule = "at-most-strength";
+  std::string input, output, payload, id, variant = "DRS", batch;
+  std::string registry, buyer, fidelity;
+  BinOffsetRule bin_offset_rule = BinOffsetRule::AtMostStrength;
   std::string method = "qp";
   double max_rms = 0, max_msdm = 0;  // 0: not given
   KeyArgs keys;
@@ -42,8 +43,7 @@ std::optional<CalibrateOptions> fidelity_limits(const EmbedArgs& a) {
   }
   if (a.max_rms > 0) c.max_rms_percent = a.max_rms;
   if (a.max_msdm > 0) c.max_msdm = a.max_msdm;
-  c.bin_offset =
-      a.bin_offset_rule == "fixed" ? BinOffsetRule::Fixed : BinOffsetRule::AtMostStrength;
+  c.bin_offset = a.bin_offset_rule;
   return c;
 }
 
@@ -62,9 +62,6 @@ int run(const EmbedArgs& a) {
   settings.limits = fidelity_limits(a);
   options.variant = parse_variant(a.variant);
   options.method = parse_method(a.method);
-  options.backend = a.solver == "ipopt" ? SolverBackend::Ipopt : SolverBackend::Native;
-  options.admm.x_step =
-      a.x_step == "cholesky" ? AdmmXStep::Cholesky : AdmmXStep::ConjugateGradients;
   settings.bits = a.bits;
   settings.read = read_options(a.in);
   settings.write = write_options(a.out);
@@ -118,7 +115,7 @@ int run(const EmbedArgs& a) {
         {"output", ok ? a.output : ""},
         {"method", method_name(used.method)},
         {"variant", a.variant},
-        {"solver", a.solver},
+        {"solver", enum_name(kSolverNames, used.backend)},
         {"payload", payload_to_hex(payload)},
         {"id", coded ? nlohmann::json(parse_id(a.id)) : nlohmann::json(nullptr)},
         {"keyed", key.has_value()},
@@ -239,10 +236,9 @@ void register_embed(CLI::App& app, int& exit_code) {
       sub->add_option("--max-msdm", args->max_msdm,
                       "search the strongest mark whose MSDM stays within this (default 0.25)")
           ->check(CLI::PositiveNumber);
-  sub->add_option("--bin-offset-rule", args->bin_offset_rule,
+  add_enum_option(*sub, "--bin-offset-rule", args->bin_offset_rule, kBinOffsetRuleNames,
                   "with a fidelity search: at-most-strength (G = min(--bin-offset, alpha), the "
-                  "default) or fixed (G = --bin-offset, the paper's)")
-      ->check(CLI::IsMember({"fixed", "at-most-strength"}));
+                  "default) or fixed (G = --bin-offset, the paper's)");
   sub->add_option("--strength-spread", args->strength_spread,
                   "keyed or coded marks: bit j's strength is alpha (1 + spread u_j), u_j drawn "
                   "from the key in [0, 1), so the histogram does not show alpha; 0 = uniform")
@@ -251,15 +247,13 @@ void register_embed(CLI::App& app, int& exit_code) {
                   "G in [0, 1/2): vertices stay in [G, 1-G] of their bin");
   sub->add_option("--max-rounds", args->embed.max_rounds, "linearize-and-solve rounds at most")
       ->check(CLI::Range(1, 1000));
-  sub->add_option("--solver", args->solver,
+  add_enum_option(*sub, "--solver", args->embed.backend, kSolverNames,
                   "the backend that solves each round's quadratic program (EmbedOptions::backend): "
                   "native (the structured solvers: exact dual Newton for costs S and Q, ADMM for "
-                  "cost L) or ipopt (general-purpose interior point, for comparison)")
-      ->check(CLI::IsMember({"native", "ipopt"}));
-  sub->add_option("--x-step", args->x_step,
+                  "cost L) or ipopt (general-purpose interior point, for comparison)");
+  add_enum_option(*sub, "--x-step", args->embed.admm.x_step, kXStepNames,
                   "cost L, native solver: ADMM x-steps by matrix-free conjugate gradients (cg) or "
-                  "a sparse LDL^T factorization reused across iterations (cholesky)")
-      ->check(CLI::IsMember({"cg", "cholesky"}));
+                  "a sparse LDL^T factorization reused across iterations (cholesky)");
   sub->add_option("--registry", args->registry,
                   "record the issued copy (coded ID) in this SQLite registry; an ID already "
                   "issued from this original under this key is refused");

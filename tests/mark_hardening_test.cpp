@@ -247,6 +247,14 @@ TEST(MarkHardening, CommandLineRefusesAmbiguousKeysAndPayloads) {
   r = test::run_cli("embed " + spot + " " + out + " --id 5 --strength 0.04 --fidelity paper");
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_NE(r.out.find("--strength excludes --fidelity"), std::string::npos) << r.out;
+  // Enum options take only their names (any case), checked before anything runs.
+  r = test::run_cli("embed " + spot + " " + out + " --payload 00 --bits 8 --solver nonsense");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("--solver"), std::string::npos) << r.out;
+  r = test::run_cli("embed " + spot + " " + out + " --payload 00 --bits 8 --x-step lu");
+  EXPECT_EQ(r.code, 1) << r.out;
+  r = test::run_cli("calibrate " + spot + " --bin-offset-rule sometimes --no-cache");
+  EXPECT_EQ(r.code, 1) << r.out;
   r = test::run_cli("detect " + spot + " --expect 5 --expect-payload 00");
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_NE(r.out.find("excludes"), std::string::npos) << r.out;
