@@ -52,8 +52,11 @@ int run(const AttackArgs& a) {
 }
 
 std::string kinds_help() {
-  std::string s = "attack kinds (STRENGTH is --strength, or KIND:STRENGTH in a chain):\n";
-  for (const auto& [name, what] : attack_kinds()) s += fmt::format("  {:<13} {}\n", name, what);
+  std::string s =
+      "attack kinds (STRENGTH is --strength, or KIND:STRENGTH in a chain; [seeded]: the result "
+      "depends on --seed):\n";
+  for (const AttackKind& k : attack_registry())
+    s += fmt::format("  {:<13} {}{}\n", k.name, k.meaning, k.seeded ? " [seeded]" : "");
   return s;
 }
 

@@ -232,7 +232,8 @@ int main(int argc, char** argv) {
       {"noise", 0.001}, {"noise-radius", 0.001}, {"quant", 10}, {"smooth", 10},  {"taubin", 10},
       {"soup", 0.95},   {"simplify", 0.5},       {"loop", 1},   {"midpoint", 1}, {"sqrt3", 1},
       {"crop", 0.1},    {"similarity", 2}};
-  for (const auto& [kind, meaning] : attack_kinds()) {
+  for (const AttackKind& k : attack_registry()) {
+    const std::string kind = k.name;
     const auto it = strengths.find(kind);
     const double x = it == strengths.end() ? 0.0 : it->second;
     benchmark::RegisterBenchmark(("attack/" + kind + "_horse_48k").c_str(), attack,

@@ -1,7 +1,8 @@
 // Attacks that need no CGAL: similarity, reordering, noise, quantization, triangle soup,
-// cropping, format conversion, and the chain parser. Smoothing lives in attack_smooth.cpp, the
-// parameters' names in attack_params.cpp; simplification and subdivision in cgal_simplify.cpp,
-// cgal_remesh.cpp and cgal_subdivide.cpp.
+// cropping and format conversion. The kinds' table, the chain parser and apply_attack are in
+// attack_registry.cpp, smoothing in attack_smooth.cpp, the parameters' names in
+// attack_params.cpp; simplification and subdivision in cgal_simplify.cpp, cgal_remesh.cpp and
+// cgal_subdivide.cpp.
 
 #include "meshmark/attack.h"
 
@@ -15,7 +16,6 @@
 #include "meshmark/error.h"
 #include "meshmark/io.h"
 #include "meshmark/random.h"
-#include "text_scan.h"
 
 namespace meshmark {
 
@@ -210,128 +210,6 @@ Mesh attack_format(const Mesh& mesh, const std::string& format, bool single_prec
   Mesh out = read_mesh_from_bytes(write_mesh_to_bytes(mesh, f, wo), f, "converted." + format, ro);
   out.format = mesh.format;
   out.encoding = mesh.encoding;
-  return out;
-}
-
-const std::vector<std::pair<std::string, std::string>>& attack_kinds() {
-  static const std::vector<std::pair<std::string, std::string>> kinds = {
-      {"reorder", "random vertex and face order (strength ignored)"},
-      {"similarity", "random rotation, translation and uniform scale up to STRENGTH (default 2)"},
-      {"noise", "uniform noise, amplitude STRENGTH x bounding-box diagonal (paper)"},
-      {"noise-radius",
-       "uniform noise, amplitude STRENGTH x mean vertex-to-center distance (benchmark)"},
-      {"quant",
-       "coordinates quantized to STRENGTH bits over the bounding box, step (max - min) / "
-       "(2^b - 1) (--convention benchmark: / 2^b)"},
-      {"smooth",
-       "Laplacian smoothing, STRENGTH iterations, lambda 0.3 (--lambda), uniform weights, "
-       "boundary moving (--fixed-boundary)"},
-      {"taubin",
-       "Taubin smoothing, STRENGTH iterations, lambda 0.5, mu -0.526 (k_pb 0.1), uniform "
-       "weights (--weighting inverse-distance: Open3D's)"},
-      {"soup", "triangle soup, edges rescaled by STRENGTH, 0.01 % noise"},
-      {"simplify", "Lindstrom-Turk edge collapse down to STRENGTH x the faces"},
-      {"qsimplify", "Garland-Heckbert (quadric) edge collapse down to STRENGTH x the faces"},
-      {"remesh", "isotropic remeshing (CGAL, 3 rounds) to STRENGTH x the mean edge length"},
-      {"loop", "STRENGTH iterations of Loop subdivision (default 1)"},
-      {"midpoint", "STRENGTH iterations of midpoint subdivision (default 1)"},
-      {"sqrt3", "STRENGTH iterations of sqrt(3) subdivision (default 1)"},
-      {"crop", "remove the STRENGTH fraction of vertices beyond a random plane"},
-      {"float32", "binary PLY with float32 coordinates, and back"},
-      {"to-obj", "written as OBJ and read back"},
-      {"to-off", "written as OFF and read back"},
-      {"to-stl", "written as binary STL (float32, unwelded) and read back (welded)"},
-  };
-  return kinds;
-}
-
-std::vector<AttackStep> parse_attack_chain(const std::string& text) {
-  std::vector<AttackStep> steps;
-  std::size_t start = 0;
-  while (start <= text.size()) {
-    const std::size_t end = std::min(text.find(',', start), text.size());
-    const std::string item = text.substr(start, end - start);
-    const std::size_t colon = item.find(':');
-    AttackStep step;
-    step.kind = item.substr(0, colon);
-    const bool known = std::any_of(attack_kinds().begin(), attack_kinds().end(),
-                                   [&](const auto& k) { return k.first == step.kind; });
-    if (!known)
-      throw InvalidArgumentError(fmt::format("unknown attack '{}' in '{}'", step.kind, text));
-    if (colon != std::string::npos &&
-        !detail::parse_double(std::string_view(item).substr(colon + 1), step.strength))
-      throw InvalidArgumentError(fmt::format("attack '{}': strength '{}' is not a number",
-                                             step.kind, item.substr(colon + 1)));
-    steps.push_back(step);
-    start = end + 1;
-  }
-  return steps;
-}
-
-namespace {
-int whole(const AttackStep& s, int fallback) {
-  const double v = s.strength == 0 ? fallback : s.strength;
-  if (v != std::floor(v) || v < 0 || v > 1e6)
-    throw InvalidArgumentError(
-        fmt::format("attack '{}' needs a whole number, not {}", s.kind, s.strength));
-  return static_cast<int>(v);
-}
-}  // namespace
-
-namespace {
-LaplacianOptions laplacian_options(const AttackParams& p) {
-  LaplacianOptions o;
-  if (p.lambda != 0) o.lambda = p.lambda;
-  o.fixed_boundary = p.fixed_boundary;
-  o.weighting = p.weighting;
-  return o;
-}
-
-TaubinOptions taubin_options(const AttackParams& p) {
-  TaubinOptions o;
-  if (p.lambda != 0) o.lambda = p.lambda;
-  o.mu = p.mu;
-  o.fixed_boundary = p.fixed_boundary;
-  o.weighting = p.weighting;
-  return o;
-}
-}  // namespace
-
-Mesh apply_attack(const Mesh& mesh, const AttackStep& s, std::uint64_t seed) {
-  validate_mesh(mesh);
-  const std::string& k = s.kind;
-  check_attack_params(k, s.params);
-  if (k == "reorder") return attack_reorder(mesh, seed);
-  if (k == "similarity") {
-    SimilarityOptions o;
-    if (s.strength != 0) o.max_scale = s.strength;
-    return attack_similarity(mesh, seed, o);
-  }
-  if (k == "noise") return attack_noise(mesh, s.strength, NoiseReference::Diagonal, seed);
-  if (k == "noise-radius") return attack_noise(mesh, s.strength, NoiseReference::MeanRadius, seed);
-  if (k == "quant") return attack_quantize(mesh, whole(s, 0), s.params.convention);
-  if (k == "smooth") return attack_smooth_laplacian(mesh, whole(s, 0), laplacian_options(s.params));
-  if (k == "taubin") return attack_smooth_taubin(mesh, whole(s, 0), taubin_options(s.params));
-  if (k == "soup") return attack_triangle_soup(mesh, s.strength, seed);
-  if (k == "simplify") return attack_simplify(mesh, s.strength);
-  if (k == "qsimplify") return attack_simplify(mesh, s.strength, SimplifyCost::GarlandHeckbert);
-  if (k == "remesh") return attack_remesh(mesh, s.strength == 0 ? 1.0 : s.strength);
-  if (k == "loop") return attack_subdivide(mesh, Subdivision::Loop, whole(s, 1));
-  if (k == "midpoint") return attack_subdivide(mesh, Subdivision::Midpoint, whole(s, 1));
-  if (k == "sqrt3") return attack_subdivide(mesh, Subdivision::Sqrt3, whole(s, 1));
-  if (k == "crop") return attack_crop(mesh, s.strength, seed);
-  if (k == "float32") return attack_format(mesh, "ply", true);
-  if (k == "to-obj") return attack_format(mesh, "obj", false);
-  if (k == "to-off") return attack_format(mesh, "off", false);
-  if (k == "to-stl") return attack_format(mesh, "stl", false);
-  throw InvalidArgumentError(fmt::format("unknown attack '{}'", k));
-}
-
-Mesh apply_attack_chain(const Mesh& mesh, const std::vector<AttackStep>& steps,
-                        std::uint64_t seed) {
-  Mesh out = mesh;
-  Random seeds(seed);
-  for (const AttackStep& s : steps) out = apply_attack(out, s, seeds.next());
   return out;
 }
 

@@ -26,18 +26,40 @@ std::string attack_params_label(const AttackParams& p) {
   return fmt::format("{}", fmt::join(items, " "));
 }
 
+namespace {
+
+// A parameter of AttackParams: its bit, its name, and whether it differs from its default.
+struct ParamField {
+  AttackParamBits bit;
+  const char* name;
+  bool (*given)(const AttackParams&);
+};
+
+const ParamField kFields[] = {
+    {kReadsLambda, "lambda", [](const AttackParams& p) { return p.lambda != 0; }},
+    {kReadsMu, "mu", [](const AttackParams& p) { return p.mu != 0; }},
+    {kReadsFixedBoundary, "fixed_boundary", [](const AttackParams& p) { return p.fixed_boundary; }},
+    {kReadsWeighting, "weighting",
+     [](const AttackParams& p) { return p.weighting != SmoothWeighting::Uniform; }},
+    {kReadsConvention, "convention",
+     [](const AttackParams& p) { return p.convention != QuantizeConvention::Levels; }},
+};
+
+// The kind's table entry. \throw InvalidArgumentError for an unknown kind.
+const AttackKind& kind_of(const std::string& kind) {
+  if (const AttackKind* k = find_attack_kind(kind)) return *k;
+  throw InvalidArgumentError(fmt::format("unknown attack '{}'", kind));
+}
+
+}  // namespace
+
 void check_attack_params(const std::string& kind, const AttackParams& p) {
-  const bool smoothing = kind == "smooth" || kind == "taubin";
-  auto refuse = [&](bool given, const char* name) {
-    if (given)
-      throw InvalidArgumentError(fmt::format("attack '{}' takes no parameter '{}'", kind, name));
-  };
-  refuse(!smoothing && p.lambda != 0, "lambda");
-  refuse(kind != "taubin" && p.mu != 0, "mu");
-  refuse(!smoothing && p.fixed_boundary, "fixed_boundary");
-  refuse(!smoothing && p.weighting != SmoothWeighting::Uniform, "weighting");
-  refuse(kind != "quant" && p.convention != QuantizeConvention::Levels, "convention");
-  if (!std::isfinite(p.lambda) || (kind == "taubin" && p.lambda < 0))
+  const unsigned reads = kind_of(kind).params;
+  for (const ParamField& f : kFields)
+    if (f.given(p) && !(reads & f.bit))
+      throw InvalidArgumentError(fmt::format("attack '{}' takes no parameter '{}'", kind, f.name));
+  // Taubin's (the kind with a mu) shrinks by lambda > 0 and inflates by mu < 0.
+  if (!std::isfinite(p.lambda) || ((reads & kReadsMu) && p.lambda < 0))
     throw InvalidArgumentError(
         fmt::format("attack '{}': lambda {} is out of range", kind, p.lambda));
   if (!(p.mu <= 0 && std::isfinite(p.mu)))
@@ -45,32 +67,22 @@ void check_attack_params(const std::string& kind, const AttackParams& p) {
 }
 
 void set_chain_params(std::vector<AttackStep>& steps, const AttackParams& p) {
-  bool smoothing = false, taubin = false, quant = false;
+  unsigned read = 0;
   for (AttackStep& s : steps) {
-    if (s.kind == "smooth" || s.kind == "taubin") {
-      smoothing = true;
-      s.params.lambda = p.lambda != 0 ? p.lambda : s.params.lambda;
-      s.params.fixed_boundary = s.params.fixed_boundary || p.fixed_boundary;
-      if (p.weighting != SmoothWeighting::Uniform) s.params.weighting = p.weighting;
-    }
-    if (s.kind == "taubin") {
-      taubin = true;
-      s.params.mu = p.mu != 0 ? p.mu : s.params.mu;
-    }
-    if (s.kind == "quant") {
-      quant = true;
-      if (p.convention != QuantizeConvention::Levels) s.params.convention = p.convention;
-    }
+    const unsigned reads = kind_of(s.kind).params;
+    read |= reads;
+    AttackParams& q = s.params;
+    if ((reads & kReadsLambda) && p.lambda != 0) q.lambda = p.lambda;
+    if ((reads & kReadsMu) && p.mu != 0) q.mu = p.mu;
+    if (reads & kReadsFixedBoundary) q.fixed_boundary = q.fixed_boundary || p.fixed_boundary;
+    if ((reads & kReadsWeighting) && p.weighting != SmoothWeighting::Uniform)
+      q.weighting = p.weighting;
+    if ((reads & kReadsConvention) && p.convention != QuantizeConvention::Levels)
+      q.convention = p.convention;
   }
-  auto unread = [&](bool given, bool read, const char* name) {
-    if (given && !read)
-      throw InvalidArgumentError(fmt::format("no step of the attack reads '{}'", name));
-  };
-  unread(p.lambda != 0, smoothing, "lambda");
-  unread(p.mu != 0, taubin, "mu");
-  unread(p.fixed_boundary, smoothing, "fixed_boundary");
-  unread(p.weighting != SmoothWeighting::Uniform, smoothing, "weighting");
-  unread(p.convention != QuantizeConvention::Levels, quant, "convention");
+  for (const ParamField& f : kFields)
+    if (f.given(p) && !(read & f.bit))
+      throw InvalidArgumentError(fmt::format("no step of the attack reads '{}'", f.name));
   for (const AttackStep& s : steps) check_attack_params(s.kind, s.params);
 }
 

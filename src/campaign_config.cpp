@@ -58,12 +58,11 @@ void check_keys(const std::string& file, const json& object, const std::string& 
 // series' strengths go there); every strength must make a valid chain.
 void check_series(const std::string& file, const std::string& where, const AttackSeries& s) {
   const std::string last = s.kind.substr(s.kind.rfind(',') + 1);
-  const auto& kinds = attack_kinds();
   if (last.find(':') != std::string::npos)
     bad(file, fmt::format("{}: the last step of the chain \"{}\" takes the strengths: write it "
                           "without \":\"",
                           where, s.kind));
-  if (std::none_of(kinds.begin(), kinds.end(), [&](const auto& k) { return k.first == last; }))
+  if (!find_attack_kind(last))
     bad(file, fmt::format("{}: unknown attack kind \"{}\"", where, last));
   for (const double x : s.strengths) try {
       (void)series_chain(s.kind, x);

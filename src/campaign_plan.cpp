@@ -4,7 +4,6 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <set>
 
 #include "campaign_internal.h"
 #include "meshmark/attack.h"
@@ -25,16 +24,7 @@ std::uint64_t seed_of(const std::string& text, std::uint64_t salt) {
 using detail::seed_of;
 
 bool attack_is_deterministic(const std::string& kind) {
-  static const std::set<std::string> fixed = {
-      "none",  "quant",   "smooth", "taubin", "simplify", "loop",   "midpoint",
-      "sqrt3", "float32", "to-obj", "to-off", "to-stl",   "remesh", "qsimplify"};
-  for (std::size_t start = 0; start <= kind.size();) {  // every step of a chain
-    const std::size_t end = std::min(kind.find(',', start), kind.size());
-    const std::string step = kind.substr(start, end - start);
-    if (!fixed.count(step.substr(0, step.find(':')))) return false;
-    start = end + 1;
-  }
-  return true;
+  return kind == "none" || attack_chain_is_deterministic(kind);
 }
 
 std::vector<AttackStep> series_chain(const std::string& kind, double x) {

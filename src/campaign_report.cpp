@@ -36,9 +36,8 @@ std::string strength_label(const AttackSeries& a) {
   if (a.kind == "none") return "no attack: the watermarked mesh decoded as it is";
   const std::string params = attack_params_label(a.params);
   const std::string with = params.empty() ? "" : " (here " + params + ")";
-  for (const auto& [k, meaning] : attack_kinds())
-    if (k == a.kind) return meaning + with;
-  return a.kind + with;
+  const AttackKind* kind = find_attack_kind(a.kind);
+  return (kind ? std::string(kind->meaning) : a.kind) + with;
 }
 
 double median(std::vector<double> v) {

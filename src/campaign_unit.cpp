@@ -113,17 +113,15 @@ void run_campaign_unit(const CampaignConfig& c, const CampaignUnit& u, const Mes
   std::map<const AttackSeries*, std::map<double, Mesh>> levels;
   std::map<const AttackSeries*, double> level_seconds;
   auto simplified = [&](const detail::PlannedTrial& t) -> const Mesh* {
-    const std::string& k = t.series->kind;
-    if (!embedded || (k != "simplify" && k != "qsimplify")) return nullptr;
+    const AttackKind* kind = find_attack_kind(t.series->kind);  // nullptr for a chain
+    if (!embedded || !kind || !kind->levels) return nullptr;
     auto it = levels.find(t.series);
     if (it == levels.end()) {
       std::vector<double> ratios;
       for (const detail::PlannedTrial& other : todo)
         if (other.series == t.series) ratios.push_back(other.strength);
       const auto t0 = Clock::now();
-      std::vector<Mesh> meshes = attack_simplify_levels(
-          marked, ratios,
-          k == "simplify" ? SimplifyCost::LindstromTurk : SimplifyCost::GarlandHeckbert);
+      std::vector<Mesh> meshes = kind->levels(marked, ratios);
       level_seconds[t.series] = since(t0) / static_cast<double>(ratios.size());
       it = levels.emplace(t.series, std::map<double, Mesh>{}).first;
       for (std::size_t r = 0; r < ratios.size(); ++r) it->second[ratios[r]] = std::move(meshes[r]);

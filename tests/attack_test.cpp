@@ -4,6 +4,7 @@
 #include <sys/resource.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -11,6 +12,8 @@
 #include <functional>
 #include <map>
 #include <set>
+
+#include <fmt/format.h>
 
 #include "meshmark/attack.h"
 #include "meshmark/closest_point.h"
@@ -22,6 +25,21 @@ using namespace meshmark;
 using namespace meshmark::test;
 
 namespace {
+
+// A strength each kind is meant to take, chosen here (not from the registry).
+double test_strength(const std::string& kind) {
+  if (kind == "noise" || kind == "noise-radius") return 0.002;
+  if (kind == "quant") return 9;
+  if (kind == "smooth" || kind == "taubin") return 3;
+  if (kind == "soup") return 0.9;
+  if (kind == "simplify" || kind == "qsimplify") return 0.5;
+  if (kind == "crop") return 0.1;
+  return 0;
+}
+
+std::string ply_bytes(const Mesh& m) {
+  return write_mesh_to_bytes(m, FileFormat::Ply);
+}
 
 Mesh real(const std::string& path) {
   return read_mesh(path);
@@ -355,6 +373,57 @@ TEST(Attack, BenchmarkQuantizationStepIsTheRangeOverTwoToTheBits) {
   }
 }
 
+// Each parameter, given to each kind: refused by the kinds the registry says do not read it,
+// and changing the result of those it says do (on the bunny, whose holes give a boundary).
+TEST(Attack, EveryKindReadsExactlyTheParametersTheRegistryNames) {
+  const std::string path = shared_mesh("bunny.ply");
+  MESHMARK_REQUIRE(path, "bunny.ply");
+  const Mesh m = real(path);
+  const std::vector<std::uint8_t> boundary = boundary_vertices(m.F, m.V.rows());
+  ASSERT_GT(std::count(boundary.begin(), boundary.end(), 1), 0);
+  const std::pair<unsigned, std::function<void(AttackParams&)>> params[] = {
+      {kReadsLambda, [](AttackParams& p) { p.lambda = 0.1; }},
+      {kReadsMu, [](AttackParams& p) { p.mu = -0.2; }},
+      {kReadsFixedBoundary, [](AttackParams& p) { p.fixed_boundary = true; }},
+      {kReadsWeighting, [](AttackParams& p) { p.weighting = SmoothWeighting::InverseDistance; }},
+      {kReadsConvention, [](AttackParams& p) { p.convention = QuantizeConvention::Benchmark; }},
+  };
+  int read = 0;
+  for (const AttackKind& kind : attack_registry())
+    for (const auto& [bit, set] : params) {
+      SCOPED_TRACE(fmt::format("{} bit {}", kind.name, bit));
+      AttackStep step{kind.name, test_strength(kind.name)};
+      set(step.params);
+      if (!(kind.params & bit)) {
+        EXPECT_THROW(apply_attack(m, step, 5), InvalidArgumentError);
+        continue;
+      }
+      ++read;
+      const AttackStep plain{kind.name, step.strength};
+      EXPECT_NE(apply_attack(m, step, 5).V, apply_attack(m, plain, 5).V);
+    }
+  EXPECT_EQ(read, 8);  // smooth: 3 parameters; taubin: 4; quant: 1
+}
+
+// The kinds with a levels function give, from one run, what apply gives at each strength.
+TEST(Attack, LevelsOfAKindAreItsSingleRuns) {
+  const std::string path = cgal_mesh("elephant.off");
+  MESHMARK_REQUIRE(path, "elephant.off");
+  const Mesh m = real(path);
+  int kinds = 0;
+  for (const AttackKind& kind : attack_registry()) {
+    if (!kind.levels) continue;
+    SCOPED_TRACE(kind.name);
+    ++kinds;
+    const std::vector<double> ratios = {0.7, 0.4};
+    const std::vector<Mesh> levels = kind.levels(m, ratios);
+    ASSERT_EQ(levels.size(), ratios.size());
+    for (std::size_t k = 0; k < ratios.size(); ++k)
+      EXPECT_EQ(ply_bytes(levels[k]), ply_bytes(apply_attack(m, {kind.name, ratios[k]}, 1)));
+  }
+  EXPECT_EQ(kinds, 2);  // simplify and qsimplify
+}
+
 TEST(Attack, ParametersGoToTheStepsThatReadThemAndNowhereElse) {
   AttackParams p;
   EXPECT_TRUE(attack_params_default(p));
@@ -398,21 +467,20 @@ TEST(Attack, Float32StorageRoundsToFloat) {
   EXPECT_NE(f.V, m.V);
 }
 
-TEST(Attack, SameSeedSameBytesForEveryKind) {
+// Every kind of the registry: one seed gives the same bytes twice, and another seed gives other
+// bytes exactly when the registry calls the kind seeded.
+TEST(Attack, SameSeedSameBytesForEveryKindAndSeededKindsVary) {
   const std::string path = shared_mesh("bunny.ply");
   MESHMARK_REQUIRE(path, "bunny.ply");
   const Mesh m = real(path);
-  for (const auto& [kind, what] : attack_kinds()) {
-    SCOPED_TRACE(kind);
-    AttackStep step{kind, 0};
-    if (kind == "noise" || kind == "noise-radius") step.strength = 0.002;
-    if (kind == "quant") step.strength = 9;
-    if (kind == "smooth" || kind == "taubin") step.strength = 3;
-    if (kind == "soup") step.strength = 0.9;
-    if (kind == "simplify" || kind == "qsimplify") step.strength = 0.5;
-    if (kind == "crop") step.strength = 0.1;
+  for (const AttackKind& kind : attack_registry()) {
+    SCOPED_TRACE(kind.name);
+    const AttackStep step{kind.name, test_strength(kind.name)};
     const Mesh a = apply_attack(m, step, 77), b = apply_attack(m, step, 77);
-    EXPECT_EQ(write_mesh_to_bytes(a, FileFormat::Ply), write_mesh_to_bytes(b, FileFormat::Ply));
+    EXPECT_EQ(ply_bytes(a), ply_bytes(b));
+    EXPECT_EQ(ply_bytes(apply_attack(m, step, 78)) != ply_bytes(a), kind.seeded);
+    EXPECT_EQ(attack_chain_is_deterministic(kind.name), !kind.seeded);
+    EXPECT_EQ(find_attack_kind(kind.name), &kind);
   }
   EXPECT_NE(attack_noise(m, 0.001, NoiseReference::Diagonal, 1).V,
             attack_noise(m, 0.001, NoiseReference::Diagonal, 2).V);

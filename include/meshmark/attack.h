@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "meshmark/mesh.h"
@@ -155,7 +156,7 @@ Mesh attack_subdivide(const Mesh& mesh, Subdivision scheme, int iterations);
 
 /// Parameters of the attacks whose definition the literature varies. Each kind reads the ones
 /// that concern it and refuses the others (check_attack_params); a default AttackParams gives
-/// the attack as attack_kinds() describes it.
+/// the attack as attack_registry() describes it.
 struct AttackParams {
   double lambda = 0;            ///< smooth, taubin: lambda; 0 = the kind's default (0.3, 0.5)
   double mu = 0;                ///< taubin: mu (< 0); 0 = from k_pb 0.1
@@ -185,9 +186,9 @@ QuantizeConvention parse_quantize_convention(const std::string& name);
 
 /// One step of an attack chain: a kind, its strength and its parameters.
 struct AttackStep {
-  std::string kind;  ///< see attack_kinds()
+  std::string kind;  ///< an AttackKind's name (attack_registry())
   double strength = 0;
-  AttackParams params;  ///< defaults: the kind as attack_kinds() describes it
+  AttackParams params;  ///< defaults: the kind as attack_registry() describes it
 };
 
 /// Gives every step of a chain the parameters of `params` that its kind reads (the others
@@ -195,8 +196,40 @@ struct AttackStep {
 /// step (a "lambda" for a chain without smoothing), naming it.
 void set_chain_params(std::vector<AttackStep>& steps, const AttackParams& params);
 
-/// The kinds apply_attack knows, with the meaning of their strength, one line each.
-const std::vector<std::pair<std::string, std::string>>& attack_kinds();
+/// The AttackParams fields a kind reads (bits of AttackKind::params).
+enum AttackParamBits : unsigned {
+  kReadsLambda = 1u << 0,         ///< AttackParams::lambda
+  kReadsMu = 1u << 1,             ///< AttackParams::mu
+  kReadsFixedBoundary = 1u << 2,  ///< AttackParams::fixed_boundary
+  kReadsWeighting = 1u << 3,      ///< AttackParams::weighting
+  kReadsConvention = 1u << 4,     ///< AttackParams::convention
+};
+
+/// One attack kind as chains, campaigns, the CLI and Python name it: the single place that
+/// says what a kind is called, means, reads and runs.
+struct AttackKind {
+  const char* name;         ///< "noise", "quant", ... (a step of a chain: "name:strength")
+  const char* meaning;      ///< what STRENGTH means, one line
+  bool seeded;              ///< its result depends on the seed (false: deterministic)
+  double default_strength;  ///< what a strength of 0 means (0 for most kinds)
+  unsigned params;          ///< the AttackParams it reads (AttackParamBits)
+  /// Runs it: the mesh, the strength (default_strength when 0 was given), the parameters
+  /// (checked), the seed.
+  Mesh (*apply)(const Mesh& mesh, double strength, const AttackParams& params, std::uint64_t seed);
+  /// For the edge-collapse kinds, every strength of a series from one run of collapses
+  /// (attack_simplify_levels: out[k] is apply's result at strengths[k]); nullptr for others.
+  std::vector<Mesh> (*levels)(const Mesh& mesh, const std::vector<double>& strengths);
+};
+
+/// Every kind apply_attack knows, in the order help texts list them.
+const std::vector<AttackKind>& attack_registry();
+
+/// The kind called `name` (exactly), or nullptr.
+const AttackKind* find_attack_kind(std::string_view name);
+
+/// True when every step of a chain ("quant:8,simplify") is a kind whose output does not depend
+/// on the seed. \throw InvalidArgumentError for an unknown kind.
+bool attack_chain_is_deterministic(const std::string& chain);
 
 /// Parses "noise:0.001,quant:10" into steps. \throw InvalidArgumentError naming the bad step.
 std::vector<AttackStep> parse_attack_chain(const std::string& text);

@@ -58,7 +58,7 @@ void init_attack(py::module_& m) {
       "attack_kinds",
       [] {
         py::dict kinds;
-        for (const auto& [name, what] : attack_kinds()) kinds[py::str(name)] = what;
+        for (const AttackKind& k : attack_registry()) kinds[py::str(k.name)] = k.meaning;
         return kinds;
       },
       "The attack kinds: name -> what its strength means.");
