@@ -8,6 +8,7 @@
 #include <vector>
 
 #include <optional>
+#include <type_traits>
 
 #include "meshmark/calibrate.h"
 #include "meshmark/carrier_check.h"
@@ -43,49 +44,44 @@ struct InputOptions {
   double weld_tolerance = 0;
 };
 
-/// The names the command line gives an enum's values, in the order --help lists them.
-template <class E>
-using EnumNames = std::vector<std::pair<std::string, E>>;
-
-/// --bin-offset-rule (calibrate.h's names).
-inline const EnumNames<BinOffsetRule> kBinOffsetRuleNames = {
-    {bin_offset_rule_name(BinOffsetRule::AtMostStrength), BinOffsetRule::AtMostStrength},
-    {bin_offset_rule_name(BinOffsetRule::Fixed), BinOffsetRule::Fixed}};
-/// --solver.
-inline const EnumNames<SolverBackend> kSolverNames = {{"native", SolverBackend::Native},
-                                                      {"ipopt", SolverBackend::Ipopt}};
-/// --x-step.
-inline const EnumNames<AdmmXStep> kXStepNames = {{"cg", AdmmXStep::ConjugateGradients},
-                                                 {"cholesky", AdmmXStep::Cholesky}};
-
-/// Adds an option bound to an enum value: CLI11 accepts only the names (any case) and stores
-/// the value they name.
-template <class E>
-CLI::Option* add_enum_option(CLI::App& app, const std::string& flag, E& value,
-                             const EnumNames<E>& names, const std::string& help) {
-  return app.add_option(flag, value, help)
-      ->transform(CLI::CheckedTransformer(names, CLI::ignore_case));
+/// Adds an option bound to an enum (E, or std::optional<E> for "not given"): it accepts the
+/// names of the library's table (enum_names.h; any case) and refuses any other value with the
+/// library's message, which lists the names.
+template <class E, class Target>
+CLI::Option* add_enum_option(CLI::App& app, const std::string& flag, Target& value,
+                             const std::string& help) {
+  const auto names = enum_names<E>();
+  std::string type = "{";
+  for (std::size_t i = 0; i < names.size(); ++i) type += (i ? "|" : "") + std::string(names[i]);
+  type += "}";
+  CLI::Option* option = app.add_option_function<std::string>(
+      flag, [&value](const std::string& name) { value = parse_enum<E>(name); }, help);
+  option->check(CLI::Validator(
+      [](std::string& name) -> std::string {
+        try {
+          (void)parse_enum<E>(name);
+          return {};
+        } catch (const std::exception& e) {
+          return e.what();
+        }
+      },
+      ""));
+  option->type_name(type);
+  if constexpr (std::is_same_v<Target, E>) option->default_str(enum_name(value));
+  return option;
 }
 
-/// The command line's name of value.
-template <class E>
-std::string enum_name(const EnumNames<E>& names, E value) {
-  for (const auto& [name, v] : names)
-    if (v == value) return name;
-  return "?";
-}
-
-/// Adds --method to a subcommand: the embedding method (method.h), parsed by parse_method.
+/// Adds --method to a subcommand: the embedding method (method.h's names).
 /// purpose: what the method is for in this command ("the embedding's method").
-void add_method_option(CLI::App& app, std::string& method, const std::string& purpose);
+void add_method_option(CLI::App& app, Method& method, const std::string& purpose);
 
 /// Adds --weld-tolerance to a subcommand.
 void add_input_options(CLI::App& app, InputOptions& options);
 
 /// Output format options: --format, --encoding, --float32.
 struct OutputOptions {
-  std::string format;    // "" = from the extension
-  std::string encoding;  // "" = keep
+  std::optional<FileFormat> format;  // none: from the extension
+  std::optional<Encoding> encoding;  // none: keep
   bool float32 = false;
   bool float_positions = false;
 };

@@ -20,27 +20,12 @@ struct AttackArgs {
   double strength = 0;
   std::uint64_t seed = 1;
   AttackParams params;
-  std::string weighting = "uniform", convention = "levels";
   InputOptions in;
   OutputOptions out;
 };
 
 int run(const AttackArgs& a) {
-  std::vector<AttackStep> steps;
-  if (a.kind.find_first_of(":,") != std::string::npos) {
-    steps = parse_attack_chain(a.kind);
-  } else {
-    steps = parse_attack_chain(a.kind);  // validates the name
-    steps[0].strength = a.strength;
-  }
-  for (const AttackStep& s : steps)
-    if (!std::isfinite(s.strength))
-      throw InvalidArgumentError(
-          fmt::format("attack '{}': strength {} is not a finite number", s.kind, s.strength));
-  AttackParams params = a.params;
-  params.weighting = parse_smooth_weighting(a.weighting);
-  params.convention = parse_quantize_convention(a.convention);
-  set_chain_params(steps, params);
+  const std::vector<AttackStep> steps = attack_steps(a.kind, a.strength, a.params);
   const Mesh mesh = read_input(a.input, a.in);
   Mesh attacked = apply_attack_chain(mesh, steps, a.seed);
   attacked.source_path = a.input;  // what a failed write (float32 range) names
@@ -80,14 +65,12 @@ void register_attack(CLI::App& app, int& exit_code) {
                   "taubin: the inflating factor, negative (default from k_pb 0.1: -0.526)");
   sub->add_flag("--fixed-boundary", args->params.fixed_boundary,
                 "smooth, taubin: vertices on a boundary edge stay (the LIRIS benchmark's)");
-  sub->add_option("--weighting", args->weighting,
-                  "smooth, taubin: neighbour weights, 'uniform' (1/degree; default, the "
-                  "benchmark's) or 'inverse-distance' (1/length, Open3D's)")
-      ->check(CLI::IsMember({"uniform", "inverse-distance"}));
-  sub->add_option("--convention", args->convention,
-                  "quant: grid step (max - min) / (2^b - 1) 'levels' (default) or / 2^b "
-                  "'benchmark' (the LIRIS benchmark's)")
-      ->check(CLI::IsMember({"levels", "benchmark"}));
+  add_enum_option<SmoothWeighting>(*sub, "--weighting", args->params.weighting,
+                                   "smooth, taubin: neighbour weights, 'uniform' (1/degree; the "
+                                   "benchmark's) or 'inverse-distance' (1/length, Open3D's)");
+  add_enum_option<QuantizeConvention>(*sub, "--convention", args->params.convention,
+                                      "quant: grid step (max - min) / (2^b - 1) 'levels' or / "
+                                      "2^b 'benchmark' (the LIRIS benchmark's)");
   add_input_options(*sub, args->in);
   add_output_options(*sub, args->out);
   sub->callback([args, &exit_code] { exit_code = run(*args); });

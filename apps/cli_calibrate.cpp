@@ -17,7 +17,8 @@ namespace meshmark::cli {
 namespace {
 
 struct CalibrateArgs {
-  std::string input, variant = "DRS", cache, method = "qp";
+  std::string input, variant = "DRS", cache;
+  Method method = Method::Qp;
   BinOffsetRule bin_offset_rule = BinOffsetRule::AtMostStrength;
   double bin_offset = 0.05;
   int bits = 64;
@@ -29,7 +30,7 @@ struct CalibrateArgs {
 int run(const CalibrateArgs& a) {
   FileCalibrationOptions o;
   o.variant = parse_variant(a.variant);
-  o.method = parse_method(a.method);
+  o.method = a.method;
   o.bits = a.bits;
   o.bin_offset = a.bin_offset;
   o.limits = a.options;
@@ -85,8 +86,9 @@ void register_calibrate(CLI::App& app, int& exit_code) {
   sub->add_option("--bin-offset", args->bin_offset,
                   "G in [0, 1/2): vertices stay in [G, 1-G] of their bin (default 0.05)")
       ->check(CLI::Range(0.0, 0.4999));
-  add_enum_option(*sub, "--bin-offset-rule", args->bin_offset_rule, kBinOffsetRuleNames,
-                  "at-most-strength (G = min(G, alpha), the default) or fixed (the paper's)");
+  add_enum_option<BinOffsetRule>(
+      *sub, "--bin-offset-rule", args->bin_offset_rule,
+      "at-most-strength (G = min(G, alpha), the default) or fixed (the paper's)");
   sub->add_option("--cache", args->cache,
                   "cache file (default $XDG_CACHE_HOME or ~/.cache/meshmark/calibration.jsonl)");
   sub->add_flag("--no-cache", args->no_cache, "neither read nor write the cache");

@@ -17,7 +17,8 @@ namespace meshmark::cli {
 namespace {
 
 struct DetectArgs {
-  std::string input, expect_id, expect_payload, variant = "DRS", method = "qp";
+  std::string input, expect_id, expect_payload, variant = "DRS";
+  Method method = Method::Qp;
   int bits = 64;
   double threshold = 1e-6;
   KeyArgs keys;
@@ -41,7 +42,7 @@ int run(const DetectArgs& a) {
   ExtractOptions eo;
   eo.bits = a.bits;
   eo.center = parse_variant(a.variant).center;
-  eo.method = parse_method(a.method);
+  eo.method = a.method;
   const Mesh mesh = read_input(a.input, a.in);
   const MarkDetection found = detect_mark(mesh.V, mesh.F, eo, expect, key, options);
   report_carrier(a.input, found.extract.check);

@@ -20,7 +20,7 @@ struct EmbedArgs {
   std::string input, output, payload, id, variant = "DRS", batch;
   std::string registry, buyer, fidelity;
   BinOffsetRule bin_offset_rule = BinOffsetRule::AtMostStrength;
-  std::string method = "qp";
+  Method method = Method::Qp;
   double max_rms = 0, max_msdm = 0;  // 0: not given
   KeyArgs keys;
   int bits = 64;
@@ -61,7 +61,7 @@ int run(const EmbedArgs& a) {
   options = a.embed;
   settings.limits = fidelity_limits(a);
   options.variant = parse_variant(a.variant);
-  options.method = parse_method(a.method);
+  options.method = a.method;
   settings.bits = a.bits;
   settings.read = read_options(a.in);
   settings.write = write_options(a.out);
@@ -115,7 +115,7 @@ int run(const EmbedArgs& a) {
         {"output", ok ? a.output : ""},
         {"method", method_name(used.method)},
         {"variant", a.variant},
-        {"solver", enum_name(kSolverNames, used.backend)},
+        {"solver", enum_name(used.backend)},
         {"payload", payload_to_hex(payload)},
         {"id", coded ? nlohmann::json(parse_id(a.id)) : nlohmann::json(nullptr)},
         {"keyed", key.has_value()},
@@ -236,9 +236,10 @@ void register_embed(CLI::App& app, int& exit_code) {
       sub->add_option("--max-msdm", args->max_msdm,
                       "search the strongest mark whose MSDM stays within this (default 0.25)")
           ->check(CLI::PositiveNumber);
-  add_enum_option(*sub, "--bin-offset-rule", args->bin_offset_rule, kBinOffsetRuleNames,
-                  "with a fidelity search: at-most-strength (G = min(--bin-offset, alpha), the "
-                  "default) or fixed (G = --bin-offset, the paper's)");
+  add_enum_option<BinOffsetRule>(
+      *sub, "--bin-offset-rule", args->bin_offset_rule,
+      "with a fidelity search: at-most-strength (G = min(--bin-offset, alpha), the "
+      "default) or fixed (G = --bin-offset, the paper's)");
   sub->add_option("--strength-spread", args->strength_spread,
                   "keyed or coded marks: bit j's strength is alpha (1 + spread u_j), u_j drawn "
                   "from the key in [0, 1), so the histogram does not show alpha; 0 = uniform")
@@ -247,13 +248,15 @@ void register_embed(CLI::App& app, int& exit_code) {
                   "G in [0, 1/2): vertices stay in [G, 1-G] of their bin");
   sub->add_option("--max-rounds", args->embed.max_rounds, "linearize-and-solve rounds at most")
       ->check(CLI::Range(1, 1000));
-  add_enum_option(*sub, "--solver", args->embed.backend, kSolverNames,
-                  "the backend that solves each round's quadratic program (EmbedOptions::backend): "
-                  "native (the structured solvers: exact dual Newton for costs S and Q, ADMM for "
-                  "cost L) or ipopt (general-purpose interior point, for comparison)");
-  add_enum_option(*sub, "--x-step", args->embed.admm.x_step, kXStepNames,
-                  "cost L, native solver: ADMM x-steps by matrix-free conjugate gradients (cg) or "
-                  "a sparse LDL^T factorization reused across iterations (cholesky)");
+  add_enum_option<SolverBackend>(
+      *sub, "--solver", args->embed.backend,
+      "the backend that solves each round's quadratic program (EmbedOptions::backend): "
+      "native (the structured solvers: exact dual Newton for costs S and Q, ADMM for "
+      "cost L) or ipopt (general-purpose interior point, for comparison)");
+  add_enum_option<AdmmXStep>(
+      *sub, "--x-step", args->embed.admm.x_step,
+      "cost L, native solver: ADMM x-steps by matrix-free conjugate gradients (cg) or "
+      "a sparse LDL^T factorization reused across iterations (cholesky)");
   sub->add_option("--registry", args->registry,
                   "record the issued copy (coded ID) in this SQLite registry; an ID already "
                   "issued from this original under this key is refused");

@@ -15,7 +15,8 @@ namespace meshmark::cli {
 namespace {
 
 struct ExtractArgs {
-  std::string input, expect, variant = "DRS", method = "qp";
+  std::string input, expect, variant = "DRS";
+  Method method = Method::Qp;
   int bits = 64;
   InputOptions in;
   KeyArgs keys;
@@ -28,7 +29,7 @@ int run(const ExtractArgs& a) {
   ExtractOptions options;
   options.bits = a.bits;
   options.center = parse_variant(a.variant).center;
-  options.method = parse_method(a.method);
+  options.method = a.method;
   std::optional<Payload> expected;
   if (!a.expect.empty()) expected = payload_from_hex(a.expect, a.bits);
   const std::optional<Key> key = resolve_key(a.keys);

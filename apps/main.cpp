@@ -14,12 +14,11 @@
 
 namespace meshmark::cli {
 
-void add_method_option(CLI::App& app, std::string& method, const std::string& purpose) {
-  app.add_option("--method", method,
-                 purpose +
-                     ": qp (the QP framework, default), cho-mean or cho-variance (Cho et al. "
-                     "2007's Method I or II, baselines: docs/cho.md)")
-      ->check(CLI::IsMember({"qp", "cho-mean", "cho-variance"}, CLI::ignore_case));
+void add_method_option(CLI::App& app, Method& method, const std::string& purpose) {
+  add_enum_option<Method>(app, "--method", method,
+                          purpose +
+                              ": qp (the QP framework), cho-mean or cho-variance (Cho et al. "
+                              "2007's Method I or II, baselines: docs/cho.md)");
 }
 
 void add_input_options(CLI::App& app, InputOptions& options) {
@@ -40,11 +39,10 @@ void add_input_options(CLI::App& app, InputOptions& options) {
 }
 
 void add_output_options(CLI::App& app, OutputOptions& options) {
-  app.add_option("--format", options.format, "output format (default: from OUT's extension)")
-      ->check(CLI::IsMember({"off", "obj", "ply", "stl", "gltf", "glb", "drc", "3mf"}));
-  app.add_option("--encoding", options.encoding,
-                 "PLY/STL output encoding (default: keep the input's)")
-      ->check(CLI::IsMember({"ascii", "binary_little_endian", "binary_big_endian"}));
+  add_enum_option<FileFormat>(app, "--format", options.format,
+                              "output format (default: from OUT's extension)");
+  add_enum_option<Encoding>(app, "--encoding", options.encoding,
+                            "PLY/STL output encoding (default: keep the input's)");
   app.add_flag("--float32", options.float32, "PLY written from scratch: store float32 coordinates");
   app.add_flag("--float-positions", options.float_positions,
                "glTF written back: store quantized positions as float32 (a new buffer view; "
@@ -91,10 +89,8 @@ void write_heat_map(const std::string& path, std::initializer_list<std::string> 
 
 WriteOptions write_options(const OutputOptions& options) {
   WriteOptions wo;
-  if (!options.format.empty()) wo.format = format_from_path("x." + options.format);
-  if (options.encoding == "ascii") wo.encoding = Encoding::Ascii;
-  if (options.encoding == "binary_little_endian") wo.encoding = Encoding::BinaryLittleEndian;
-  if (options.encoding == "binary_big_endian") wo.encoding = Encoding::BinaryBigEndian;
+  wo.format = options.format;
+  wo.encoding = options.encoding;
   wo.single_precision = options.float32;
   wo.float_positions = options.float_positions;
   return wo;

@@ -119,21 +119,7 @@ bool AdmmQpSolver::solve_x(const Eigen::VectorXd& rhs, Eigen::VectorXd& x,
 }
 
 const char* admm_stop_name(AdmmStop stop) {
-  switch (stop) {
-    case AdmmStop::Converged:
-      return "converged";
-    case AdmmStop::Infeasible:
-      return "infeasible";
-    case AdmmStop::IterationLimit:
-      return "iteration limit";
-    case AdmmStop::Stalled:
-      return "stalled";
-    case AdmmStop::ProjectionFailed:
-      return "projection not converged";
-    case AdmmStop::XStepFailed:
-      return "x-step not converged";
-  }
-  return "?";
+  return enum_name(stop);
 }
 
 QpResult AdmmQpSolver::solve(const SeparableQp& qp, const Eigen::VectorXd* warm_z,

@@ -87,25 +87,19 @@ void set_chain_params(std::vector<AttackStep>& steps, const AttackParams& p) {
 }
 
 const char* smooth_weighting_name(SmoothWeighting w) {
-  return w == SmoothWeighting::Uniform ? "uniform" : "inverse-distance";
+  return enum_name(w);
 }
 
 SmoothWeighting parse_smooth_weighting(const std::string& name) {
-  if (name == "uniform") return SmoothWeighting::Uniform;
-  if (name == "inverse-distance") return SmoothWeighting::InverseDistance;
-  throw InvalidArgumentError(
-      fmt::format("weighting '{}' is neither 'uniform' nor 'inverse-distance'", name));
+  return parse_enum<SmoothWeighting>(name);
 }
 
 const char* quantize_convention_name(QuantizeConvention c) {
-  return c == QuantizeConvention::Levels ? "levels" : "benchmark";
+  return enum_name(c);
 }
 
 QuantizeConvention parse_quantize_convention(const std::string& name) {
-  if (name == "levels") return QuantizeConvention::Levels;
-  if (name == "benchmark") return QuantizeConvention::Benchmark;
-  throw InvalidArgumentError(
-      fmt::format("quantization convention '{}' is neither 'levels' nor 'benchmark'", name));
+  return parse_enum<QuantizeConvention>(name);
 }
 
 }  // namespace meshmark

@@ -178,6 +178,18 @@ std::vector<AttackStep> parse_attack_chain(const std::string& text) {
   return steps;
 }
 
+std::vector<AttackStep> attack_steps(const std::string& kind, double strength,
+                                     const AttackParams& params) {
+  std::vector<AttackStep> steps = parse_attack_chain(kind);
+  if (kind.find_first_of(":,") == std::string::npos) steps[0].strength = strength;
+  for (const AttackStep& s : steps)
+    if (!std::isfinite(s.strength))
+      throw InvalidArgumentError(
+          fmt::format("attack '{}': strength {} is not a finite number", s.kind, s.strength));
+  set_chain_params(steps, params);
+  return steps;
+}
+
 bool attack_chain_is_deterministic(const std::string& chain) {
   const std::vector<AttackStep> steps = parse_attack_chain(chain);
   return std::none_of(steps.begin(), steps.end(),

@@ -191,37 +191,15 @@ void explain(const PreparedEmbedder& embedder, const Payload& payload, const Emb
 }  // namespace
 
 const char* calibrate_status_name(CalibrateStatus status) {
-  switch (status) {
-    case CalibrateStatus::Calibrated:
-      return "calibrated";
-    case CalibrateStatus::AtMaximum:
-      return "at maximum";
-    case CalibrateStatus::BelowMinimum:
-      return "below minimum";
-  }
-  return "?";
+  return enum_name(status);
 }
 
 const char* calibrate_cause_name(CalibrateCause cause) {
-  switch (cause) {
-    case CalibrateCause::None:
-      return "none";
-    case CalibrateCause::Carrier:
-      return "carrier";
-    case CalibrateCause::Infeasible:
-      return "infeasible";
-    case CalibrateCause::NotConverged:
-      return "not converged";
-    case CalibrateCause::RmsLimit:
-      return "rms limit";
-    case CalibrateCause::MsdmLimit:
-      return "msdm limit";
-  }
-  return "?";
+  return enum_name(cause);
 }
 
 const char* bin_offset_rule_name(BinOffsetRule rule) {
-  return rule == BinOffsetRule::Fixed ? "fixed" : "at-most-strength";
+  return enum_name(rule);
 }
 
 CalibrateResult calibrate_strength(const PreparedEmbedder& embedder, const Payload& payload,

@@ -94,10 +94,11 @@ void read_protocols(const std::string& file, const json& j, CampaignConfig& c) {
   auto limits = [&](const json& k, const std::string& where, CalibrateOptions o) {
     check_keys(file, k, where,
                {"name", "max_rms", "max_msdm", "iterations", "min", "max", "bin_offset"});
-    const std::string rule = k.value("bin_offset", bin_offset_rule_name(o.bin_offset));
-    if (rule != "fixed" && rule != "at-most-strength")
-      bad(file, fmt::format("{}: bin_offset '{}' is not fixed or at-most-strength", where, rule));
-    o.bin_offset = rule == "fixed" ? BinOffsetRule::Fixed : BinOffsetRule::AtMostStrength;
+    try {
+      o.bin_offset = parse_enum<BinOffsetRule>(k.value("bin_offset", enum_name(o.bin_offset)));
+    } catch (const InvalidArgumentError& e) {
+      bad(file, fmt::format("{}: bin_offset: {}", where, e.what()));
+    }
     o.max_rms_percent = k.value("max_rms", o.max_rms_percent);
     o.max_msdm = k.value("max_msdm", o.max_msdm);
     o.iterations = k.value("iterations", o.iterations);

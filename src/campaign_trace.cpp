@@ -35,15 +35,7 @@ std::string joined(const std::vector<std::uint64_t>& ids) {
 }  // namespace
 
 const char* trace_outcome_name(TraceOutcome outcome) {
-  switch (outcome) {
-    case TraceOutcome::Right:
-      return "right";
-    case TraceOutcome::None:
-      return "none";
-    case TraceOutcome::Wrong:
-      return "wrong";
-  }
-  return "?";
+  return enum_name(outcome);
 }
 
 TraceOutcome trace_outcome(const std::vector<std::uint64_t>& named,

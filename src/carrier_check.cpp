@@ -73,15 +73,7 @@ CarrierCheck check_carrier(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
 }
 
 const char* carrier_health_name(CarrierHealth health) {
-  switch (health) {
-    case CarrierHealth::Healthy:
-      return "healthy";
-    case CarrierHealth::Weak:
-      return "weak";
-    case CarrierHealth::Unusable:
-      return "unusable";
-  }
-  return "?";
+  return enum_name(health);
 }
 
 }  // namespace meshmark

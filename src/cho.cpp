@@ -71,17 +71,7 @@ ChoBinMapping cho_search_exponent(const std::vector<double>& t, BinStatistic sta
 }
 
 const char* cho_search_status_name(ChoSearchStatus status) {
-  switch (status) {
-    case ChoSearchStatus::Unchanged:
-      return "unchanged";
-    case ChoSearchStatus::Reached:
-      return "reached";
-    case ChoSearchStatus::Tolerance:
-      return "tolerance";
-    case ChoSearchStatus::Unreachable:
-      return "unreachable";
-  }
-  return "?";
+  return enum_name(status);
 }
 
 }  // namespace meshmark

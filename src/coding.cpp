@@ -50,17 +50,7 @@ double log2_hamming_ball(int n, int t) {
 }
 
 const char* id_decode_status_name(IdDecodeStatus status) {
-  switch (status) {
-    case IdDecodeStatus::Found:
-      return "found";
-    case IdDecodeStatus::Unreadable:
-      return "unreadable";
-    case IdDecodeStatus::TooManyErrors:
-      return "too-many-errors";
-    case IdDecodeStatus::NotUnderKey:
-      return "not-under-key";
-  }
-  return "?";
+  return enum_name(status);
 }
 
 int bch_parity_bits(int m, int t) {

@@ -27,15 +27,7 @@ double binomial_tail(int n, int k) {
 }
 
 const char* null_model_name(NullModel model) {
-  switch (model) {
-    case NullModel::Binomial:
-      return "binomial";
-    case NullModel::CodewordExact:
-      return "codeword-exact";
-    case NullModel::CodewordBound:
-      return "codeword-bound";
-  }
-  return "?";
+  return enum_name(model);
 }
 
 namespace {

@@ -110,17 +110,7 @@ bool same_roughness(const RoughnessOptions& a, const RoughnessOptions& b) {
 }  // namespace
 
 const char* embed_status_name(EmbedStatus status) {
-  switch (status) {
-    case EmbedStatus::Embedded:
-      return "embedded";
-    case EmbedStatus::Infeasible:
-      return "infeasible";
-    case EmbedStatus::NotConverged:
-      return "not converged";
-    case EmbedStatus::InvalidMesh:
-      return "invalid mesh";
-  }
-  return "?";
+  return enum_name(status);
 }
 
 struct PreparedEmbedder::Impl {

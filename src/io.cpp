@@ -110,55 +110,23 @@ std::vector<double> point_displacements(const Mesh& mesh, const std::vector<int>
 }  // namespace detail
 
 const char* format_name(FileFormat format) {
-  switch (format) {
-    case FileFormat::Off:
-      return "off";
-    case FileFormat::Obj:
-      return "obj";
-    case FileFormat::Ply:
-      return "ply";
-    case FileFormat::Stl:
-      return "stl";
-    case FileFormat::Gltf:
-      return "gltf";
-    case FileFormat::Glb:
-      return "glb";
-    case FileFormat::Draco:
-      return "drc";
-    case FileFormat::ThreeMf:
-      return "3mf";
-  }
-  return "?";
+  return enum_name(format);
 }
 
 const char* encoding_name(Encoding encoding) {
-  switch (encoding) {
-    case Encoding::Ascii:
-      return "ascii";
-    case Encoding::BinaryLittleEndian:
-      return "binary_little_endian";
-    case Encoding::BinaryBigEndian:
-      return "binary_big_endian";
-  }
-  return "?";
+  return enum_name(encoding);
 }
 
 FileFormat format_from_path(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return std::tolower(c); });
-  if (ext == ".off") return FileFormat::Off;
-  if (ext == ".obj") return FileFormat::Obj;
-  if (ext == ".ply") return FileFormat::Ply;
-  if (ext == ".stl") return FileFormat::Stl;
-  if (ext == ".gltf") return FileFormat::Gltf;
-  if (ext == ".glb") return FileFormat::Glb;
-  if (ext == ".drc") return FileFormat::Draco;
-  if (ext == ".3mf") return FileFormat::ThreeMf;
-  throw InvalidArgumentError(
-      fmt::format("{}: unknown mesh extension '{}' (expected .off, .obj, .ply, .stl, .gltf, .glb, "
-                  ".drc or .3mf)",
-                  path, ext));
+  const std::string ext = std::filesystem::path(path).extension().string();
+  for (const NamedValue<FileFormat>& f : EnumTable<FileFormat>::values)
+    if (ext.size() > 1 && detail::same_name(std::string_view(ext).substr(1), f.name))
+      return f.value;
+  std::vector<std::string> expected;
+  for (const std::string_view name : enum_names<FileFormat>())
+    expected.push_back(fmt::format(".{}", name));
+  throw InvalidArgumentError(fmt::format("{}: unknown mesh extension '{}' (expected {})", path, ext,
+                                         fmt::join(expected, ", ")));
 }
 
 namespace {

@@ -3,6 +3,7 @@
 // polygons; the tristrips element (list vertex_indices, -1 restarts a strip) gives triangles.
 // Everything else is carried by the file image.
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 
@@ -74,14 +75,11 @@ Header parse_header(const std::string& bytes, const std::string& name) {
     if (key == "format") {
       if (tokens.size() < 2) fail(name, ln, "format line without a format");
       const std::string_view f = tokens[1].text;
-      if (f == "ascii")
-        header.encoding = Encoding::Ascii;
-      else if (f == "binary_little_endian")
-        header.encoding = Encoding::BinaryLittleEndian;
-      else if (f == "binary_big_endian")
-        header.encoding = Encoding::BinaryBigEndian;
-      else
-        fail(name, ln, fmt::format("unknown format {}", quote(f)));
+      const auto& encodings = EnumTable<Encoding>::values;  // PLY's own names, exact case
+      const auto* e = std::find_if(std::begin(encodings), std::end(encodings),
+                                   [&](const NamedValue<Encoding>& v) { return f == v.name; });
+      if (e == std::end(encodings)) fail(name, ln, fmt::format("unknown format {}", quote(f)));
+      header.encoding = e->value;
       have_format = true;
     } else if (key == "element") {
       std::int64_t count = 0;

@@ -224,27 +224,7 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
 }  // namespace
 
 const char* copy_status_name(CopyStatus status) {
-  switch (status) {
-    case CopyStatus::Written:
-      return "written";
-    case CopyStatus::Skipped:
-      return "skipped";
-    case CopyStatus::Refused:
-      return "refused";
-    case CopyStatus::Unreadable:
-      return "unreadable";
-    case CopyStatus::NotEmbedded:
-      return "not embedded";
-    case CopyStatus::NotWithinFidelity:
-      return "not within the fidelity limits";
-    case CopyStatus::NotCarried:
-      return "not carried by the file";
-    case CopyStatus::WriteFailed:
-      return "write failed";
-    case CopyStatus::NotRecorded:
-      return "not recorded";
-  }
-  return "unknown";
+  return enum_name(status);
 }
 
 std::size_t IssueResult::count(CopyStatus status) const {

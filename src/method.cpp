@@ -10,32 +10,12 @@
 
 namespace meshmark {
 
-namespace {
-
-constexpr Method kMethods[] = {Method::Qp, Method::ChoMean, Method::ChoVariance};
-
-}  // namespace
-
 const char* method_name(Method method) {
-  switch (method) {
-    case Method::Qp:
-      return "qp";
-    case Method::ChoMean:
-      return "cho-mean";
-    case Method::ChoVariance:
-      return "cho-variance";
-  }
-  return "?";
+  return enum_name(method);
 }
 
 Method parse_method(std::string_view name) {
-  std::string lower(name);
-  std::transform(lower.begin(), lower.end(), lower.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  for (const Method m : kMethods)
-    if (lower == method_name(m)) return m;
-  throw InvalidArgumentError(fmt::format(
-      "unknown method '{}': the methods are qp (the default), cho-mean and cho-variance", name));
+  return parse_enum<Method>(name);
 }
 
 std::string MarkScheme::name() const {

@@ -172,15 +172,7 @@ bool certifies_infeasibility(const SeparableQp& qp, const PackedQp& pq, const Ei
 }  // namespace
 
 const char* qp_status_name(QpStatus status) {
-  switch (status) {
-    case QpStatus::Solved:
-      return "solved";
-    case QpStatus::Infeasible:
-      return "infeasible";
-    case QpStatus::IterationLimit:
-      return "iteration limit";
-  }
-  return "?";
+  return enum_name(status);
 }
 
 QpResult solve_separable_qp(const SeparableQp& qp, const QpSettings& settings,

@@ -23,17 +23,7 @@
 namespace meshmark {
 
 const char* trace_status_name(TraceStatus status) {
-  switch (status) {
-    case TraceStatus::Named:
-      return "named";
-    case TraceStatus::NoBuyer:
-      return "no-buyer";
-    case TraceStatus::RegistrationFailed:
-      return "registration-failed";
-    case TraceStatus::NoCandidates:
-      return "no-candidates";
-  }
-  return "?";
+  return enum_name(status);
 }
 
 namespace {

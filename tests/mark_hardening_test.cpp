@@ -251,6 +251,19 @@ TEST(MarkHardening, CommandLineRefusesAmbiguousKeysAndPayloads) {
   r = test::run_cli("embed " + spot + " " + out + " --payload 00 --bits 8 --solver nonsense");
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_NE(r.out.find("--solver"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("one of: native, ipopt"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("->"), std::string::npos) << r.out;  // names, not the enum's integers
+  r = test::run_cli("extract " + spot + " --bits 8 --method cho-median");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("one of: qp, cho-mean, cho-variance"), std::string::npos) << r.out;
+  r = test::run_cli("extract " + spot + " --bits 8 --method CHO-MEAN --variant srs");
+  EXPECT_EQ(r.code, 0) << r.out;  // names in any case
+  r = test::run_cli("attack noise:0 " + spot + " " + out + " --format obj --encoding utf8");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("binary_little_endian"), std::string::npos) << r.out;
+  r = test::run_cli("attack noise:0 " + spot + " " + out + " --format fbx");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("3mf"), std::string::npos) << r.out;
   r = test::run_cli("embed " + spot + " " + out + " --payload 00 --bits 8 --x-step lu");
   EXPECT_EQ(r.code, 1) << r.out;
   r = test::run_cli("calibrate " + spot + " --bin-offset-rule sometimes --no-cache");

@@ -20,6 +20,7 @@
 #include <functional>
 #include <memory>
 
+#include "meshmark/enum_names.h"
 #include "meshmark/separable_qp.h"
 #include "meshmark/solver_settings.h"
 
@@ -34,6 +35,19 @@ enum class AdmmStop {
   ProjectionFailed,  ///< a z-step's projection did not converge: QpStatus::IterationLimit
   XStepFailed,       ///< an x-step's conjugate gradients did not converge (H not positive
                      ///< semidefinite, or max_cg_iterations too few): QpStatus::IterationLimit
+};
+
+/// The names of AdmmStop's values (admm_stop_name).
+template <>
+struct EnumTable<AdmmStop> {
+  static constexpr const char* what = "ADMM stop";
+  static constexpr NamedValue<AdmmStop> values[] = {
+      {AdmmStop::Converged, "converged"},
+      {AdmmStop::Infeasible, "infeasible"},
+      {AdmmStop::IterationLimit, "iteration limit"},
+      {AdmmStop::Stalled, "stalled"},
+      {AdmmStop::ProjectionFailed, "projection not converged"},
+      {AdmmStop::XStepFailed, "x-step not converged"}};
 };
 
 /// "converged", "infeasible", "iteration limit", "stalled", "projection not converged",

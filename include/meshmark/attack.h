@@ -10,6 +10,7 @@
 #include <string_view>
 #include <vector>
 
+#include "meshmark/enum_names.h"
 #include "meshmark/mesh.h"
 
 namespace meshmark {
@@ -49,6 +50,14 @@ enum class QuantizeConvention {
               ///< Various_Processing, Wang et al. 2010); 2^b + 1 values
 };
 
+/// The names of QuantizeConvention's values.
+template <>
+struct EnumTable<QuantizeConvention> {
+  static constexpr const char* what = "quantization convention";
+  static constexpr NamedValue<QuantizeConvention> values[] = {
+      {QuantizeConvention::Levels, "levels"}, {QuantizeConvention::Benchmark, "benchmark"}};
+};
+
 /// Rounds every coordinate onto the grid of `convention` spanning the bounding box, from the
 /// minimum of each axis. 1 <= bits <= 52. Keeps the file image.
 /// \throw InvalidArgumentError for bits outside 1..52.
@@ -60,6 +69,15 @@ enum class SmoothWeighting {
   Uniform,          ///< each neighbour 1 / degree (Taubin 1995; the LIRIS benchmark's; default)
   InverseDistance,  ///< neighbour j weighted 1 / (|p_j - p_i| + 1e-12), normalized to sum 1
                     ///< (Open3D's filter_smooth_laplacian and filter_smooth_taubin)
+};
+
+/// The names of SmoothWeighting's values.
+template <>
+struct EnumTable<SmoothWeighting> {
+  static constexpr const char* what = "weighting";
+  static constexpr NamedValue<SmoothWeighting> values[] = {
+      {SmoothWeighting::Uniform, "uniform"},
+      {SmoothWeighting::InverseDistance, "inverse-distance"}};
 };
 
 /// Laplacian smoothing: every iteration p_i += lambda (weighted mean of the one-ring - p_i),
@@ -233,6 +251,14 @@ bool attack_chain_is_deterministic(const std::string& chain);
 
 /// Parses "noise:0.001,quant:10" into steps. \throw InvalidArgumentError naming the bad step.
 std::vector<AttackStep> parse_attack_chain(const std::string& text);
+
+/// The steps of an attack as a command line gives it: `kind` is one kind (then it runs at
+/// `strength`) or a chain "noise:0.001,quant:10" (then `strength` is unused), and `params` go
+/// to every step that reads them (set_chain_params).
+/// \throw InvalidArgumentError for an unknown kind, a strength that is not a finite number, or
+/// a parameter no step reads.
+std::vector<AttackStep> attack_steps(const std::string& kind, double strength,
+                                     const AttackParams& params);
 
 /// Applies one step (seeded). \throw InvalidArgumentError for an unknown kind or strength, or
 /// a parameter the kind does not read.

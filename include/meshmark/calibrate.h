@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "meshmark/embed.h"
+#include "meshmark/enum_names.h"
 #include "meshmark/payload.h"
 
 namespace meshmark {
@@ -23,6 +24,14 @@ enum class BinOffsetRule {
   Fixed,           ///< G = embed_options.bin_offset for every alpha (the paper's)
   AtMostStrength,  ///< G = min(embed_options.bin_offset, alpha): a weak mark does not pay for
                    ///< a wide guard band, so a mesh whose vertices crowd bin edges still fits
+};
+
+/// The names of BinOffsetRule's values.
+template <>
+struct EnumTable<BinOffsetRule> {
+  static constexpr const char* what = "bin offset rule";
+  static constexpr NamedValue<BinOffsetRule> values[] = {
+      {BinOffsetRule::Fixed, "fixed"}, {BinOffsetRule::AtMostStrength, "at-most-strength"}};
 };
 
 /// Limits and search of calibrate_strength.
@@ -51,6 +60,16 @@ enum class CalibrateStatus {
   BelowMinimum,  ///< not even min_strength meets them (or embeds): see cause
 };
 
+/// The names of CalibrateStatus's values (calibrate_status_name).
+template <>
+struct EnumTable<CalibrateStatus> {
+  static constexpr const char* what = "calibration status";
+  static constexpr NamedValue<CalibrateStatus> values[] = {
+      {CalibrateStatus::Calibrated, "calibrated"},
+      {CalibrateStatus::AtMaximum, "at maximum"},
+      {CalibrateStatus::BelowMinimum, "below minimum"}};
+};
+
 /// Why not even the smallest strength fits (BelowMinimum), or None.
 enum class CalibrateCause {
   None,
@@ -59,6 +78,19 @@ enum class CalibrateCause {
   NotConverged,  ///< the embedding does not converge even at the smallest strength
   RmsLimit,      ///< the vertex RMS at the smallest strength is beyond its limit
   MsdmLimit,     ///< the MSDM at the smallest strength is beyond its limit
+};
+
+/// The names of CalibrateCause's values (calibrate_cause_name).
+template <>
+struct EnumTable<CalibrateCause> {
+  static constexpr const char* what = "calibration cause";
+  static constexpr NamedValue<CalibrateCause> values[] = {
+      {CalibrateCause::None, "none"},
+      {CalibrateCause::Carrier, "carrier"},
+      {CalibrateCause::Infeasible, "infeasible"},
+      {CalibrateCause::NotConverged, "not converged"},
+      {CalibrateCause::RmsLimit, "rms limit"},
+      {CalibrateCause::MsdmLimit, "msdm limit"}};
 };
 
 /// What calibrate_strength found.

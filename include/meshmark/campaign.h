@@ -67,6 +67,7 @@
 
 #include "meshmark/attack.h"
 #include "meshmark/calibrate.h"
+#include "meshmark/enum_names.h"
 #include "meshmark/key.h"
 #include "meshmark/mesh.h"
 #include "meshmark/registry.h"
@@ -162,6 +163,14 @@ enum class TraceOutcome {
   Right,  ///< someone named, and every one named is a leaker
   None,   ///< nobody named
   Wrong,  ///< an innocent named (whoever else is)
+};
+
+/// The names of TraceOutcome's values (trace_outcome_name).
+template <>
+struct EnumTable<TraceOutcome> {
+  static constexpr const char* what = "trace outcome";
+  static constexpr NamedValue<TraceOutcome> values[] = {
+      {TraceOutcome::Right, "right"}, {TraceOutcome::None, "none"}, {TraceOutcome::Wrong, "wrong"}};
 };
 
 /// "right", "none", "wrong".

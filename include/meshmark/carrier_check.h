@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "meshmark/center.h"
+#include "meshmark/enum_names.h"
 #include "meshmark/histogram.h"
 
 namespace meshmark {
@@ -39,6 +40,15 @@ enum class CarrierHealth {
   Healthy,   ///< nothing to report
   Weak,      ///< readable, but some bits are unreliable or unreadable (a warning)
   Unusable,  ///< nothing can be decoded or embedded (an error)
+};
+
+/// The names of CarrierHealth's values (carrier_health_name).
+template <>
+struct EnumTable<CarrierHealth> {
+  static constexpr const char* what = "carrier health";
+  static constexpr NamedValue<CarrierHealth> values[] = {{CarrierHealth::Healthy, "healthy"},
+                                                         {CarrierHealth::Weak, "weak"},
+                                                         {CarrierHealth::Unusable, "unusable"}};
 };
 
 /// The check's outcome: a status, one line per finding, and the figures it used.

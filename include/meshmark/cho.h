@@ -11,6 +11,7 @@
 
 #include <vector>
 
+#include "meshmark/enum_names.h"
 #include "meshmark/method.h"
 
 namespace meshmark {
@@ -32,6 +33,17 @@ enum class ChoSearchStatus {
   Tolerance,    ///< on the target's side, but max_iterations ran out before the tolerance
   Unreachable,  ///< no exponent reaches the target (an empty bin, or too many positions
                 ///< at t = 0 or |u| = 0 or 1, which no power moves)
+};
+
+/// The names of ChoSearchStatus's values (cho_search_status_name).
+template <>
+struct EnumTable<ChoSearchStatus> {
+  static constexpr const char* what = "Cho search status";
+  static constexpr NamedValue<ChoSearchStatus> values[] = {
+      {ChoSearchStatus::Unchanged, "unchanged"},
+      {ChoSearchStatus::Reached, "reached"},
+      {ChoSearchStatus::Tolerance, "tolerance"},
+      {ChoSearchStatus::Unreachable, "unreachable"}};
 };
 
 /// One bin's exponent.

@@ -33,6 +33,7 @@
 #include <string>
 #include <vector>
 
+#include "meshmark/enum_names.h"
 #include "meshmark/key.h"
 #include "meshmark/payload.h"
 
@@ -63,6 +64,17 @@ enum class IdDecodeStatus {
   Unreadable,     ///< more unreadable bits (empty bins) than the radius: no mark can be read
   TooManyErrors,  ///< no codeword within the radius: a damaged mark, or none
   NotUnderKey,    ///< a codeword, but not of a valid ID under this key (another key or damage)
+};
+
+/// The names of IdDecodeStatus's values (id_decode_status_name).
+template <>
+struct EnumTable<IdDecodeStatus> {
+  static constexpr const char* what = "ID decoding status";
+  static constexpr NamedValue<IdDecodeStatus> values[] = {
+      {IdDecodeStatus::Found, "found"},
+      {IdDecodeStatus::Unreadable, "unreadable"},
+      {IdDecodeStatus::TooManyErrors, "too-many-errors"},
+      {IdDecodeStatus::NotUnderKey, "not-under-key"}};
 };
 
 /// A short name for a status ("found", "unreadable", "too-many-errors", "not-under-key").

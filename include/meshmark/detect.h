@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "meshmark/coding.h"
+#include "meshmark/enum_names.h"
 #include "meshmark/payload.h"
 
 namespace meshmark {
@@ -43,6 +44,15 @@ enum class NullModel {
   Binomial,       ///< fair independent bits (raw payloads)
   CodewordExact,  ///< exact, over the codewords of the ID code (MacWilliams)
   CodewordBound,  ///< an upper bound from the code's message bits (large duals)
+};
+
+/// The names of NullModel's values (null_model_name).
+template <>
+struct EnumTable<NullModel> {
+  static constexpr const char* what = "null model";
+  static constexpr NamedValue<NullModel> values[] = {{NullModel::Binomial, "binomial"},
+                                                     {NullModel::CodewordExact, "codeword-exact"},
+                                                     {NullModel::CodewordBound, "codeword-bound"}};
 };
 
 /// A short name for a null model ("binomial", "codeword-exact", "codeword-bound").

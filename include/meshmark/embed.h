@@ -13,6 +13,7 @@
 
 #include "meshmark/carrier_check.h"
 #include "meshmark/cho.h"
+#include "meshmark/enum_names.h"
 #include "meshmark/histogram.h"
 #include "meshmark/method.h"
 #include "meshmark/payload.h"
@@ -60,6 +61,16 @@ enum class EmbedStatus {
   InvalidMesh,   ///< no histogram (no referenced vertex, all at one distance), fewer distinct
                  ///< positions than bins (check), or a volume center that is ill-defined
                  ///< (open or inconsistently oriented mesh)
+};
+
+/// The names of EmbedStatus's values (embed_status_name).
+template <>
+struct EnumTable<EmbedStatus> {
+  static constexpr const char* what = "embedding status";
+  static constexpr NamedValue<EmbedStatus> values[] = {{EmbedStatus::Embedded, "embedded"},
+                                                       {EmbedStatus::Infeasible, "infeasible"},
+                                                       {EmbedStatus::NotConverged, "not converged"},
+                                                       {EmbedStatus::InvalidMesh, "invalid mesh"}};
 };
 
 /// What embed did.

@@ -26,6 +26,7 @@
 
 #include "meshmark/calibrate.h"
 #include "meshmark/embed.h"
+#include "meshmark/enum_names.h"
 #include "meshmark/io.h"
 #include "meshmark/key.h"
 #include "meshmark/payload.h"
@@ -73,6 +74,22 @@ enum class CopyStatus {
   NotCarried,         ///< the bytes it would write do not carry the mark (nothing written)
   WriteFailed,        ///< the file cannot be written
   NotRecorded,        ///< written, but the registry could not record it: removed
+};
+
+/// The names of CopyStatus's values (copy_status_name).
+template <>
+struct EnumTable<CopyStatus> {
+  static constexpr const char* what = "copy status";
+  static constexpr NamedValue<CopyStatus> values[] = {
+      {CopyStatus::Written, "written"},
+      {CopyStatus::Skipped, "skipped"},
+      {CopyStatus::Refused, "refused"},
+      {CopyStatus::Unreadable, "unreadable"},
+      {CopyStatus::NotEmbedded, "not embedded"},
+      {CopyStatus::NotWithinFidelity, "not within the fidelity limits"},
+      {CopyStatus::NotCarried, "not carried by the file"},
+      {CopyStatus::WriteFailed, "write failed"},
+      {CopyStatus::NotRecorded, "not recorded"}};
 };
 
 /// "written", "skipped", "refused", "unreadable", "not embedded", "not within the fidelity

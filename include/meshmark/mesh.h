@@ -10,6 +10,7 @@
 #include <string>
 #include <string_view>
 #include <vector>
+#include "meshmark/enum_names.h"
 
 namespace meshmark {
 
@@ -17,8 +18,28 @@ namespace meshmark {
 /// glTF 2.0 as JSON (.gltf, buffers embedded or beside it) or binary (.glb); Draco (.drc); 3MF.
 enum class FileFormat { Off, Obj, Ply, Stl, Gltf, Glb, Draco, ThreeMf };
 
+/// The names of FileFormat's values (format_name).
+template <>
+struct EnumTable<FileFormat> {
+  static constexpr const char* what = "format";
+  static constexpr NamedValue<FileFormat> values[] = {
+      {FileFormat::Off, "off"},   {FileFormat::Obj, "obj"},    {FileFormat::Ply, "ply"},
+      {FileFormat::Stl, "stl"},   {FileFormat::Gltf, "gltf"},  {FileFormat::Glb, "glb"},
+      {FileFormat::Draco, "drc"}, {FileFormat::ThreeMf, "3mf"}};
+};
+
 /// How a file stores its numbers. OFF and OBJ are always ascii.
 enum class Encoding { Ascii, BinaryLittleEndian, BinaryBigEndian };
+
+/// The names of Encoding's values (encoding_name).
+template <>
+struct EnumTable<Encoding> {
+  static constexpr const char* what = "encoding";
+  static constexpr NamedValue<Encoding> values[] = {
+      {Encoding::Ascii, "ascii"},
+      {Encoding::BinaryLittleEndian, "binary_little_endian"},
+      {Encoding::BinaryBigEndian, "binary_big_endian"}};
+};
 
 /// Faces of any size in compressed rows: face k holds indices[offsets[k] .. offsets[k+1]).
 struct Polygons {

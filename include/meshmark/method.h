@@ -9,6 +9,7 @@
 #include <string>
 #include <string_view>
 
+#include "meshmark/enum_names.h"
 #include "meshmark/variant.h"
 
 namespace meshmark {
@@ -18,6 +19,14 @@ enum class Method {
   Qp,           ///< the QP framework (embed.h): bin means to 1/2 +- alpha at least distortion
   ChoMean,      ///< Cho et al.'s Method I: bin means to 1/2 +- alpha by a power mapping t^k
   ChoVariance,  ///< Cho et al.'s Method II: bin variances to (1 +- alpha)/3 by |u|^k mapping
+};
+
+/// The names of Method's values (method_name).
+template <>
+struct EnumTable<Method> {
+  static constexpr const char* what = "method";
+  static constexpr NamedValue<Method> values[] = {
+      {Method::Qp, "qp"}, {Method::ChoMean, "cho-mean"}, {Method::ChoVariance, "cho-variance"}};
 };
 
 /// Which statistic of a bin's normalized positions t in [0, 1) carries its bit.

@@ -17,6 +17,7 @@
 
 #include <Eigen/Core>
 #include <vector>
+#include "meshmark/enum_names.h"
 
 namespace meshmark {
 
@@ -46,6 +47,15 @@ enum class QpStatus {
                    ///< certificate from the multipliers, checked every 8 iterations and at
                    ///< the end, or multipliers beyond 1e30)
   IterationLimit,  ///< max_iterations reached; x is the best iterate
+};
+
+/// The names of QpStatus's values (qp_status_name).
+template <>
+struct EnumTable<QpStatus> {
+  static constexpr const char* what = "QP status";
+  static constexpr NamedValue<QpStatus> values[] = {{QpStatus::Solved, "solved"},
+                                                    {QpStatus::Infeasible, "infeasible"},
+                                                    {QpStatus::IterationLimit, "iteration limit"}};
 };
 
 /// Solution and diagnostics, shared by the round solvers (this one, ADMM in admm_qp.h and

@@ -5,6 +5,7 @@
 /// compile without Eigen's sparse modules. Which solver a round uses is decided in one place
 /// (src/qp_solver.h) from EmbedOptions: backend, the variant's cost and admm.x_step.
 
+#include "meshmark/enum_names.h"
 #include "meshmark/separable_qp.h"
 
 namespace meshmark {
@@ -15,10 +16,26 @@ enum class SolverBackend {
   Ipopt,   ///< the general-purpose interior-point solver, for comparison
 };
 
+/// The names of SolverBackend's values.
+template <>
+struct EnumTable<SolverBackend> {
+  static constexpr const char* what = "solver";
+  static constexpr NamedValue<SolverBackend> values[] = {{SolverBackend::Native, "native"},
+                                                         {SolverBackend::Ipopt, "ipopt"}};
+};
+
 /// How the ADMM x-step solves (2 H + rho I) x = rhs.
 enum class AdmmXStep {
   ConjugateGradients,  ///< matrix-free, Jacobi-preconditioned, inexact where that suffices
   Cholesky,            ///< sparse LDL^T (AMD ordering) of the assembled matrix, exact
+};
+
+/// The names of AdmmXStep's values.
+template <>
+struct EnumTable<AdmmXStep> {
+  static constexpr const char* what = "x-step";
+  static constexpr NamedValue<AdmmXStep> values[] = {{AdmmXStep::ConjugateGradients, "cg"},
+                                                     {AdmmXStep::Cholesky, "cholesky"}};
 };
 
 /// Settings of the ADMM solver (admm_qp.h). Residuals are in the problem's units (bin widths

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "meshmark/decode.h"
+#include "meshmark/enum_names.h"
 #include "meshmark/key.h"
 #include "meshmark/mesh.h"
 #include "meshmark/registration.h"
@@ -74,6 +75,17 @@ enum class TraceStatus {
   NoBuyer,             ///< none does
   RegistrationFailed,  ///< the leak could not be brought onto the original
   NoCandidates,        ///< no copy of this original under this key in the list
+};
+
+/// The names of TraceStatus's values (trace_status_name).
+template <>
+struct EnumTable<TraceStatus> {
+  static constexpr const char* what = "trace status";
+  static constexpr NamedValue<TraceStatus> values[] = {
+      {TraceStatus::Named, "named"},
+      {TraceStatus::NoBuyer, "no-buyer"},
+      {TraceStatus::RegistrationFailed, "registration-failed"},
+      {TraceStatus::NoCandidates, "no-candidates"}};
 };
 
 /// "named", "no-buyer", "registration-failed", "no-candidates".

@@ -10,24 +10,6 @@
 
 namespace meshmark::python {
 
-namespace {
-
-// The CLI's attack: a kind with a strength, or a chain "noise:0.001,quant:10"; the parameters
-// go to every step that reads them (set_chain_params refuses one that none reads).
-std::vector<AttackStep> attack_steps(const std::string& kind, double strength,
-                                     const AttackParams& params) {
-  std::vector<AttackStep> steps = parse_attack_chain(kind);
-  if (kind.find_first_of(":,") == std::string::npos) steps[0].strength = strength;
-  for (const AttackStep& s : steps)
-    if (!std::isfinite(s.strength))
-      throw InvalidArgumentError(
-          fmt::format("attack '{}': strength {} is not a finite number", s.kind, s.strength));
-  set_chain_params(steps, params);
-  return steps;
-}
-
-}  // namespace
-
 void init_attack(py::module_& m) {
   m.def(
       "attack",

@@ -15,18 +15,8 @@ WriteOptions write_options(const std::optional<std::string>& format,
                            const std::optional<std::string>& encoding, bool single_precision,
                            bool keep_source, bool float_positions) {
   WriteOptions o;
-  if (format) o.format = format_from_path("x." + *format);
-  if (encoding) {
-    if (*encoding == "ascii")
-      o.encoding = Encoding::Ascii;
-    else if (*encoding == "binary_little_endian")
-      o.encoding = Encoding::BinaryLittleEndian;
-    else if (*encoding == "binary_big_endian")
-      o.encoding = Encoding::BinaryBigEndian;
-    else
-      throw InvalidArgumentError(fmt::format(
-          "encoding '{}' is none of ascii, binary_little_endian, binary_big_endian", *encoding));
-  }
+  if (format) o.format = parse_enum<FileFormat>(*format);
+  if (encoding) o.encoding = parse_enum<Encoding>(*encoding);
   o.single_precision = single_precision;
   o.keep_source = keep_source;
   o.float_positions = float_positions;
