@@ -31,7 +31,15 @@ BinOffsetRule to_rule(py::handle rule) {
 // A Method, or its name (method_name: "qp", "cho-mean", "cho-variance").
 Method to_method(py::handle method) {
   if (py::isinstance<py::str>(method)) return parse_method(method.cast<std::string>());
+  if (!py::isinstance<Method>(method))
+    throw py::type_error("method: expected a Method or its name ('qp', 'cho-mean', ...)");
   return method.cast<Method>();
+}
+
+// The calibration payload's length: at least one bit.
+int checked_bits(int bits) {
+  if (bits < 1) throw InvalidArgumentError(fmt::format("bits {} is not at least 1", bits));
+  return bits;
 }
 
 // The limits: a CalibrateOptions (or the defaults) with keyword arguments set on it.
@@ -113,9 +121,10 @@ void init_calibrate(py::module_& m) {
          py::handle limits, const py::kwargs& kwargs) {
         const Eigen::MatrixX3d v = to_positions(V);
         const Eigen::MatrixX3i f = to_faces(F, v.rows());
-        const Payload word = payload.is_none()
-                                 ? calibration_payload(bits.is_none() ? 64 : bits.cast<int>(), 1)
-                                 : to_payload(payload, bits);
+        const Payload word =
+            payload.is_none()
+                ? calibration_payload(checked_bits(bits.is_none() ? 64 : bits.cast<int>()), 1)
+                : to_payload(payload, bits);
         const EmbedOptions eo = options.is_none() ? EmbedOptions{} : options.cast<EmbedOptions>();
         const CalibrateOptions co = to_limits(limits, kwargs);
         py::gil_scoped_release unlocked;
@@ -137,7 +146,7 @@ void init_calibrate(py::module_& m) {
         FileCalibrationOptions o;
         o.variant = to_variant(variant);
         o.method = to_method(method);
-        o.bits = bits;
+        o.bits = checked_bits(bits);
         o.bin_offset = bin_offset;
         o.limits = to_limits(limits, kwargs);
         if (o.limits.strengths)
