@@ -72,6 +72,10 @@ Variant to_variant(py::handle variant);
 /// An ID: a non-negative Python int below 2^64. \throw InvalidArgumentError otherwise.
 std::uint64_t to_id(py::handle id, const char* name = "id");
 
+/// A Python object (dict, list, ...) from one JSON text (the library's *_to_json), so that
+/// Python sees the same names and values as the files and the CLI's --json.
+py::object json_object(const std::string& text);
+
 /// Sets the attributes of an options object from keyword arguments, refusing names that are
 /// not among the `fields` of its class (TypeError, listing the fields).
 void apply_keywords(py::handle target, const py::kwargs& kwargs);
@@ -104,6 +108,13 @@ class Fields {
   template <class M>
   Fields& ro(const char* name, M T::*member, const char* doc) {
     cls_.def_readonly(name, member, doc);
+    names_.emplace_back(name);
+    return *this;
+  }
+  /// A read-only computed property shown in the repr (a name from the library's *_name).
+  template <class Getter>
+  Fields& ro_property(const char* name, Getter getter, const char* doc) {
+    cls_.def_property_readonly(name, getter, doc);
     names_.emplace_back(name);
     return *this;
   }
@@ -143,5 +154,7 @@ void init_decode(py::module_& m);
 void init_attack(py::module_& m);
 void init_metrics(py::module_& m);
 void init_issue(py::module_& m);
+void init_calibrate(py::module_& m);
+void init_campaign(py::module_& m);
 
 }  // namespace meshmark::python

@@ -174,6 +174,10 @@ std::uint64_t to_id(py::handle id, const char* name) {
   return value.cast<std::uint64_t>();
 }
 
+py::object json_object(const std::string& text) {
+  return py::module_::import("json").attr("loads")(text);
+}
+
 void apply_keywords(py::handle target, const py::kwargs& kwargs) {
   const py::tuple fields = py::type::of(target).attr("fields");
   for (const auto& [key, value] : kwargs) {

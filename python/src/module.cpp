@@ -215,4 +215,6 @@ PYBIND11_MODULE(meshmark, m) {
   mp::init_attack(m);
   mp::init_metrics(m);
   mp::init_issue(m);
+  mp::init_calibrate(m);
+  mp::init_campaign(m);
 }

@@ -35,6 +35,11 @@ def fandisk():
 
 
 @pytest.fixture
+def elephant():
+    return mesh_path(CGAL_DATA, "elephant.off")
+
+
+@pytest.fixture
 def spot():
     return mesh_path(SHARED_MESHES, "spot.obj")
 
