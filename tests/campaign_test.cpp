@@ -79,7 +79,7 @@ TEST(Campaign, RejectsBadFilesNamingFileAndKey) {
        "attacks[0]: no step of the attack reads 'lambda'"},
       {head +
            ", \"attacks\": [{\"kind\": \"taubin\", \"weighting\": \"cot\", \"strengths\": [1]}]}",
-       "attacks[0]: weighting 'cot'"},
+       "attacks[0]: unknown weighting 'cot' (one of: uniform, inverse-distance)"},
       {head + ", \"attacks\": [{\"kind\": \"smooth\", \"strengths\": [1]}, {\"kind\": \"smooth\", "
               "\"strengths\": [2]}]}",
        "attacks[1]: a second series \"smooth\""},

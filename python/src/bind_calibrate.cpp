@@ -16,26 +16,6 @@ namespace meshmark::python {
 
 namespace {
 
-// A BinOffsetRule, or its name (bin_offset_rule_name: "fixed", "at-most-strength").
-BinOffsetRule to_rule(py::handle rule) {
-  if (py::isinstance<BinOffsetRule>(rule)) return rule.cast<BinOffsetRule>();
-  if (!py::isinstance<py::str>(rule))
-    throw py::type_error("bin_offset: expected a BinOffsetRule or its name");
-  const std::string name = rule.cast<std::string>();
-  for (const BinOffsetRule r : {BinOffsetRule::Fixed, BinOffsetRule::AtMostStrength})
-    if (name == bin_offset_rule_name(r)) return r;
-  throw InvalidArgumentError(
-      fmt::format("bin_offset: '{}' is neither 'fixed' nor 'at-most-strength'", name));
-}
-
-// A Method, or its name (method_name: "qp", "cho-mean", "cho-variance").
-Method to_method(py::handle method) {
-  if (py::isinstance<py::str>(method)) return parse_method(method.cast<std::string>());
-  if (!py::isinstance<Method>(method))
-    throw py::type_error("method: expected a Method or its name ('qp', 'cho-mean', ...)");
-  return method.cast<Method>();
-}
-
 // The calibration payload's length: at least one bit.
 int checked_bits(int bits) {
   if (bits < 1) throw InvalidArgumentError(fmt::format("bits {} is not at least 1", bits));
@@ -71,7 +51,9 @@ void bind_types(py::module_& m) {
       .rw("iterations", &CalibrateOptions::iterations, "embeddings at most after the first two")
       .rw_property(
           "bin_offset", [](CalibrateOptions& x) { return x.bin_offset; },
-          [](CalibrateOptions& x, py::handle v) { x.bin_offset = to_rule(v); },
+          [](CalibrateOptions& x, py::handle v) {
+            x.bin_offset = to_enum<BinOffsetRule>(v, "bin_offset");
+          },
           "BinOffsetRule, or its name ('at-most-strength', 'fixed')")
       .rw("strengths", &CalibrateOptions::strengths,
           "None, or a callable alpha -> per-bit strengths (nb floats, bin order) for marks "
@@ -145,7 +127,7 @@ void init_calibrate(py::module_& m) {
          py::handle cache, double weld_tolerance, py::handle limits, const py::kwargs& kwargs) {
         FileCalibrationOptions o;
         o.variant = to_variant(variant);
-        o.method = to_method(method);
+        o.method = to_enum<Method>(method, "method");
         o.bits = checked_bits(bits);
         o.bin_offset = bin_offset;
         o.limits = to_limits(limits, kwargs);

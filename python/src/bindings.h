@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "meshmark/enum_names.h"
 #include "meshmark/key.h"
 #include "meshmark/mesh.h"
 #include "meshmark/payload.h"
@@ -68,6 +69,17 @@ Payload to_payload(py::handle payload, py::handle nbits, const char* name = "pay
 
 /// A Variant, or one from its three letters. \throw InvalidArgumentError naming a bad letter.
 Variant to_variant(py::handle variant);
+
+/// A value of the bound enum E, or its name (the library's table, enum_names.h; any case).
+/// \throw TypeError for another type (naming `what`); InvalidArgumentError for an unknown
+///        name (listing the names).
+template <class E>
+E to_enum(py::handle value, const char* what) {
+  if (py::isinstance<py::str>(value)) return parse_enum<E>(value.cast<std::string>());
+  if (!py::isinstance<E>(value))
+    throw py::type_error(std::string(what) + ": expected a " + what + " value or its name");
+  return value.cast<E>();
+}
 
 /// An ID: a non-negative Python int below 2^64. \throw InvalidArgumentError otherwise.
 std::uint64_t to_id(py::handle id, const char* name = "id");
