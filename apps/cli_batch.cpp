@@ -12,12 +12,7 @@
 namespace meshmark::cli {
 
 int run_batch(const std::string& manifest, const IssueSettings& settings) {
-  std::vector<CopyRequest> requests;
-  try {
-    requests = read_manifest(manifest);
-  } catch (const IOError& e) {
-    throw InputFailure(e.what());
-  }
+  const std::vector<CopyRequest> requests = read_manifest(manifest);  // ReadError: exit 2
   const IssueResult result = issue_copies(requests, settings);
   std::set<std::string> warned;
   for (std::size_t k = 0; k < requests.size(); ++k) {

@@ -196,12 +196,7 @@ void print_summary(const CampaignConfig& config, const CampaignRunResult& r, int
 
 int run(const BenchArgs& a) {
   World world;
-  CampaignConfig config;
-  try {
-    config = load_campaign(a.config);
-  } catch (const IOError& e) {
-    throw InputFailure(e.what());  // a missing campaign file is bad input, not a failed write
-  }
+  const CampaignConfig config = load_campaign(a.config);  // ReadError: exit 2
   CampaignRunOptions options;
   options.ranks = world.ranks();
   options.out_dir = a.out;

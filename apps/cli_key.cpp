@@ -19,13 +19,7 @@ void add_key_options(CLI::App& app, KeyArgs& args) {
 
 std::optional<Key> resolve_key(const KeyArgs& args) {
   if (args.passphrase) return key_from_passphrase(*args.passphrase);  // refuses an empty one
-  if (args.file) {
-    try {
-      return key_from_file(*args.file);
-    } catch (const IOError& e) {
-      throw InputFailure(e.what());
-    }
-  }
+  if (args.file) return key_from_file(*args.file);                    // ReadError: exit 2
   return std::nullopt;
 }
 

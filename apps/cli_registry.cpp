@@ -60,13 +60,7 @@ RegistryQuery query_of(const RegistryArgs& a) {
   RegistryQuery q;
   if (!a.buyer.empty()) q.buyer = a.buyer;
   if (!a.id.empty()) q.id = parse_id(a.id);
-  if (!a.original.empty()) {
-    try {
-      q.original_hash = content_hash(read_file(a.original));
-    } catch (const IOError& e) {
-      throw InputFailure(e.what());
-    }
-  }
+  if (!a.original.empty()) q.original_hash = content_hash(read_file(a.original));
   return q;
 }
 

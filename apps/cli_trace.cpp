@@ -93,12 +93,8 @@ int run(const TraceArgs& a) {
     refuse_overwrite(a.report, {a.leaked, a.original, a.registry, a.keys.file.value_or("")});
   const Mesh leaked = read_input(a.leaked, a.in);
   const Mesh original = read_input(a.original, a.in);
-  std::string original_hash;
-  try {
-    original_hash = content_hash(read_file(a.original));  // what the copies were made from
-  } catch (const IOError& e) {
-    throw InputFailure(e.what());
-  }
+  // What the copies were made from.
+  const std::string original_hash = content_hash(read_file(a.original));
   TraceOptions options = a.options;
   options.register_leak = !a.no_register;
   TraceResult r;
