@@ -40,8 +40,11 @@ std::string kinds_help() {
   std::string s =
       "attack kinds (STRENGTH is --strength, or KIND:STRENGTH in a chain; [seeded]: the result "
       "depends on --seed):\n";
-  for (const AttackKind& k : attack_registry())
-    s += fmt::format("  {:<13} {}{}\n", k.name, k.meaning, k.seeded ? " [seeded]" : "");
+  for (const AttackKind& k : attack_registry()) {
+    const std::vector<std::string> params = attack_param_names(k.params);
+    s += fmt::format("  {:<13} {}{}{}\n", k.name, k.meaning, k.seeded ? " [seeded]" : "",
+                     params.empty() ? "" : fmt::format(" [reads {}]", fmt::join(params, ", ")));
+  }
   return s;
 }
 

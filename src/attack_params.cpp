@@ -53,6 +53,13 @@ const AttackKind& kind_of(const std::string& kind) {
 
 }  // namespace
 
+std::vector<std::string> attack_param_names(unsigned bits) {
+  std::vector<std::string> names;
+  for (const ParamField& f : kFields)
+    if (bits & f.bit) names.emplace_back(f.name);
+  return names;
+}
+
 void check_attack_params(const std::string& kind, const AttackParams& p) {
   const unsigned reads = kind_of(kind).params;
   for (const ParamField& f : kFields)

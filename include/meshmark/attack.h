@@ -242,6 +242,10 @@ struct AttackKind {
 /// Every kind apply_attack knows, in the order help texts list them.
 const std::vector<AttackKind>& attack_registry();
 
+/// The names of the AttackParams fields in `bits` (AttackParamBits), in AttackParams' order:
+/// "lambda", "mu", "fixed_boundary", "weighting", "convention".
+std::vector<std::string> attack_param_names(unsigned bits);
+
 /// The kind called `name` (exactly), or nullptr.
 const AttackKind* find_attack_kind(std::string_view name);
 

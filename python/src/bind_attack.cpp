@@ -44,6 +44,26 @@ void init_attack(py::module_& m) {
         return kinds;
       },
       "The attack kinds: name -> what its strength means.");
+  m.def(
+      "attack_registry",
+      [] {
+        py::list kinds;
+        for (const AttackKind& k : attack_registry()) {
+          py::dict d;
+          d["name"] = k.name;
+          d["meaning"] = k.meaning;
+          d["seeded"] = k.seeded;
+          d["default_strength"] = k.default_strength;
+          d["parameters"] = attack_param_names(k.params);
+          d["levels"] = k.levels != nullptr;
+          kinds.append(d);
+        }
+        return kinds;
+      },
+      "The library's table of attack kinds, one dict each: name, meaning (of the strength), "
+      "seeded (the result depends on the seed), default_strength (what a strength of 0 means), "
+      "parameters (the keywords of attack() it reads: lambda_ is 'lambda'), levels (every "
+      "strength of a series from one run, for campaigns).");
 }
 
 }  // namespace meshmark::python

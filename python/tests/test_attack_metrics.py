@@ -22,6 +22,29 @@ def test_the_attack_kinds_are_the_clis(fandisk):
         assert f"\n  {name} " in help_text
 
 
+def test_the_attack_registry_is_the_clis_and_its_parameters_are_checked(fandisk):
+    help_lines = {line.split()[0]: line for line in run_cli("attack", "--help").splitlines()
+                  if line.startswith("  ") and line.split() and not line.split()[0].startswith("-")}
+    registry = meshmark.attack_registry()
+    assert [k["name"] for k in registry] == list(meshmark.attack_kinds())
+    keyword = {"lambda": dict(lambda_=0.1), "mu": dict(mu=-0.2),
+               "fixed_boundary": dict(fixed_boundary=True),
+               "weighting": dict(weighting="inverse-distance"),
+               "convention": dict(convention="benchmark")}
+    V, F = meshmark.read_mesh(fandisk)
+    for kind in registry:
+        line = help_lines[kind["name"]]
+        assert ("[seeded]" in line) == kind["seeded"], line
+        assert ("[reads " in line) == bool(kind["parameters"]), line
+        for name, kwargs in keyword.items():
+            if name not in kind["parameters"]:
+                with pytest.raises(meshmark.InvalidArgumentError, match=f"no step of the attack reads '{name}'"):
+                    meshmark.attack((V, F), kind["name"], 0.5, **kwargs)
+    seeded = {k["name"] for k in registry if k["seeded"]}
+    assert {"noise", "similarity", "crop", "reorder"} <= seeded
+    assert not {"quant", "smooth", "simplify", "loop"} & seeded
+
+
 @pytest.mark.parametrize("cli_args,args,kwargs", [
     (["noise", "--strength", "0.002", "--seed", "7"], ("noise", 0.002), dict(seed=7)),
     (["smooth", "--strength", "5", "--lambda", "0.1", "--fixed-boundary"], ("smooth", 5),
