@@ -24,10 +24,11 @@ trap 'rm -rf "$prefix" "$work"' EXIT
 echo "== install into $prefix"
 cmake --install "$build_dir" --prefix "$prefix" >/dev/null
 cli="$prefix/bin/meshmark"
-libdir="$(dirname "$(find "$prefix" -name 'libmeshmark.so.*.*.*' | head -n 1)")"
-ldd "$cli" | grep -E 'libmeshmark|not found'
-if ! ldd "$cli" | grep -q "libmeshmark.so.* => $libdir/"; then
-  echo "check-shared: the installed CLI does not load libmeshmark from $libdir" >&2
+lib="$(find "$prefix" -name 'libmeshmark.so.*.*.*' | head -n 1)"  # the real file, not a link
+ldd "$cli" | grep -E 'libmeshmark|not found' || true
+loaded="$(ldd "$cli" | awk '/libmeshmark/ { print $3 }')"
+if [ -z "$lib" ] || [ -z "$loaded" ] || [ "$(realpath "$loaded")" != "$lib" ]; then
+  echo "check-shared: the installed CLI does not load libmeshmark from $prefix ('$lib')" >&2
   exit 1
 fi
 "$cli" --version
@@ -41,4 +42,4 @@ if ! grep -qx "bit error rate 0.000000" "$work/extract.txt"; then
   exit 1
 fi
 echo "== sizes (bytes)"
-stat -c '%s %n' "$libdir"/libmeshmark.so.*.*.* "$cli"
+stat -c '%s %n' "$lib" "$cli"
