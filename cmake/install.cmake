@@ -4,8 +4,13 @@
 # (P/lib/cmake/meshmark).
 include(CMakePackageConfigHelpers)
 
-# A sanitized static library needs its runtime at the consumer's link too.
+# A sanitized library needs its runtime at the consumer's link, and the consumer compiled with
+# -fsanitize=address too: Eigen trusts glibc's malloc alignment only without __SANITIZE_ADDRESS__
+# (Eigen/src/Core/util/Memory.h), so a matrix the consumer's inline Eigen code allocates with
+# malloc and the library frees with Eigen's own aligned free (or the reverse) is a
+# heap-buffer-overflow (the package test's first run under ASan found it).
 if(MESHMARK_SANITIZE)
+  target_compile_options(meshmark INTERFACE -fsanitize=address,undefined)
   target_link_options(meshmark INTERFACE -fsanitize=address,undefined)
 endif()
 
