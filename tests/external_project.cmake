@@ -92,6 +92,18 @@ endif()
 step("configure" ${CMAKE_COMMAND} -S ${SOURCE_DIR}/tests/external_project -B ${consumer}
      -G ${GENERATOR} -DCMAKE_CXX_COMPILER=${CXX} -DCMAKE_BUILD_TYPE=${BUILD_TYPE}
      -DCMAKE_PREFIX_PATH=${prefix})
+# A component the package does not have leaves it not found (check_required_components).
+file(WRITE ${WORK_DIR}/no_such_component/CMakeLists.txt
+     "cmake_minimum_required(VERSION 3.22)\nproject(c LANGUAGES CXX)\n"
+     "find_package(meshmark REQUIRED COMPONENTS cgal no-such-component)\n")
+execute_process(COMMAND ${CMAKE_COMMAND} -S ${WORK_DIR}/no_such_component
+                -B ${WORK_DIR}/no_such_component/build -G ${GENERATOR} -DCMAKE_CXX_COMPILER=${CXX}
+                -DCMAKE_PREFIX_PATH=${prefix}
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE out)
+if(rc EQUAL 0 OR NOT out MATCHES "no-such-component")
+  message(FATAL_ERROR "external project: find_package(meshmark COMPONENTS no-such-component) "
+                      "did not fail naming it (${rc}):\n${out}")
+endif()
 step("build" ${CMAKE_COMMAND} --build ${consumer})
 check_loads_library("the consumer" ${consumer}/meshmark_consumer)
 file(WRITE ${consumer}/shop.key "a key the consumer and the installed CLI share")

@@ -46,6 +46,11 @@ int run(const std::string& input, const std::string& output) {
                  CONSUMER_FOUND_VERSION);
     return 1;
   }
+  if (MESHMARK_WITH_IPOPT != CONSUMER_FOUND_IPOPT) {
+    std::fprintf(stderr, "version.h says Ipopt %d, the package's component %d\n",
+                 MESHMARK_WITH_IPOPT, CONSUMER_FOUND_IPOPT);
+    return 1;
+  }
   const Payload payload = payload_from_hex(kPayloadHex, kBits);
   const BitLayout layout = mark_layout(std::nullopt, kBits, /*coded=*/false);
 
