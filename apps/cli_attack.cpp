@@ -42,8 +42,11 @@ std::string kinds_help() {
       "depends on --seed):\n";
   for (const AttackKind& k : attack_registry()) {
     const std::vector<std::string> params = attack_param_names(k.params);
-    s += fmt::format("  {:<13} {}{}{}\n", k.name, k.meaning, k.seeded ? " [seeded]" : "",
-                     params.empty() ? "" : fmt::format(" [reads {}]", fmt::join(params, ", ")));
+    s += fmt::format(
+        "  {:<13} {}{}{}{}\n", k.name, k.meaning,
+        k.default_strength != 0 ? fmt::format(" (default {:g})", k.default_strength) : "",
+        k.seeded ? " [seeded]" : "",
+        params.empty() ? "" : fmt::format(" [reads {}]", fmt::join(params, ", ")));
   }
   return s;
 }

@@ -37,7 +37,7 @@ int run(const CalibrateArgs& a) {
   o.limits.bin_offset = a.bin_offset_rule;
   o.read = read_options(a.in);
   o.cache = a.no_cache ? "" : a.cache.empty() ? default_calibration_cache() : a.cache;
-  // An unreadable mesh is a ReadError (exit 2); a cache that cannot be written a WriteError.
+  // An unreadable mesh is a ReadError (exit 2); a cache that cannot be written, a warning.
   const FileCalibration c = calibrate_file(a.input, o);
   if (!c.warning.empty()) fmt::print(stderr, "meshmark: warning: {}\n", printable(c.warning));
   if (a.json) {

@@ -89,10 +89,11 @@ int run_list(const RegistryArgs& a) {
     fmt::print("{:>6}  {:>10}  {:<20}  {:<20}  {:<14}  {:<8}  {}\n", "row", "id", "buyer",
                "issued (UTC)", "method", "key", "copy");
     for (const IssuedCopy& c : copies)
-      fmt::print("{:>6}  {:>10}  {:<20}  {:<20}  {:<14}  {:<8}  {}\n", c.row, c.id,
-                 printable(c.buyer), c.issued_at,
-                 c.method == "qp" ? c.variant : c.method + "/" + c.variant.substr(0, 1),
-                 c.key_fingerprint.substr(0, 8), printable(c.output_path));
+      fmt::print(
+          "{:>6}  {:>10}  {:<20}  {:<20}  {:<14}  {:<8}  {}\n", c.row, c.id, printable(c.buyer),
+          c.issued_at,
+          c.method == method_name(Method::Qp) ? c.variant : c.method + "/" + c.variant.substr(0, 1),
+          c.key_fingerprint.substr(0, 8), printable(c.output_path));
     fmt::print("{} cop{}\n", copies.size(), copies.size() == 1 ? "y" : "ies");
   }
   return kOk;

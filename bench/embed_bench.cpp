@@ -229,9 +229,10 @@ int main(int argc, char** argv) {
   mallopt(M_TRIM_THRESHOLD, 1 << 30);
   // One benchmark per attack kind, at a strength typical of the campaigns.
   const std::map<std::string, double> strengths = {
-      {"noise", 0.001}, {"noise-radius", 0.001}, {"quant", 10}, {"smooth", 10},  {"taubin", 10},
-      {"soup", 0.95},   {"simplify", 0.5},       {"loop", 1},   {"midpoint", 1}, {"sqrt3", 1},
-      {"crop", 0.1},    {"similarity", 2}};
+      {"noise", 0.001}, {"noise-radius", 0.001}, {"quant", 10},     {"smooth", 10},
+      {"taubin", 10},   {"soup", 0.95},          {"simplify", 0.5}, {"qsimplify", 0.5},
+      {"loop", 1},      {"midpoint", 1},         {"sqrt3", 1},      {"crop", 0.1},
+      {"similarity", 2}};
   for (const AttackKind& k : attack_registry()) {
     const std::string kind = k.name;
     const auto it = strengths.find(kind);

@@ -200,7 +200,7 @@ Mesh attack_crop(const Mesh& mesh, double fraction, std::uint64_t seed) {
 }
 
 Mesh attack_format(const Mesh& mesh, const std::string& format, bool single_precision) {
-  const FileFormat f = format_from_path("x." + format);
+  const FileFormat f = parse_enum<FileFormat>(format);
   WriteOptions wo;
   wo.single_precision = single_precision;
   wo.keep_source = false;

@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "meshmark/attack.h"
@@ -53,8 +54,7 @@ constexpr unsigned kSmoothing = kReadsLambda | kReadsFixedBoundary | kReadsWeigh
 const std::vector<AttackKind> kKinds = {
     {"reorder", "random vertex and face order (strength ignored)", true, 0, 0,
      [](const Mesh& m, double, const P&, Seed seed) { return attack_reorder(m, seed); }, nullptr},
-    {"similarity", "random rotation, translation and uniform scale up to STRENGTH (default 2)",
-     true, 2, 0,
+    {"similarity", "random rotation, translation and uniform scale up to STRENGTH", true, 2, 0,
      [](const Mesh& m, double x, const P&, Seed seed) {
        SimilarityOptions o;
        o.max_scale = x;
@@ -112,17 +112,17 @@ const std::vector<AttackKind> kKinds = {
      }},
     {"remesh", "isotropic remeshing (CGAL, 3 rounds) to STRENGTH x the mean edge length", false, 1,
      0, [](const Mesh& m, double x, const P&, Seed) { return attack_remesh(m, x); }, nullptr},
-    {"loop", "STRENGTH iterations of Loop subdivision (default 1)", false, 1, 0,
+    {"loop", "STRENGTH iterations of Loop subdivision", false, 1, 0,
      [](const Mesh& m, double x, const P&, Seed) {
        return subdivided(m, Subdivision::Loop, "loop", x);
      },
      nullptr},
-    {"midpoint", "STRENGTH iterations of midpoint subdivision (default 1)", false, 1, 0,
+    {"midpoint", "STRENGTH iterations of midpoint subdivision", false, 1, 0,
      [](const Mesh& m, double x, const P&, Seed) {
        return subdivided(m, Subdivision::Midpoint, "midpoint", x);
      },
      nullptr},
-    {"sqrt3", "STRENGTH iterations of sqrt(3) subdivision (default 1)", false, 1, 0,
+    {"sqrt3", "STRENGTH iterations of sqrt(3) subdivision", false, 1, 0,
      [](const Mesh& m, double x, const P&, Seed) {
        return subdivided(m, Subdivision::Sqrt3, "sqrt3", x);
      },

@@ -13,6 +13,11 @@
 
 namespace meshmark::detail {
 
+/// True when a row's outcome text (TrialRow::trace_outcome, ::blind_outcome) names `outcome`.
+inline bool outcome_is(const std::string& text, TraceOutcome outcome) {
+  return text == trace_outcome_name(outcome);
+}
+
 /// A seed per text (a trial's key): FNV-1a finished by SplitMix64, salted with the campaign's.
 std::uint64_t seed_of(const std::string& text, std::uint64_t salt);
 

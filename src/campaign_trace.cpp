@@ -183,7 +183,7 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
     const std::vector<std::uint64_t> leakers(pair.begin(), pair.begin() + t.colluders);
     row.leakers = joined(leakers);
     row.ber = 0.5;
-    row.trace_outcome = row.blind_outcome = "none";
+    row.trace_outcome = row.blind_outcome = trace_outcome_name(TraceOutcome::None);
     if (base.status == "ok") {
       try {
         const auto t0 = Clock::now();
@@ -219,13 +219,13 @@ std::vector<TraceSummaryRow> summarize_trace(const CampaignConfig& c,
         std::vector<double> seconds;
         for (const TrialRow* r : it->second) {
           ++row.trials;
-          row.trace_right += r->trace_outcome == "right";
-          row.trace_none += r->trace_outcome == "none";
-          row.trace_wrong += r->trace_outcome == "wrong";
-          row.blind_right += r->blind_outcome == "right";
-          row.blind_none += r->blind_outcome == "none";
-          row.blind_wrong += r->blind_outcome == "wrong";
-          if (r->trace_outcome == "right")
+          row.trace_right += detail::outcome_is(r->trace_outcome, TraceOutcome::Right);
+          row.trace_none += detail::outcome_is(r->trace_outcome, TraceOutcome::None);
+          row.trace_wrong += detail::outcome_is(r->trace_outcome, TraceOutcome::Wrong);
+          row.blind_right += detail::outcome_is(r->blind_outcome, TraceOutcome::Right);
+          row.blind_none += detail::outcome_is(r->blind_outcome, TraceOutcome::None);
+          row.blind_wrong += detail::outcome_is(r->blind_outcome, TraceOutcome::Wrong);
+          if (detail::outcome_is(r->trace_outcome, TraceOutcome::Right))
             row.worst_right_p = std::max(row.worst_right_p, r->trace_p);
           seconds.push_back(r->trace_seconds);
         }

@@ -103,8 +103,10 @@ std::string model_table(const CampaignConfig& c, const std::vector<TrialRow>& ro
       double alpha = 0, rms = 0, msdm = 0;
       for (const TrialRow& r : rows) {
         if (r.model != m.name || r.variant != v) continue;
-        ++n, tr += r.trace_outcome == "right", br += r.blind_outcome == "right";
-        tw += r.trace_outcome == "wrong", bw += r.blind_outcome == "wrong";
+        ++n, tr += detail::outcome_is(r.trace_outcome, TraceOutcome::Right),
+            br += detail::outcome_is(r.blind_outcome, TraceOutcome::Right);
+        tw += detail::outcome_is(r.trace_outcome, TraceOutcome::Wrong),
+            bw += detail::outcome_is(r.blind_outcome, TraceOutcome::Wrong);
         if (r.attack == "none" && r.colluders == 1 && r.payload == 0)
           vertices = r.vertices, alpha = r.strength, rms = r.rms_percent, msdm = r.msdm;
       }
@@ -130,7 +132,7 @@ std::string right_by_model(const CampaignConfig& c, const std::vector<TraceSumma
       for (const TrialRow& r : rows)
         if (r.model == m.name && r.attack == s.attack && r.attack_strength == s.attack_strength &&
             r.colluders == s.colluders)
-          ++n, right += r.trace_outcome == "right";
+          ++n, right += detail::outcome_is(r.trace_outcome, TraceOutcome::Right);
       md += fmt::format(" {}/{} |", right, n);
     }
     md += "\n";
@@ -174,8 +176,10 @@ std::string write_trace_report(const std::string& out_dir, const CampaignConfig&
 
   std::vector<const TrialRow*> wrong, unnamed, failed;
   for (const TrialRow& r : rows) {
-    if (r.trace_outcome == "wrong" || r.blind_outcome == "wrong") wrong.push_back(&r);
-    if (r.trace_outcome == "none") unnamed.push_back(&r);
+    if (detail::outcome_is(r.trace_outcome, TraceOutcome::Wrong) ||
+        detail::outcome_is(r.blind_outcome, TraceOutcome::Wrong))
+      wrong.push_back(&r);
+    if (detail::outcome_is(r.trace_outcome, TraceOutcome::None)) unnamed.push_back(&r);
     if (r.status != "ok") failed.push_back(&r);
   }
   std::string md = fmt::format("# Campaign `{}` (trace)\n\n", c.name);

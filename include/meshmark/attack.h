@@ -227,7 +227,7 @@ enum AttackParamBits : unsigned {
 /// says what a kind is called, means, reads and runs.
 struct AttackKind {
   const char* name;         ///< "noise", "quant", ... (a step of a chain: "name:strength")
-  const char* meaning;      ///< what STRENGTH means, one line
+  const char* meaning;      ///< what STRENGTH means, one line (its default: default_strength)
   bool seeded;              ///< its result depends on the seed (false: deterministic)
   double default_strength;  ///< what a strength of 0 means (0 for most kinds)
   unsigned params;          ///< the AttackParams it reads (AttackParamBits)

@@ -123,7 +123,8 @@ struct CampaignConfig {
 /// IOError when it cannot be read.
 CampaignConfig load_campaign(const std::string& path);
 
-/// True for attacks (or chains, every step) whose output does not depend on the seed.
+/// True for "none" and for attacks (or chains, every step) whose output does not depend on the
+/// seed (AttackKind::seeded). \throw InvalidArgumentError for an unknown kind or bad strength.
 bool attack_is_deterministic(const std::string& kind);
 
 /// The attack chain a series runs at strength x ("similarity:2,simplify" at 0.3:

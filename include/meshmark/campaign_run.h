@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "meshmark/campaign.h"
+#include "meshmark/enum_names.h"
 
 namespace meshmark {
 
@@ -50,7 +51,7 @@ struct CampaignRunResult {
   /// Complete: every trial has a row (rows and the report are written on process 0; the other
   /// processes return Complete with only their own counts). Refused: another process could not
   /// prepare the directory (process 0 throws the reason instead).
-  enum class Status { Complete, Refused };
+  enum class Status { Complete, Refused };  // names: EnumTable below
   Status status = Status::Complete;
   std::string out_dir;
   int jobs = 1;                   ///< threads this process used
@@ -65,6 +66,15 @@ struct CampaignRunResult {
   double wall_seconds = 0;                      ///< this run
   double total_wall_seconds = 0;                ///< every run of the campaign in this directory
   std::string rows_csv, summary_csv, report;    ///< process 0: the files' paths
+};
+
+/// The names of CampaignRunResult::Status's values: "complete", "refused".
+template <>
+struct EnumTable<CampaignRunResult::Status> {
+  static constexpr const char* what = "campaign status";
+  static constexpr NamedValue<CampaignRunResult::Status> values[] = {
+      {CampaignRunResult::Status::Complete, "complete"},
+      {CampaignRunResult::Status::Refused, "refused"}};
 };
 
 /// Runs (or resumes) the campaign into options.out_dir. \throw InvalidArgumentError when the

@@ -9,9 +9,10 @@
 ///       static constexpr NamedValue<Method> values[] = {{Method::Qp, "qp"}, ...};
 ///     };
 ///
-/// The values are listed in declaration order, every one of them (0, 1, 2, ...; checked at
-/// compile time when a name is asked), so a new enumerator without a name fails to compile
-/// where it is the last one, and the tests check the names round-trip.
+/// The values are listed in declaration order, 0, 1, 2, ... (checked at compile time when a
+/// name is asked): an enumerator inserted without a name fails to compile. One appended last
+/// without a name compiles and is named "?": tests/enum_names_test.cpp counts each enum's
+/// enumerators (update it with the enum) and checks the names round-trip.
 
 #include <cstddef>
 #include <string>

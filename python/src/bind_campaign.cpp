@@ -95,14 +95,17 @@ void absolute_models(py::dict config) {
   }
 }
 
-// The campaign of a dict: written as out_dir/campaign.json (the file a results directory keeps)
-// once it reads as a campaign; its errors name "config". \throw InvalidArgumentError when the
+// The campaign of a dict: written as out_dir/campaign.json (the file a results directory keeps,
+// keys sorted, so the same campaign in another key order is the same file) once it reads as a
+// campaign; its errors name "config". \throw InvalidArgumentError when the
 // directory holds another campaign (unless fresh).
 CampaignConfig dict_campaign(py::dict config, const std::string& out_dir, bool fresh) {
   py::dict copy = py::module_::import("copy").attr("deepcopy")(config);
   absolute_models(copy);
   const std::string text =
-      py::module_::import("json").attr("dumps")(copy, py::arg("indent") = 2).cast<std::string>() +
+      py::module_::import("json")
+          .attr("dumps")(copy, py::arg("indent") = 2, py::arg("sort_keys") = true)
+          .cast<std::string>() +
       "\n";
   const fs::path dir(out_dir), stamp = dir / "campaign.json";
   if (!fresh && fs::exists(stamp) && read_file(stamp.string()) != text)
@@ -127,7 +130,7 @@ CampaignConfig dict_campaign(py::dict config, const std::string& out_dir, bool f
 
 py::dict result_dict(const CampaignRunResult& r) {
   py::dict out;
-  out["status"] = r.status == CampaignRunResult::Status::Complete ? "complete" : "refused";
+  out["status"] = enum_name(r.status);
   out["out_dir"] = r.out_dir;
   out["jobs"] = r.jobs;
   out["calibrations_run"] = r.calibrations_run;

@@ -77,7 +77,9 @@ template <class E>
 E to_enum(py::handle value, const char* what) {
   if (py::isinstance<py::str>(value)) return parse_enum<E>(value.cast<std::string>());
   if (!py::isinstance<E>(value))
-    throw py::type_error(std::string(what) + ": expected a " + what + " value or its name");
+    throw py::type_error(std::string(what) + ": expected a " +
+                         py::str(py::type::of<E>().attr("__name__")).cast<std::string>() +
+                         " or its name (" + EnumTable<E>::what + ")");
   return value.cast<E>();
 }
 

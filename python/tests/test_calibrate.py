@@ -143,7 +143,7 @@ def test_bad_settings_raise_the_module_exceptions(fandisk, tmp_path):
         meshmark.calibrate(V, F, bits=0)
     with pytest.raises(meshmark.InvalidArgumentError, match="bits -3 is not at least 1"):
         meshmark.calibrate_file(tmp_path / "missing.off", bits=-3)
-    with pytest.raises(TypeError, match="method: expected a method value"):
+    with pytest.raises(TypeError, match="method: expected a Method or its name"):
         meshmark.calibrate_file(tmp_path / "missing.off", method=3)
     with pytest.raises(meshmark.IOError):
         meshmark.calibrate_file(tmp_path / "missing.off")

@@ -105,7 +105,10 @@ def test_a_dict_runs_the_same_campaign_and_a_stopped_run_resumes(fandisk, tmp_pa
 
     with pytest.raises(KeyboardInterrupt, match="stopped by the test"):
         meshmark.run_campaign(config, tmp_path / "dict", jobs=1, progress=stop_after_one_unit)
-    resumed = meshmark.run_campaign(config, tmp_path / "dict", jobs=1)
+    # The same campaign with its keys in another order resumes.
+    reordered = dict(reversed(list(config.items())))
+    assert list(reordered) != list(config)
+    resumed = meshmark.run_campaign(reordered, tmp_path / "dict", jobs=1)
     assert resumed["calibrations_resumed"] == 1 and resumed["calibrations_run"] == 0
     assert resumed["trials_resumed"] == TRIALS // 2 and resumed["trials_run"] == TRIALS // 2
     assert_same_records(resumed["rows"], reference)
