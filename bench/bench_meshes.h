@@ -1,5 +1,6 @@
 #pragma once
-// The benchmarks' meshes: read once from the shared directory, without file images.
+// The benchmarks' meshes (the project's data/meshes and libcgal-demo's), read once, without
+// file images.
 
 #include <filesystem>
 #include <map>
@@ -21,9 +22,12 @@ inline const Mesh* load(const std::string& path) {
   return &cache.emplace(path, read_mesh(path, ro)).first->second;
 }
 
-/// Path of a mesh of the shared directory.
-inline std::string shared(const char* name) {
-  return std::string(MESHMARK_SHARED_DIR) + "/meshes/" + name;
+/// Path of a mesh of the project's data/meshes.
+inline std::string data(const char* name) {
+  return std::string(MESHMARK_BENCH_DATA) + "/meshes/" + name;
 }
+
+/// Path of a mesh of libcgal-demo's data/meshes (unpacked into the build tree).
+inline std::string cgal(const char* name) { return std::string(MESHMARK_CGAL_DATA) + "/" + name; }
 
 }  // namespace meshmark::bench

@@ -24,7 +24,8 @@ using namespace meshmark;
 namespace {
 
 using bench::load;
-using bench::shared;
+using bench::cgal;
+using bench::data;
 
 // Embeds 64 bits into m with the variant, once per iteration.
 void embed_mesh(benchmark::State& state, const Mesh* m, const std::string& path,
@@ -61,20 +62,21 @@ void embed_scaling(benchmark::State& state, const std::string& path, const char*
   embed_mesh(state, subdivided(path, static_cast<int>(state.range(0))), path, variant);
 }
 
-// About a million vertices: igea (134k) after two sqrt(3) subdivisions (1.21M), cached.
+// About a million vertices: refined_elephant (44k) after three sqrt(3) subdivisions (1.2M),
+// cached.
 const Mesh* million() {
   static const Mesh* m = [] {
-    const Mesh* igea = load(shared("igea.ply"));
-    return igea ? new Mesh(attack_subdivide(*igea, Subdivision::Sqrt3, 2)) : nullptr;
+    const Mesh* base = load(cgal("refined_elephant.off"));
+    return base ? new Mesh(attack_subdivide(*base, Subdivision::Sqrt3, 3)) : nullptr;
   }();
   return m;
 }
 
 void embed_million(benchmark::State& state, const char* variant) {
-  embed_mesh(state, million(), shared("igea.ply"), variant);
+  embed_mesh(state, million(), cgal("refined_elephant.off"), variant);
 }
 
-// Every attack at a representative strength on the horse (48k vertices), seeded.
+// Every attack at a representative strength on refined_elephant (44k vertices), seeded.
 void attack(benchmark::State& state, const std::string& path, const std::string& kind,
             double strength) {
   const Mesh* m = load(path);
@@ -129,7 +131,7 @@ void versus_ipopt(benchmark::State& state, const std::string& path, const char* 
   state.counters["objective_gap"] = gap;
 }
 
-// Metrics on a 48k-vertex pair: the horse against a noisy copy (0.1 % of the diagonal).
+// Metrics on a 44k-vertex pair: refined_elephant against a noisy copy (0.1 % of the diagonal).
 void metric(benchmark::State& state, const std::string& path, int which) {
   const Mesh* m = load(path);
   if (!m) return state.SkipWithError(("missing " + path).c_str());
@@ -156,47 +158,47 @@ void extract_drs(benchmark::State& state, const std::string& path) {
 }  // namespace
 
 #define EMBED(variant, name, file)                                           \
-  BENCHMARK_CAPTURE(embed_variant, variant##_##name, shared(file), #variant) \
+  BENCHMARK_CAPTURE(embed_variant, variant##_##name, cgal(file), #variant) \
       ->Unit(benchmark::kMillisecond)
-EMBED(DRS, stanford_bunny_35k, "stanford-bunny.obj");
-EMBED(DRS, horse_48k, "horse.ply");
-EMBED(DRS, igea_134k, "igea.ply");
-EMBED(VRS, stanford_bunny_35k, "stanford-bunny.obj");
-EMBED(VRS, horse_48k, "horse.ply");
-EMBED(SRS, horse_48k, "horse.ply");
-EMBED(VRQ, horse_48k, "horse.ply");
-EMBED(VRL, horse_48k, "horse.ply");
-EMBED(VNS, horse_48k, "horse.ply");
-EMBED(VSS, horse_48k, "horse.ply");
-BENCHMARK_CAPTURE(roughness, horse_48k, shared("horse.ply"))->Unit(benchmark::kMillisecond);
-// horse subdivided 0, 1, 2 times: 48k, 194k, 776k vertices.
-BENCHMARK_CAPTURE(embed_scaling, DRS_horse_loop, shared("horse.ply"), "DRS")
+EMBED(DRS, bunny00_38k, "bunny00.off");
+EMBED(DRS, elephant_44k, "refined_elephant.off");
+EMBED(DRS, diplodocus_24k, "diplodocus.off");
+EMBED(VRS, bunny00_38k, "bunny00.off");
+EMBED(VRS, elephant_44k, "refined_elephant.off");
+EMBED(SRS, elephant_44k, "refined_elephant.off");
+EMBED(VRQ, elephant_44k, "refined_elephant.off");
+EMBED(VRL, elephant_44k, "refined_elephant.off");
+EMBED(VNS, elephant_44k, "refined_elephant.off");
+EMBED(VSS, elephant_44k, "refined_elephant.off");
+BENCHMARK_CAPTURE(roughness, elephant_44k, cgal("refined_elephant.off"))->Unit(benchmark::kMillisecond);
+// refined_elephant subdivided 0, 1, 2 times: 44k, 178k, 711k vertices.
+BENCHMARK_CAPTURE(embed_scaling, DRS_elephant_loop, cgal("refined_elephant.off"), "DRS")
     ->DenseRange(0, 2)
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(embed_scaling, VRS_horse_loop, shared("horse.ply"), "VRS")
+BENCHMARK_CAPTURE(embed_scaling, VRS_elephant_loop, cgal("refined_elephant.off"), "VRS")
     ->DenseRange(0, 2)
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(versus_ipopt, DRS_stanford_bunny_35k, shared("stanford-bunny.obj"), "DRS")
+BENCHMARK_CAPTURE(versus_ipopt, DRS_bunny00_38k, cgal("bunny00.off"), "DRS")
     ->Iterations(1)
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(versus_ipopt, VRS_stanford_bunny_35k, shared("stanford-bunny.obj"), "VRS")
+BENCHMARK_CAPTURE(versus_ipopt, VRS_bunny00_38k, cgal("bunny00.off"), "VRS")
     ->Iterations(1)
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(versus_ipopt, VRL_spot_3k, shared("spot.obj"), "VRL")
+BENCHMARK_CAPTURE(versus_ipopt, VRL_spot_3k, data("spot.obj"), "VRL")
     ->Iterations(1)
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(versus_ipopt, VRL_bunny_8k, shared("bunny.ply"), "VRL")
+BENCHMARK_CAPTURE(versus_ipopt, VRL_bunny_8k, data("bunny.ply"), "VRL")
     ->Iterations(1)
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(embed_million, DRS_igea_sqrt3x2_1210k, "DRS")->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(embed_million, VRS_igea_sqrt3x2_1210k, "VRS")->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(metric, hausdorff_and_mrms_horse_48k, shared("horse.ply"), 0)
+BENCHMARK_CAPTURE(embed_million, DRS_elephant_sqrt3x3_1200k, "DRS")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(embed_million, VRS_elephant_sqrt3x3_1200k, "VRS")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(metric, hausdorff_and_mrms_elephant_44k, cgal("refined_elephant.off"), 0)
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(metric, msdm_horse_48k, shared("horse.ply"), 1)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(metric, msdm2_horse_48k, shared("horse.ply"), 2)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(extract_drs, stanford_bunny_35k, shared("stanford-bunny.obj"))
+BENCHMARK_CAPTURE(metric, msdm_elephant_44k, cgal("refined_elephant.off"), 1)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(metric, msdm2_elephant_44k, cgal("refined_elephant.off"), 2)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(extract_drs, bunny00_38k, cgal("bunny00.off"))
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(extract_drs, igea_134k, shared("igea.ply"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(extract_drs, diplodocus_24k, cgal("diplodocus.off"))->Unit(benchmark::kMillisecond);
 
 // The registry: one batch of 10,000 issued copies recorded in one transaction into a fresh
 // SQLite file (WAL), as `embed --batch --registry` does; copies per second.
@@ -237,8 +239,8 @@ int main(int argc, char** argv) {
     const std::string kind = k.name;
     const auto it = strengths.find(kind);
     const double x = it == strengths.end() ? 0.0 : it->second;
-    benchmark::RegisterBenchmark(("attack/" + kind + "_horse_48k").c_str(), attack,
-                                 shared("horse.ply"), kind, x)
+    benchmark::RegisterBenchmark(("attack/" + kind + "_elephant_44k").c_str(), attack,
+                                 cgal("refined_elephant.off"), kind, x)
         ->Unit(benchmark::kMillisecond);
   }
   benchmark::Initialize(&argc, argv);

@@ -20,7 +20,8 @@ using namespace meshmark;
 
 namespace {
 
-// igea (134k vertices) after two sqrt(3) subdivisions: 1.21M vertices; its bytes per format.
+// refined_elephant (libcgal-demo, 44k vertices) after three sqrt(3) subdivisions: 1.2M vertices;
+// its bytes per format.
 struct Files {
   std::string glb, ply_float, ply_double;
   Eigen::Index vertices = 0;
@@ -28,11 +29,11 @@ struct Files {
 
 const Files* files() {
   static std::unique_ptr<Files> cached = [] {
-    const std::string path = std::string(MESHMARK_SHARED_DIR) + "/meshes/igea.ply";
+    const std::string path = std::string(MESHMARK_CGAL_DATA) + "/refined_elephant.off";
     if (!std::filesystem::exists(path)) return std::unique_ptr<Files>();
     ReadOptions ro;
     ro.keep_image = false;
-    const Mesh m = attack_subdivide(read_mesh(path, ro), Subdivision::Sqrt3, 2);
+    const Mesh m = attack_subdivide(read_mesh(path, ro), Subdivision::Sqrt3, 3);
     auto f = std::make_unique<Files>();
     f->vertices = m.V.rows();
     f->glb = write_mesh_to_bytes(m, FileFormat::Glb);
@@ -55,7 +56,7 @@ const std::string& bytes_of(const Files& f, FileFormat format, bool single) {
 
 void read_file_bytes(benchmark::State& state, FileFormat format, bool single) {
   const Files* f = files();
-  if (!f) return state.SkipWithError("missing ../shared/meshes/igea.ply");
+  if (!f) return state.SkipWithError("missing libcgal-demo's refined_elephant.off");
   const std::string& bytes = bytes_of(*f, format, single);
   for (auto _ : state) {
     Mesh m = read_mesh_from_bytes(bytes, format, "bench");
@@ -68,7 +69,7 @@ void read_file_bytes(benchmark::State& state, FileFormat format, bool single) {
 
 void embed_file_bytes(benchmark::State& state, FileFormat format, bool single) {
   const Files* f = files();
-  if (!f) return state.SkipWithError("missing ../shared/meshes/igea.ply");
+  if (!f) return state.SkipWithError("missing libcgal-demo's refined_elephant.off");
   const std::string& bytes = bytes_of(*f, format, single);
   const Payload p = random_payload(64, 1);
   for (auto _ : state) {

@@ -32,7 +32,8 @@ const Pair* pair_of(const std::string& path) {
   return &cache.emplace(path, std::move(p)).first->second;
 }
 
-using bench::shared;
+using bench::cgal;
+using bench::data;
 
 void msdm_reference(benchmark::State& state, const std::string& path) {
   const Pair* p = pair_of(path);
@@ -58,7 +59,7 @@ void msdm_compare(benchmark::State& state, const std::string& path) {
 
 }  // namespace
 
-BENCHMARK_CAPTURE(msdm_reference, horse_48k, shared("horse.ply"))->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(msdm_compare, horse_48k, shared("horse.ply"))->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(msdm_reference, igea_134k, shared("igea.ply"))->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(msdm_compare, igea_134k, shared("igea.ply"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(msdm_reference, elephant_44k, cgal("refined_elephant.off"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(msdm_compare, elephant_44k, cgal("refined_elephant.off"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(msdm_reference, diplodocus_24k, cgal("diplodocus.off"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(msdm_compare, diplodocus_24k, cgal("diplodocus.off"))->Unit(benchmark::kMillisecond);

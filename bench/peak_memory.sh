@@ -1,6 +1,6 @@
 #!/bin/bash
 # Peak memory of `meshmark embed` (maximum resident set size, GNU time) on about a million
-# vertices: igea (../shared/meshes/igea.ply, 134k vertices) sqrt3-subdivided twice (1.21M),
+# vertices: libcgal-demo's refined_elephant (44k vertices) sqrt3-subdivided three times (1.2M),
 # written as binary PLY. Prints the peak, and bytes per vertex for each variant given.
 # Usage: bench/peak_memory.sh [BUILD_DIR] [VARIANT...]   (default: build DRS)
 set -euo pipefail
@@ -9,13 +9,14 @@ build="${1:-$here/build}"
 shift || true
 variants=("$@")
 [ ${#variants[@]} -gt 0 ] || variants=(DRS)
-mesh="$here/../shared/meshes/igea.ply"
-[ -f "$mesh" ] || { echo "skipped: $mesh is absent"; exit 0; }
+mesh="$build/cgal-data/data/meshes/refined_elephant.off"
+[ -f "$mesh" ] || { echo "$mesh is missing (scripts/setup.sh installs libcgal-demo)" >&2; exit 2; }
 [ -x /usr/bin/time ] || { echo "needs GNU time: apt-get install time" >&2; exit 2; }
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 "$build/meshmark" attack sqrt3 "$mesh" "$work/once.ply" --strength 1 >/dev/null
-"$build/meshmark" attack sqrt3 "$work/once.ply" "$work/big.ply" --strength 1 >/dev/null
+"$build/meshmark" attack sqrt3 "$work/once.ply" "$work/twice.ply" --strength 1 >/dev/null
+"$build/meshmark" attack sqrt3 "$work/twice.ply" "$work/big.ply" --strength 1 >/dev/null
 nv=$(head -c 400 "$work/big.ply" | grep -a "^element vertex" | awk '{print $3}')
 for v in "${variants[@]}"; do
   /usr/bin/time -f "%M" -o "$work/rss" "$build/meshmark" embed "$work/big.ply" "$work/out.ply" \

@@ -1,4 +1,4 @@
-// Tracing a leak against the issued copies: horse (48,485 vertices), one copy embedded (VRS,
+// Tracing a leak against the issued copies: refined_elephant (libcgal-demo, 44,460 vertices), one copy embedded (VRS,
 // 64 bits) and 10,000 consecutive IDs issued, the leak processed as named; one trace() per
 // iteration, registration included (the leak and the original are read before timing).
 
@@ -18,10 +18,10 @@ using namespace meshmark;
 namespace {
 
 void trace_leak(benchmark::State& state, const std::string& attack) {
-  const std::string path = std::string(MESHMARK_SHARED_DIR) + "/meshes/horse.ply";
+  const std::string path = std::string(MESHMARK_CGAL_DATA) + "/refined_elephant.off";
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) {
-    state.SkipWithError("horse.ply not found");
+    state.SkipWithError("refined_elephant.off not found");
     return;
   }
   const Mesh original = read_mesh(path);

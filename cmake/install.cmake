@@ -44,3 +44,10 @@ install(FILES ${PROJECT_BINARY_DIR}/meshmarkConfig.cmake ${PROJECT_BINARY_DIR}/m
   DESTINATION ${MESHMARK_CMAKE_DIR})
 install(FILES ${PROJECT_SOURCE_DIR}/LICENSE ${PROJECT_SOURCE_DIR}/CHANGELOG.md
   DESTINATION ${CMAKE_INSTALL_DOCDIR})
+
+# The data folder the installed library's campaigns read (MESHMARK_DATA_DIR): the project's own
+# meshes, and libcgal-demo's when they were unpacked into the build tree.
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/data/meshes DESTINATION ${CMAKE_INSTALL_DATADIR}/meshmark)
+if(EXISTS "${MESHMARK_CGAL_DATA}")
+  install(DIRECTORY ${MESHMARK_CGAL_DATA}/ DESTINATION ${CMAKE_INSTALL_DATADIR}/meshmark/cgal)
+endif()

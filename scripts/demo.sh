@@ -1,37 +1,51 @@
 #!/usr/bin/env bash
-# Sets up meshmark and runs its main job on a real mesh: embed a random 64-bit payload into
-# fandisk (from Debian's libcgal-demo data), rotate, scale, translate and reorder the result,
-# then extract the payload blind and report the bit error rate and the distortion; then trace a
-# keyed buyer ID through noise, and run the quick benchmark campaign.
+# The shop's job, end to end, on a real mesh (bunny00 from Debian's libcgal-demo data): make a
+# secret key, issue 20 copies to 20 buyers into an SQLite registry, leak one copy through what a
+# leak goes through (gltfpack's conversion to GLB and simplification to 50 %; meshmark's own
+# attack chain where gltfpack is absent), trace it back to its buyer with an evidence report,
+# and read an unprocessed copy blind. Sets up (scripts/setup.sh) first. Prints where the report
+# is; DEMO_OUT=DIR keeps everything in DIR (default: a fresh temporary directory, kept).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
-mm=build/meshmark
-mesh=build/cgal-data/data/meshes/fandisk.off
-[ -f "$mesh" ] || { echo "demo: $mesh is missing (is libcgal-demo installed?)" >&2; exit 1; }
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+mm="$PWD/build/meshmark"
+export MESHMARK_DATA_DIR="$PWD/data" MESHMARK_CGAL_DATA="$PWD/build/cgal-data/data/meshes"
+original="$MESHMARK_CGAL_DATA/bunny00.off"
+[ -f "$original" ] || { echo "demo: $original is missing (scripts/setup.sh installs libcgal-demo)" >&2; exit 1; }
+work="${DEMO_OUT:-$(mktemp -d /tmp/meshmark-demo.XXXXXX)}"
+mkdir -p "$work"
+cd "$work"
+rm -f shop.key registry.db manifest.txt copy-*.ply leak.* report.html
 
-payload=$(od -An -N8 -tx1 /dev/urandom | tr -d ' \n')
-seed=$((0x$(od -An -N4 -tx1 /dev/urandom | tr -d ' \n')))
-echo "== embedding payload $payload into $mesh"
-$mm embed "$mesh" "$work/marked.off" --payload "$payload"
+echo "== 1. a secret key for the shop (32 random bytes, readable by its owner only)"
+(umask 077 && head -c 32 /dev/urandom > shop.key)
+ls -l shop.key
+
+echo "== 2. 20 copies of $(basename "$original") issued to 20 buyers, recorded in registry.db"
+for i in $(seq 1 20); do
+  echo "$original copy-$i.ply id:$((1000 + i)) buyer-$i"
+done > manifest.txt
+time "$mm" embed --batch manifest.txt --key-file shop.key --registry registry.db | tail -n 3
+"$mm" registry list registry.db | head -n 4
+
+leaker=13
+echo "== 3. buyer-$leaker's copy leaks: converted to GLB and simplified to 50 %"
+if command -v gltfpack >/dev/null; then
+  gltfpack -i "copy-$leaker.ply" -o leak.glb -si 0.5 >/dev/null
+  leak=leak.glb
+  echo "gltfpack -i copy-$leaker.ply -o leak.glb -si 0.5"
+else
+  "$mm" attack similarity,simplify:0.5 "copy-$leaker.ply" leak.ply --strength 2 --seed 7 >/dev/null
+  leak=leak.ply
+  echo "(gltfpack is not installed: meshmark attack similarity,simplify:0.5 instead)"
+fi
+
+echo "== 4. trace the leak with the original and the registry"
+"$mm" trace "$leak" --original "$original" --registry registry.db --key-file shop.key \
+  --report report.html | head -n 12
+
+echo "== 5. the blind read of an unprocessed copy (no original, no registry)"
+"$mm" extract copy-7.ply --coded --key-file shop.key | head -n 2
+
 echo
-echo "== attacking: random rotation, uniform scale and translation, then vertex and face reordering (seed $seed)"
-$mm attack similarity "$work/marked.off" "$work/moved.off" --strength 3 --seed "$seed"
-$mm attack reorder "$work/moved.off" "$work/attacked.off" --seed "$seed"
-echo
-echo "== extracting blind from the attacked mesh"
-$mm extract "$work/attacked.off" --expect "$payload" | grep -E "^(payload|expected|bit error rate|smallest margin)"
-echo
-echo "== a buyer ID under a secret key: embed, then trace it (decoding and detection)"
-head -c 32 /dev/urandom > "$work/studio.key"
-id=$(( $(od -An -N4 -tu4 /dev/urandom | tr -d ' ') ))
-$mm embed "$mesh" "$work/buyer.off" --id "$id" --key-file "$work/studio.key" | sed -n 1,2p
-$mm attack noise "$work/buyer.off" "$work/leaked.off" --strength 0.0002 --seed "$seed" >/dev/null
-$mm extract "$work/leaked.off" --coded --key-file "$work/studio.key" | sed -n 1p
-$mm detect "$work/leaked.off" --expect "$id" --key-file "$work/studio.key"
-echo
-echo "== the quick benchmark campaign (3 models, DRS/SRS/VRS, calibrated, 7 attacks)"
-$mm bench bench/campaigns/quick.json --out "$work/quick" --fresh | sed -n 1,4p
-echo "(report: $work/quick/report.md; kept in bench-results/quick when run without --out)"
+echo "evidence report: $work/report.html"

@@ -22,19 +22,19 @@ cmake --build "$out" --target fuzz_read fuzz_decode --parallel "$(nproc)"
 seeds="$out/seeds"
 rm -rf "$seeds" && mkdir -p "$seeds"
 add_seed() { # FILE FORMAT_BYTE
-  [ -f "$1" ] || return 0
+  [ -f "$1" ] || { echo "fuzz: seed $1 is missing (data/meshes, or scripts/setup.sh's Debian data)" >&2; exit 1; }
   [ "$(stat -c %s "$1")" -le 400000 ] || return 0
   { printf "\\x$(printf %02x "$2")"; cat "$1"; } > "$seeds/$(basename "$1").$2"
 }
-for f in ../shared/meshes/spot.obj ../shared/meshes/spider.obj ../shared/meshes/teapot.obj; do add_seed "$f" 1; done
-add_seed ../shared/meshes/featuretype.STL 3
+for f in data/meshes/spot.obj data/meshes/spider.obj /usr/share/assimp/models/OBJ/WusonOBJ.obj; do add_seed "$f" 1; done
+add_seed data/meshes/featuretype.STL 3
 for f in build/cgal-data/data/meshes/cube.off build/cgal-data/data/meshes/tetrahedron.off build/cgal-data/data/meshes/elephant.off; do add_seed "$f" 0; done
 for f in build/cgal-data/data/meshes/colored_tetra.ply build/cgal-data/data/meshes/sphere.ply; do add_seed "$f" 2; done
 add_seed build/cgal-data/data/meshes/sphere.stl 3
 # glTF and GLB seeds: gltfpack's outputs (quantized, float, meshopt) and Debian's sample files.
-if command -v gltfpack >/dev/null && [ -f ../shared/meshes/spot.obj ]; then
+if command -v gltfpack >/dev/null; then
   for flags in "" "-noq" "-cc"; do
-    gltfpack -i ../shared/meshes/spot.obj -o "$out/seed$flags.glb" $flags >/dev/null 2>&1 && add_seed "$out/seed$flags.glb" 5
+    gltfpack -i data/meshes/spot.obj -o "$out/seed$flags.glb" $flags >/dev/null 2>&1 && add_seed "$out/seed$flags.glb" 5
   done
 fi
 for f in /usr/share/assimp/models/glTF2/BoxTextured-glTF-Embedded/BoxTextured.gltf \

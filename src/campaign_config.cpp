@@ -15,11 +15,10 @@
 #include "meshmark/io.h"
 #include "meshmark/method.h"
 
-#ifndef MESHMARK_DEFAULT_SHARED_DIR
-#define MESHMARK_DEFAULT_SHARED_DIR "../shared"
-#endif
-#ifndef MESHMARK_DEFAULT_CGAL_DATA
-#define MESHMARK_DEFAULT_CGAL_DATA "build/cgal-data/data/meshes"
+// The installed data folder (CMake's MESHMARK_DATA_DIR): meshes/ holds the project's meshes,
+// cgal/ libcgal-demo's.
+#ifndef MESHMARK_DEFAULT_DATA_DIR
+#define MESHMARK_DEFAULT_DATA_DIR "/usr/local/share/meshmark"
 #endif
 
 namespace meshmark {
@@ -30,14 +29,17 @@ using nlohmann::json;
 namespace {
 
 std::string expand(std::string path, const fs::path& base) {
-  auto replace = [&](const std::string& token, const char* env, const char* fallback) {
+  auto from_env = [](const char* env, const std::string& fallback) {
     const char* value = std::getenv(env);
-    const std::string with = value && *value ? value : fallback;
+    return value && *value ? std::string(value) : fallback;
+  };
+  auto replace = [&](const std::string& token, const std::string& with) {
     for (std::size_t at; (at = path.find(token)) != std::string::npos;)
       path.replace(at, token.size(), with);
   };
-  replace("${shared}", "MESHMARK_SHARED_DIR", MESHMARK_DEFAULT_SHARED_DIR);
-  replace("${cgal}", "MESHMARK_CGAL_DATA", MESHMARK_DEFAULT_CGAL_DATA);
+  const std::string data = from_env("MESHMARK_DATA_DIR", MESHMARK_DEFAULT_DATA_DIR);
+  replace("${data}", data);
+  replace("${cgal}", from_env("MESHMARK_CGAL_DATA", data + "/cgal"));
   fs::path p(path);
   if (p.is_relative()) p = base / p;
   return p.lexically_normal().string();

@@ -1,5 +1,5 @@
 // The campaign report's comparison with the published results of the LIRIS watermarking
-// benchmark (Wang, Lavoue, Denis, Baskurt, SMI 2010; ../shared/spec/WATERMARK.md section 8):
+// benchmark (Wang, Lavoue, Denis, Baskurt, SMI 2010; docs/method.md section 8):
 // Cho et al.'s method under its two protocols and Wang et al.'s volume-moment method, beside
 // this campaign's variants at the protocol of equal distortion, attack by attack, only for
 // series that apply the benchmark's definition of the attack.
@@ -167,7 +167,7 @@ std::string detail::published_comparison(const CampaignConfig& c,
   return "## Beside the published results of the LIRIS benchmark\n\n"
          "The benchmark of Wang, Lavoue, Denis and Baskurt (SMI 2010; its attacks are MEPP's "
          "Various_Processing component) publishes Cho et al.'s method under two protocols and "
-         "Wang et al.'s volume-moment method (../shared/spec/WATERMARK.md section 8). Rows list "
+         "Wang et al.'s volume-moment method (docs/method.md section 8). Rows list "
          "only this campaign's series that apply the benchmark's definition of the attack (named "
          "in each row); a series with another definition (smoothing with lambda 0.3, "
          "quantization step (max - min) / (2^b - 1)) is not compared. The campaign calibrates on "

@@ -149,7 +149,7 @@ Eigen::VectorXd LaplacianOperator::diagonal() const {
 
 namespace {
 
-// Laplacian-cost Hessian over groups: lambda I + (1 - lambda) B^T B (WATERMARK.md section 3;
+// Laplacian-cost Hessian over groups: lambda I + (1 - lambda) B^T B (docs/method.md section 3;
 // each position's squared displacement once), from the topology matrix and this round's
 // directions: O(nonzeros), no sort.
 Eigen::SparseMatrix<double> laplacian_hessian(const EmbedContext& ctx, const Eigen::MatrixX3d& U,

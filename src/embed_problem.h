@@ -1,5 +1,5 @@
 #pragma once
-// Internal: the quadratic program of one embedding round (WATERMARK.md section 3), in units of
+// Internal: the quadratic program of one embedding round (docs/method.md section 3), in units of
 // the bin width s (x_g = r_g / s), over groups of vertices at identical positions.
 
 #include <Eigen/SparseCore>

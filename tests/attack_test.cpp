@@ -90,7 +90,7 @@ bool on_grid_border(int i, int n) {
 }  // namespace
 
 TEST(Attack, NoiseStaysWithinItsAmplitudeForBothReferences) {
-  const std::string path = shared_mesh("bunny.ply");
+  const std::string path = data_mesh("bunny.ply");
   MESHMARK_REQUIRE(path, "bunny.ply");
   const Mesh m = real(path);
   // bunny.ply has unreferenced vertices: the references are over the referenced ones.
@@ -117,8 +117,8 @@ TEST(Attack, NoiseStaysWithinItsAmplitudeForBothReferences) {
 }
 
 TEST(Attack, QuantizedPointsLieOnTheGrid) {
-  const std::string path = shared_mesh("horse.ply");
-  MESHMARK_REQUIRE(path, "horse.ply");
+  const std::string path = closed_binary_ply();
+  MESHMARK_REQUIRE(path, "bunny00.off");
   const Mesh m = real(path);
   for (int bits : {7, 10, 12}) {
     const Mesh q = attack_quantize(m, bits);
@@ -139,7 +139,7 @@ TEST(Attack, QuantizedPointsLieOnTheGrid) {
 
 TEST(Attack, SimplificationReachesTheFaceTargetWithinOnePercent) {
   for (const std::string& path :
-       {shared_mesh("horse.ply"), shared_mesh("bunny.ply"), cgal_mesh("fandisk.off")}) {
+       {closed_binary_ply(), data_mesh("bunny.ply"), cgal_mesh("fandisk.off")}) {
     if (path.empty()) continue;
     SCOPED_TRACE(path);
     const Mesh m = real(path);
@@ -157,7 +157,7 @@ TEST(Attack, SimplificationReachesTheFaceTargetWithinOnePercent) {
 // closest-point index, to 1e-6 of the diagonal), the mean edge length within 20 % of the
 // target, and a new sampling (not the input's vertices).
 TEST(Attack, RemeshingKeepsTheSurfaceAndReachesTheEdgeLength) {
-  for (const std::string& path : {shared_mesh("bunny.ply"), cgal_mesh("fandisk.off")}) {
+  for (const std::string& path : {data_mesh("bunny.ply"), cgal_mesh("fandisk.off")}) {
     if (path.empty()) continue;
     SCOPED_TRACE(path);
     const Mesh m = real(path);
@@ -188,8 +188,8 @@ TEST(Attack, RemeshingKeepsTheSurfaceAndReachesTheEdgeLength) {
 }
 
 TEST(Attack, SubdivisionVertexAndFaceCountsOnAClosedMesh) {
-  const std::string path = shared_mesh("horse.ply");
-  MESHMARK_REQUIRE(path, "horse.ply");
+  const std::string path = closed_binary_ply();
+  MESHMARK_REQUIRE(path, "bunny00.off");
   const Mesh m = real(path);
   ASSERT_TRUE(closed_two_manifold_edges(m.F)) << "the horse is expected to be closed";
   const auto V = static_cast<std::size_t>(m.V.rows()), F = static_cast<std::size_t>(m.F.rows());
@@ -210,7 +210,7 @@ TEST(Attack, SubdivisionVertexAndFaceCountsOnAClosedMesh) {
 }
 
 TEST(Attack, SubdivisionHandlesOpenAndNonManifoldMeshes) {
-  for (const std::string& path : {shared_mesh("bunny.ply"), shared_mesh("stanford-bunny.obj"),
+  for (const std::string& path : {data_mesh("bunny.ply"), data_mesh("bunny.ply"),
                                   cgal_mesh("mech-holes-shark.off")}) {
     if (path.empty()) continue;
     const Mesh m = real(path);
@@ -225,8 +225,8 @@ TEST(Attack, SubdivisionHandlesOpenAndNonManifoldMeshes) {
 }
 
 TEST(Attack, CroppingRemovesTheAskedFraction) {
-  const std::string path = shared_mesh("stanford-bunny.obj");
-  MESHMARK_REQUIRE(path, "stanford-bunny.obj");
+  const std::string path = data_mesh("bunny.ply");
+  MESHMARK_REQUIRE(path, "bunny.ply");
   const Mesh m = real(path);
   const auto used = referenced_vertices(m.F, m.V.rows());
   const auto n_ref = std::count(used.begin(), used.end(), 1);
@@ -238,7 +238,7 @@ TEST(Attack, CroppingRemovesTheAskedFraction) {
 }
 
 TEST(Attack, TriangleSoupHasThreeVerticesPerFaceAndScaledEdges) {
-  const std::string path = shared_mesh("spot.obj");
+  const std::string path = data_mesh("spot.obj");
   MESHMARK_REQUIRE(path, "spot.obj");
   const Mesh m = real(path);
   const double ratio = 0.8, A = 1e-4 * diagonal(m.V);
@@ -359,7 +359,7 @@ TEST(Attack, BenchmarkQuantizationStepIsTheRangeOverTwoToTheBits) {
     EXPECT_NEAR(l.V(i, 0), std::round(V(i, 0) / (8.0 / 7)) * (8.0 / 7), 1e-12) << i;
   }
   // On a real mesh: every coordinate within half a step of the input, on the grid.
-  const std::string path = shared_mesh("bunny.ply");
+  const std::string path = data_mesh("bunny.ply");
   MESHMARK_REQUIRE(path, "bunny.ply");
   const Mesh r = real(path);
   const Mesh q = attack_quantize(r, 9, QuantizeConvention::Benchmark);
@@ -376,7 +376,7 @@ TEST(Attack, BenchmarkQuantizationStepIsTheRangeOverTwoToTheBits) {
 // Each parameter, given to each kind: refused by the kinds the registry says do not read it,
 // and changing the result of those it says do (on the bunny, whose holes give a boundary).
 TEST(Attack, EveryKindReadsExactlyTheParametersTheRegistryNames) {
-  const std::string path = shared_mesh("bunny.ply");
+  const std::string path = data_mesh("bunny.ply");
   MESHMARK_REQUIRE(path, "bunny.ply");
   const Mesh m = real(path);
   const std::vector<std::uint8_t> boundary = boundary_vertices(m.F, m.V.rows());
@@ -450,8 +450,8 @@ TEST(Attack, ParametersGoToTheStepsThatReadThemAndNowhereElse) {
 }
 
 TEST(Attack, TaubinShrinksLessThanLaplacian) {
-  const std::string path = shared_mesh("horse.ply");
-  MESHMARK_REQUIRE(path, "horse.ply");
+  const std::string path = closed_binary_ply();
+  MESHMARK_REQUIRE(path, "bunny00.off");
   const Mesh m = real(path);
   const double d0 = diagonal(m.V);
   const double lap = diagonal(attack_smooth_laplacian(m, 20, 0.5).V),
@@ -470,7 +470,7 @@ TEST(Attack, Float32StorageRoundsToFloat) {
 // Every kind of the registry: one seed gives the same bytes twice, and another seed gives other
 // bytes exactly when the registry calls the kind seeded.
 TEST(Attack, SameSeedSameBytesForEveryKindAndSeededKindsVary) {
-  const std::string path = shared_mesh("bunny.ply");
+  const std::string path = data_mesh("bunny.ply");
   MESHMARK_REQUIRE(path, "bunny.ply");
   const Mesh m = real(path);
   for (const AttackKind& kind : attack_registry()) {
@@ -630,10 +630,10 @@ TEST(AttackDegenerate, DegenerateFacesChangeNothingOnAGeneratedClosedMesh) {
   }
 }
 
-TEST(AttackDegenerate, HorsePlusFace001AsReported) {
+TEST(AttackDegenerate, ClosedMeshPlusFace001AsReported) {
   GTEST_FLAG_SET(death_test_style, "threadsafe");
-  const std::string path = shared_mesh("horse.ply");
-  MESHMARK_REQUIRE(path, "horse.ply");
+  const std::string path = closed_binary_ply();
+  MESHMARK_REQUIRE(path, "bunny00.off");
   const Mesh m = read_mesh(path);
   ASSERT_TRUE(closed_two_manifold_edges(m.F));
   const Mesh d = with(m, {}, {0, 0, 1});
@@ -655,7 +655,7 @@ TEST(AttackDegenerate, NoFaceOfNonZeroAreaIsANamedError) {
 // exactly (the same collapses; attack_simplify stops on its own predicate, without copies).
 TEST(Attack, SimplificationLevelsFromOneRunEqualSeparateRuns) {
   int meshes = 0;
-  for (const std::string& path : {shared_mesh("bunny.ply"), cgal_mesh("fandisk.off")}) {
+  for (const std::string& path : {data_mesh("bunny.ply"), cgal_mesh("fandisk.off")}) {
     if (path.empty()) continue;
     SCOPED_TRACE(path);
     ++meshes;
@@ -671,5 +671,5 @@ TEST(Attack, SimplificationLevelsFromOneRunEqualSeparateRuns) {
       }
     }
   }
-  if (meshes == 0) GTEST_SKIP() << "skipped: no real mesh available";
+  if (meshes == 0) GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
 }

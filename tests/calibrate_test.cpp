@@ -39,7 +39,7 @@ Measured measure_again(const Mesh& mesh, const Payload& payload, EmbedOptions eo
 }
 
 TEST(PreparedEmbedder, GivesWhatEmbedGivesForEveryPayloadAndStrength) {
-  const std::string path = test::shared_mesh("spot.obj");
+  const std::string path = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(path, "spot.obj");
   const Mesh mesh = read_mesh(path);
   for (const char* v : {"DRS", "VSS", "VRL"}) {
@@ -67,8 +67,8 @@ TEST(Calibrate, EveryPayloadGetsItsStrongestMarkWithinBothLimits) {
   // Per copy: ten coded buyers' words with keyed per-bit strengths, each calibrated for
   // itself; re-measured, every copy meets both limits, and the next strength up (by the
   // search's precision) breaks one unless the distortion already sits at a limit.
-  const std::string path = test::shared_mesh("horse.ply");
-  MESHMARK_REQUIRE(path, "horse.ply");
+  const std::string path = test::closed_binary_ply();
+  MESHMARK_REQUIRE(path, "bunny00.off");
   const Mesh mesh = read_mesh(path);
   const Key key = derive_key(public_key(), "calibrate-test");
   const IdCode code;
@@ -105,7 +105,7 @@ TEST(Calibrate, EveryPayloadGetsItsStrongestMarkWithinBothLimits) {
 }
 
 TEST(Calibrate, TheReturnedEmbeddingIsTheMeasuredOne) {
-  const std::string path = test::shared_mesh("spot.obj");
+  const std::string path = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(path, "spot.obj");
   const Mesh mesh = read_mesh(path);
   EmbedOptions eo;
@@ -122,7 +122,7 @@ TEST(Calibrate, TheReturnedEmbeddingIsTheMeasuredOne) {
 }
 
 TEST(Calibrate, FixedRuleKeepsThePapersBinOffset) {
-  const std::string path = test::shared_mesh("spot.obj");
+  const std::string path = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(path, "spot.obj");
   const Mesh mesh = read_mesh(path);
   EmbedOptions eo;
@@ -143,7 +143,7 @@ TEST(Calibrate, FixedRuleKeepsThePapersBinOffset) {
 }
 
 TEST(Calibrate, NamesTheLimitThatTheWeakestMarkBreaks) {
-  const std::string path = test::shared_mesh("spot.obj");
+  const std::string path = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(path, "spot.obj");
   const Mesh mesh = read_mesh(path);
   EmbedOptions eo;
@@ -201,7 +201,7 @@ TEST(Calibrate, ACarrierTooSmallForThePayloadIsNamedWithFewerBitsThatFit) {
 
 TEST(Calibrate, EmptyBinsAreNamedAsTheCarriersAndFewerBitsSuggested) {
   // featuretype.STL (a CAD part, 2,010 positions): 3 of its 64 bins are empty at 64 bits.
-  const std::string path = test::shared_mesh("featuretype.STL");
+  const std::string path = test::data_mesh("featuretype.STL");
   MESHMARK_REQUIRE(path, "featuretype.STL");
   const Mesh mesh = read_mesh(path);
   const CarrierCheck check = check_carrier(mesh.V, mesh.F, 64);

@@ -32,7 +32,7 @@ constexpr std::size_t kUnits = 1 * 2 * 2;  // models x variants x payloads
 // trials, under a second.
 CampaignConfig small_campaign(const std::string& dir) {
   const std::string path = dir + "/small.json";
-  std::ofstream(path) << "{\"name\": \"small\", \"models\": [\"" << test::shared_mesh("spot.obj")
+  std::ofstream(path) << "{\"name\": \"small\", \"models\": [\"" << test::data_mesh("spot.obj")
                       << "\"], \"variants\": [\"DRS\", \"SRS\"], \"payloads\": 2, \"draws\": 3, "
                          "\"strength\": 0.02, \"attacks\": [{\"kind\": \"noise\", \"strengths\": "
                          "[0.001]}, {\"kind\": \"quant\", \"strengths\": [10]}]}";
@@ -65,7 +65,7 @@ CampaignRunOptions options_for(const std::string& out) {
 }
 
 TEST(CampaignRun, CutJournalResumesToTheRowsOfAFreshRunAndReportsTheCutLine) {
-  MESHMARK_REQUIRE(test::shared_mesh("spot.obj"), "spot.obj");
+  MESHMARK_REQUIRE(test::data_mesh("spot.obj"), "spot.obj");
   const std::string dir = test::scratch_dir();
   const CampaignConfig config = small_campaign(dir);
   const CampaignRunResult fresh = run_campaign(config, options_for(dir + "/fresh"));
@@ -108,7 +108,7 @@ TEST(CampaignRun, CutJournalResumesToTheRowsOfAFreshRunAndReportsTheCutLine) {
 }
 
 TEST(CampaignRun, TwoRanksGiveTheRowsOfOneProcess) {
-  MESHMARK_REQUIRE(test::shared_mesh("spot.obj"), "spot.obj");
+  MESHMARK_REQUIRE(test::data_mesh("spot.obj"), "spot.obj");
   const std::string dir = test::scratch_dir();
   const CampaignConfig config = small_campaign(dir);
   const auto reference = rows_by_key(run_campaign(config, options_for(dir + "/one")).rows);
@@ -146,7 +146,7 @@ TEST(CampaignRun, TwoRanksGiveTheRowsOfOneProcess) {
 }
 
 TEST(CampaignRun, RefusesADirectoryOfAnotherCampaign) {
-  MESHMARK_REQUIRE(test::shared_mesh("spot.obj"), "spot.obj");
+  MESHMARK_REQUIRE(test::data_mesh("spot.obj"), "spot.obj");
   const std::string dir = test::scratch_dir();
   const CampaignConfig config = small_campaign(dir);
   fs::create_directories(dir + "/out");

@@ -41,7 +41,7 @@ std::string error_of(const std::string& path) {
 }
 
 TEST(Campaign, RejectsBadFilesNamingFileAndKey) {
-  const std::string spot = test::shared_mesh("spot.obj");
+  const std::string spot = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
   const std::string dir = test::scratch_dir();
   const std::string head = "{\"models\": [\"" + spot + "\"], \"variants\": [\"DRS\"]";
@@ -114,7 +114,7 @@ TEST(Campaign, ChainsRunTheirStepsWithTheSeriesStrengthLast) {
 }
 
 TEST(Campaign, TraceModeIssuesConsecutiveIdsAndPlansAveragedTrials) {
-  const std::string spot = test::shared_mesh("spot.obj");
+  const std::string spot = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
   const std::string path =
       write_text(test::scratch_dir() + "/trace.json",
@@ -186,7 +186,7 @@ std::vector<std::string> split_csv(const std::string& line) {
 }
 
 TEST(Campaign, QuickCampaignWritesCompleteRowsMediansFiguresAndReport) {
-  for (const char* m : {"bunny.ply", "spot.obj"}) MESHMARK_REQUIRE(test::shared_mesh(m), m);
+  for (const char* m : {"bunny.ply", "spot.obj"}) MESHMARK_REQUIRE(test::data_mesh(m), m);
   MESHMARK_REQUIRE(test::cgal_mesh("fandisk.off"), "fandisk.off");
   const std::string dir = test::scratch_dir() + "/quick";
   const std::string config = std::string(MESHMARK_SOURCE_DIR) + "/bench/campaigns/quick.json";
@@ -256,10 +256,10 @@ TEST(Campaign, QuickCampaignWritesCompleteRowsMediansFiguresAndReport) {
 // Cho's methods beside the QP framework in one campaign: calibrated to the same limits, read
 // back with their own statistic, named in the report.
 TEST(Campaign, ChoSchemesRunBesideTheQpFrameworkAtTheSameLimits) {
-  MESHMARK_REQUIRE(test::shared_mesh("spot.obj"), "spot.obj");
+  MESHMARK_REQUIRE(test::data_mesh("spot.obj"), "spot.obj");
   const std::string dir = test::scratch_dir();
   const std::string config = write_text(dir + "/cho.json", R"({
-    "name": "cho-side-by-side", "models": ["${shared}/meshes/spot.obj"],
+    "name": "cho-side-by-side", "models": ["${data}/meshes/spot.obj"],
     "variants": ["DRS", "cho-mean", "cho-variance/VRS"], "bits": 32, "payloads": 2, "draws": 1,
     "seed": 7, "calibration": {"max_rms": 0.04, "max_msdm": 0.25, "iterations": 6},
     "attacks": [{"kind": "similarity", "strengths": [2]}, {"kind": "noise", "strengths": [0.0005]}]
@@ -285,7 +285,7 @@ TEST(Campaign, ChoSchemesRunBesideTheQpFrameworkAtTheSameLimits) {
   EXPECT_NE(report.find("cho-mean"), std::string::npos);
   EXPECT_NE(report.find("cho-variance/VRS"), std::string::npos);
   EXPECT_THROW(load_campaign(write_text(dir + "/bad.json", R"({"name": "b",
-    "models": ["${shared}/meshes/spot.obj"], "variants": ["cho-mean/VRL"], "strength": 0.05,
+    "models": ["${data}/meshes/spot.obj"], "variants": ["cho-mean/VRL"], "strength": 0.05,
     "attacks": [{"kind": "noise", "strengths": [0.001]}]})")),
                InvalidInputError);
 }
@@ -294,7 +294,7 @@ TEST(Campaign, ChoSchemesRunBesideTheQpFrameworkAtTheSameLimits) {
 // protocol's limits, the series' parameters reach the attack, and the report compares with
 // the published results at equal distortion.
 TEST(Campaign, BenchmarkQuickCampaignCalibratesPerProtocolAndPassesAttackParameters) {
-  MESHMARK_REQUIRE(test::shared_mesh("igea.ply"), "igea.ply");
+  MESHMARK_REQUIRE(test::cgal_mesh("bunny00.off"), "bunny00.off");
   const std::string config =
       std::string(MESHMARK_SOURCE_DIR) + "/bench/campaigns/benchmark-quick.json";
   const CampaignConfig c = load_campaign(config);
@@ -363,7 +363,7 @@ TEST(Campaign, BenchmarkQuickCampaignCalibratesPerProtocolAndPassesAttackParamet
 // tests are about rows surviving kills and ranks, and per-copy calibration (MSDM on the horse
 // for every embedding) would only make them slower, under the sanitizers most of all.
 std::string resumable_config(const std::string& dir) {
-  const std::string horse = test::shared_mesh("horse.ply");
+  const std::string horse = test::closed_binary_ply();
   return write_text(dir + "/resume.json",
                     "{\"name\": \"resume\", \"models\": [\"" + horse +
                         "\"], \"variants\": [\"DRS\", \"SRS\"], \"payloads\": 3, \"draws\": 6, "
@@ -373,7 +373,7 @@ std::string resumable_config(const std::string& dir) {
 }
 
 TEST(Campaign, KilledCampaignResumesWithoutLosingOrDoublingRows) {
-  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  MESHMARK_REQUIRE(test::closed_binary_ply(), "bunny00.off");
   const std::string dir = test::scratch_dir();
   const std::string config = resumable_config(dir);
   const test::CliRun whole = test::run_cli("bench " + config + " --out " + dir + "/whole");
@@ -401,7 +401,7 @@ TEST(Campaign, KilledCampaignResumesWithoutLosingOrDoublingRows) {
 }
 
 TEST(Campaign, MpiRanksGiveTheRowsOfOneProcess) {
-  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  MESHMARK_REQUIRE(test::closed_binary_ply(), "bunny00.off");
 #if defined(__SANITIZE_ADDRESS__)
   GTEST_SKIP() << "skipped: under AddressSanitizer, which cannot dlopen OpenMPI with "
                   "RTLD_DEEPBIND (see apps/cli_bench.cpp); the regular build runs this test";
@@ -429,7 +429,7 @@ TEST(Campaign, MpiRanksGiveTheRowsOfOneProcess) {
 }
 
 TEST(Campaign, CalibrateCommandSavesAndReusesItsResult) {
-  const std::string path = test::shared_mesh("spot.obj");
+  const std::string path = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(path, "spot.obj");
   const std::string cache = test::scratch_dir() + "/calibration.jsonl";
   const test::CliRun first =
@@ -452,7 +452,7 @@ TEST(Campaign, CalibrateCommandSavesAndReusesItsResult) {
 // decoder, and trace names the leaker at least as often as the blind decoder decodes it, on
 // the same attacked meshes; rows removed from the journal are run again to the same values.
 TEST(Campaign, TraceQuickCampaignNamesNoInnocentAndBeatsTheBlindDecoder) {
-  MESHMARK_REQUIRE(test::shared_mesh("stanford-bunny.obj"), "stanford-bunny.obj");
+  MESHMARK_REQUIRE(test::cgal_mesh("bunny00.off"), "bunny00.off");
 #if defined(__SANITIZE_ADDRESS__)
   GTEST_SKIP() << "skipped under AddressSanitizer: a 2-minute campaign there takes too long for "
                   "CI; the regular build runs it";

@@ -21,7 +21,7 @@ CliRun run(const std::string& args) {
 }  // namespace
 
 TEST(Cli, EmbedThenExtractRoundTrips) {
-  const std::string in = test::shared_mesh("spot.obj");
+  const std::string in = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(in, "spot.obj");
   const std::string dir = test::scratch_dir();
   const CliRun e = run("embed " + in + " " + dir + "/w.obj --payload 0123456789abcdef");
@@ -87,7 +87,7 @@ TEST(Cli, RoughnessWritesAColoredPly) {
 }
 
 TEST(Cli, CompareReportsEveryMetricAndWritesAMap) {
-  const std::string in = test::shared_mesh("spot.obj");
+  const std::string in = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(in, "spot.obj");
   const std::string dir = test::scratch_dir();
   ASSERT_EQ(run("attack noise " + in + " " + dir + "/noisy.obj --strength 0.002 --seed 3").code, 0);
@@ -100,7 +100,7 @@ TEST(Cli, CompareReportsEveryMetricAndWritesAMap) {
 }
 
 TEST(Cli, BatchEmbedsOneCopyPerLineAndReportsFailuresPerLine) {
-  const std::string spot = test::shared_mesh("spot.obj");
+  const std::string spot = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
   const std::string dir = test::scratch_dir();
   const std::string tiny = dir + "/tiny.obj";
@@ -130,7 +130,7 @@ TEST(Cli, BatchEmbedsOneCopyPerLineAndReportsFailuresPerLine) {
 }
 
 TEST(Cli, OptionValuesThatAreNotFiniteAreRefusedAndNamedSo) {
-  const std::string in = test::shared_mesh("spot.obj");
+  const std::string in = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(in, "spot.obj");
   const std::string dir = test::scratch_dir();
   for (const char* bad : {"nan", "inf", "-1"}) {
@@ -150,7 +150,7 @@ TEST(Cli, OptionValuesThatAreNotFiniteAreRefusedAndNamedSo) {
 }
 
 TEST(Cli, CompareAcceptsTheSameFileTwice) {
-  const std::string in = test::shared_mesh("spot.obj");
+  const std::string in = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(in, "spot.obj");
   const CliRun r = run("compare " + in + " " + in + " --json");
   ASSERT_EQ(r.code, 0) << r.out;
@@ -162,7 +162,7 @@ TEST(Cli, CompareAcceptsTheSameFileTwice) {
 }
 
 TEST(Cli, AGivenFormatNeedsNoExtensionOnOut) {
-  const std::string in = test::shared_mesh("spot.obj");
+  const std::string in = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(in, "spot.obj");
   const std::string dir = test::scratch_dir();
   const CliRun r = run("attack reorder " + in + " " + dir + "/copy --format ply");
@@ -210,7 +210,7 @@ double reported(const std::string& json, const std::string& key) {
 TEST(Cli, EmbedAtThePapersFidelityMeetsItsLimitsForEveryCopy) {
   // Each copy, its own ID, its own strongest mark: compare (an independent command) measures
   // the written files within the paper's limits, and extract reads each ID back.
-  const std::string in = test::shared_mesh("spot.obj");
+  const std::string in = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(in, "spot.obj");
   const std::string dir = test::scratch_dir();
   // Text output keeps 17 significant digits: the file's distortion equals the computed one

@@ -28,13 +28,12 @@ struct Named {
 
 // Real meshes of different kinds: closed, open, non-manifold, CAD, with UVs, with seams.
 std::vector<Named> real_meshes() {
-  return {{"stanford-bunny (holes, unreferenced)", shared_mesh("stanford-bunny.obj")},
-          {"horse (closed, binary PLY)", shared_mesh("horse.ply")},
-          {"bunny.ply (non-manifold)", shared_mesh("bunny.ply")},
-          {"spot (UVs)", shared_mesh("spot.obj")},
-          {"teapot (seams)", shared_mesh("teapot.obj")},
-          {"spider (groups, degenerate faces)", shared_mesh("spider.obj"), 24},
-          {"featuretype (STL CAD, tolerance weld)", shared_mesh("featuretype.STL"), 16, 1e-5},
+  return {{"elephant-with-holes (holes, seams)", cgal_mesh("elephant-with-holes.off")},
+          {"bunny00 (closed, binary PLY)", closed_binary_ply()},
+          {"bunny.ply (non-manifold, holes, unreferenced)", data_mesh("bunny.ply")},
+          {"spot (UVs)", data_mesh("spot.obj")},
+          {"spider (seams, groups, degenerate faces)", data_mesh("spider.obj"), 24},
+          {"featuretype (STL CAD, tolerance weld)", data_mesh("featuretype.STL"), 16, 1e-5},
           {"fandisk (CAD)", cgal_mesh("fandisk.off")},
           {"mech-holes-shark (CAD, holes)", cgal_mesh("mech-holes-shark.off")},
           {"elephant", cgal_mesh("elephant.off")},
@@ -109,8 +108,8 @@ TEST(EmbedDrs, OptimumMatchesIpoptOnSmallMeshes) {
   meshes.push_back({"generated bumpy sphere", bumpy_sphere(40, 60, 4)});
   for (const std::string name : {"elephant.off", "cow.off", "mech-holes-shark.off"})
     if (!cgal_mesh(name).empty()) meshes.push_back({name, read_mesh(cgal_mesh(name))});
-  if (!shared_mesh("spot.obj").empty())
-    meshes.push_back({"spot.obj", read_mesh(shared_mesh("spot.obj"))});
+  if (!data_mesh("spot.obj").empty())
+    meshes.push_back({"spot.obj", read_mesh(data_mesh("spot.obj"))});
   ASSERT_GE(meshes.size(), 1u);
   for (const Small& s : meshes) {
     SCOPED_TRACE(s.label);
@@ -150,8 +149,8 @@ TEST(EmbedDrs, RoundTripThroughFilesOnRealMeshes) {
   int ran = 0;
   const std::string dir = scratch_dir();
   for (const Named& n : real_meshes()) {
-    if (n.path.empty()) continue;
     SCOPED_TRACE(n.label);
+    MESHMARK_REQUIRE(n.path, n.label);
     ReadOptions ro;
     ro.weld_tolerance = n.weld;
     Mesh m = read_mesh(n.path, ro);
@@ -193,7 +192,7 @@ TEST(EmbedDrs, RoundTripThroughFilesOnRealMeshes) {
     EXPECT_GE(x.min_margin(), 0.05 - 1e-3) << "float32 storage may shave a little off the margin";
     ++ran;
   }
-  if (ran == 0) GTEST_SKIP() << "skipped: no real mesh available";
+  if (ran == 0) GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
   EXPECT_GE(ran, 10) << "fewer than 10 real meshes were available";
 }
 
@@ -222,11 +221,11 @@ TEST(EmbedDrs, UnreachableBitsAreNamedAndTheMeshIsLeftAlone) {
 }
 
 TEST(EmbedDrs, SeamsStayClosed) {
-  const std::string path = shared_mesh("teapot.obj");
-  MESHMARK_REQUIRE(path, "teapot.obj");
+  const std::string path = data_mesh("spider.obj");
+  MESHMARK_REQUIRE(path, "spider.obj");
   const Mesh m = read_mesh(path);
-  const EmbedResult r = embed(m.V, m.F, random_payload(64, 5));
-  ASSERT_EQ(r.status, EmbedStatus::Embedded);
+  const EmbedResult r = embed(m.V, m.F, random_payload(24, 5));  // 762 vertices: 24 bits
+  ASSERT_EQ(r.status, EmbedStatus::Embedded) << r.message;
   int pairs = 0;
   for (Eigen::Index i = 0; i < m.V.rows(); ++i)
     for (Eigen::Index k = i + 1; k < m.V.rows(); ++k)
@@ -264,7 +263,7 @@ TEST(EmbedDrs, OptionsOutOfRangeThrow) {
 }
 
 TEST(EmbedDrs, WatermarkedObjDiffersFromItsOriginalOnlyInVertexPositions) {
-  const std::string path = shared_mesh("spider.obj");
+  const std::string path = data_mesh("spider.obj");
   MESHMARK_REQUIRE(path, "spider.obj");
   Mesh m = read_mesh(path);
   const EmbedResult r = embed(m.V, m.F, random_payload(24, 8));

@@ -40,8 +40,8 @@ IdDecodeResult read_id(const Mesh& mesh, const IdCode& code, const Key& key) {
 }
 
 TEST(Forensic, WrongKeysReadNoise) {
-  const std::string path = test::shared_mesh("horse.ply");
-  MESHMARK_REQUIRE(path, "horse.ply");
+  const std::string path = test::closed_binary_ply();
+  MESHMARK_REQUIRE(path, "bunny00.off");
   const Mesh horse = read_mesh(path);
   const IdCode code;
   const Key key = key_from_passphrase("the studio's key");
@@ -84,8 +84,8 @@ TEST(Forensic, ConsecutiveNeighboursOfMarkedCopiesAreNeverDetected) {
   // as they are, after 10-bit quantization, and averaged vertex by vertex (two colluders):
   // 10^4 consecutive innocent IDs around them are tested with detect at 1e-6 against each;
   // none may be detected, while the present IDs are.
-  const std::string path = test::shared_mesh("horse.ply");
-  MESHMARK_REQUIRE(path, "horse.ply");
+  const std::string path = test::closed_binary_ply();
+  MESHMARK_REQUIRE(path, "bunny00.off");
   const Mesh horse = read_mesh(path);
   const IdCode code;
   const Key key = key_from_passphrase("studio-secret");
@@ -138,8 +138,8 @@ TEST(Forensic, AttacksNeverYieldAWrongId) {
   struct Model {
     std::string name, path;
   };
-  const std::vector<Model> models = {{"horse", test::shared_mesh("horse.ply")},
-                                     {"stanford-bunny", test::shared_mesh("stanford-bunny.obj")},
+  const std::vector<Model> models = {{"bunny00", test::closed_binary_ply()},
+                                     {"bunny.ply", test::data_mesh("bunny.ply")},
                                      {"elephant", test::cgal_mesh("elephant.off")}};
   for (const Model& m : models) MESHMARK_REQUIRE(m.path, m.name);
   // Mild to destructive: both outcomes (right ID, no ID) must occur, never a wrong one.
@@ -191,7 +191,7 @@ TEST(Forensic, AttacksNeverYieldAWrongId) {
 }
 
 TEST(Forensic, CommandLineCarriesKeyedIds) {
-  const std::string in = test::shared_mesh("spot.obj");
+  const std::string in = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(in, "spot.obj");
   const std::string dir = test::scratch_dir();
   const std::string key = dir + "/studio.key";

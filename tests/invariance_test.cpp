@@ -27,7 +27,7 @@ Mesh watermarked(const std::string& path, const Payload& p) {
 }  // namespace
 
 TEST(Invariance, SimilarityTransformsKeepThePayloadAndTheBinMeans) {
-  for (const std::string& path : {shared_mesh("stanford-bunny.obj"), cgal_mesh("fandisk.off")}) {
+  for (const std::string& path : {data_mesh("bunny.ply"), cgal_mesh("fandisk.off")}) {
     if (path.empty()) continue;
     SCOPED_TRACE(path);
     const Payload p = random_payload(64, 99);
@@ -50,7 +50,7 @@ TEST(Invariance, SimilarityTransformsKeepThePayloadAndTheBinMeans) {
 
 TEST(Invariance, VertexAndFaceReorderingKeepsThePayload) {
   for (const std::string& path :
-       {shared_mesh("bunny.ply"), shared_mesh("spot.obj"), cgal_mesh("elephant.off")}) {
+       {data_mesh("bunny.ply"), data_mesh("spot.obj"), cgal_mesh("elephant.off")}) {
     if (path.empty()) continue;
     SCOPED_TRACE(path);
     const Payload p = random_payload(64, 7);

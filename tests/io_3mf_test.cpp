@@ -239,7 +239,7 @@ std::string tetrahedron(const std::string& x3, const std::string& v3) {
 }  // namespace
 
 TEST(ThreeMfRead, BuildInWorldSpaceWithComponents) {
-  const std::string spot = shared_mesh("spot.obj"), bunny = shared_mesh("bunny.ply");
+  const std::string spot = data_mesh("spot.obj"), bunny = data_mesh("bunny.ply");
   MESHMARK_REQUIRE(spot, "spot.obj");
   MESHMARK_REQUIRE(bunny, "bunny.ply");
   const Scene s = make_scene(spot, bunny);
@@ -272,7 +272,7 @@ TEST(ThreeMfRead, BuildInWorldSpaceWithComponents) {
 // Embeds with the command line; the copy carries the mark, and every part of the package
 // lib3mf wrote is unchanged but the vertex coordinates of the model part.
 TEST(ThreeMfWriteBack, MarkSurvivesAndOnlyVerticesChange) {
-  const std::string spot = shared_mesh("spot.obj"), bunny = shared_mesh("bunny.ply");
+  const std::string spot = data_mesh("spot.obj"), bunny = data_mesh("bunny.ply");
   MESHMARK_REQUIRE(spot, "spot.obj");
   MESHMARK_REQUIRE(bunny, "bunny.ply");
   const std::string dir = scratch_dir();
@@ -311,7 +311,7 @@ TEST(ThreeMfWriteBack, MarkSurvivesAndOnlyVerticesChange) {
 }
 
 TEST(ThreeMfWrite, FromScratchOneObjectMillimeters) {
-  const std::string spot = shared_mesh("spot.obj");
+  const std::string spot = data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
   const std::string dir = scratch_dir();
   const Mesh m = read_mesh(spot);

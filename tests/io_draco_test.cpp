@@ -97,7 +97,7 @@ std::vector<std::vector<double>> corner_values(const draco::Mesh& mesh, int att_
 // A real mesh as draco_encoder takes it: PLY as is, OBJ as is (its texture coordinates then
 // become a TEX_COORD attribute).
 struct Source {
-  const char* file;
+  std::string file;
   const char* args;  // draco_encoder options besides -qp
 };
 
@@ -106,9 +106,10 @@ struct Source {
 TEST(DracoRead, CountsAndPositionsMatchDracoDecoder) {
   REQUIRE_DRACO_TOOLS();
   const std::string dir = scratch_dir();
-  for (const auto& [file, qp] : {std::pair{"spot.obj", 14}, {"horse.ply", 11}, {"bunny.ply", 14}}) {
-    const std::string in = shared_mesh(file);
-    MESHMARK_REQUIRE(in, file);
+  for (const auto& [in, qp] : {std::pair{data_mesh("spot.obj"), 14}, {closed_binary_ply(), 11},
+                               {data_mesh("bunny.ply"), 14}}) {
+    MESHMARK_REQUIRE(in, "a mesh of data/meshes or bunny00.off");
+    const std::string file = std::filesystem::path(in).filename().string();
     SCOPED_TRACE(std::string(file) + " -qp " + std::to_string(qp));
     const std::string drc =
         draco_encode(in, dir + "/" + file + ".drc", "-qp " + std::to_string(qp));
@@ -130,9 +131,9 @@ TEST(DracoRead, CountsAndPositionsMatchDracoDecoder) {
 TEST(DracoRead, RecoversTheEncodersSettings) {
   REQUIRE_DRACO_TOOLS();
   const std::string dir = scratch_dir();
-  const std::string spot = shared_mesh("spot.obj"), horse = shared_mesh("horse.ply");
+  const std::string spot = data_mesh("spot.obj"), horse = closed_binary_ply();
   MESHMARK_REQUIRE(spot, "spot.obj");
-  MESHMARK_REQUIRE(horse, "horse.ply");
+  MESHMARK_REQUIRE(horse, "bunny00.off");
   for (const int qp : {14, 11, 8, 0}) {
     const std::string drc = draco_encode(spot, dir + "/spot" + std::to_string(qp) + ".drc",
                                          "-qp " + std::to_string(qp) + " -qt 12");
@@ -157,14 +158,14 @@ TEST(DracoRead, RecoversTheEncodersSettings) {
 TEST(DracoWriteBack, MarkSurvivesAndOnlyPositionsChange) {
   REQUIRE_DRACO_TOOLS();
   const std::string dir = scratch_dir();
-  const Source sources[] = {{"spot.obj", "-qt 12 -cl 7"},   // texture coordinates, valence
-                            {"horse.ply", "-qn 9 -cl 5"},   // normals, standard edgebreaker
-                            {"spot.obj", "-qt 10 -cl 0"}};  // sequential
+  const Source sources[] = {{data_mesh("spot.obj"), "-qt 12 -cl 7"},  // texture coordinates, valence
+                            {closed_binary_ply(), "-qn 9 -cl 5"},  // normals, standard edgebreaker
+                            {data_mesh("spot.obj"), "-qt 10 -cl 0"}};  // sequential
   int k = 0;
   for (const Source& s : sources) {
-    const std::string in = shared_mesh(s.file);
-    MESHMARK_REQUIRE(in, s.file);
-    SCOPED_TRACE(std::string(s.file) + " " + s.args);
+    const std::string& in = s.file;
+    MESHMARK_REQUIRE(in, "spot.obj or bunny00.off");
+    SCOPED_TRACE(s.file + " " + s.args);
     const std::string a =
         draco_encode(in, dir + "/a" + std::to_string(k) + ".drc", std::string("-qp 14 ") + s.args);
     const std::string b = dir + "/b" + std::to_string(k++) + ".drc";
@@ -203,8 +204,8 @@ TEST(DracoWriteBack, MarkSurvivesAndOnlyPositionsChange) {
 TEST(DracoWriteBack, MarkAtFourteenElevenAndEightBits) {
   REQUIRE_DRACO_TOOLS();
   const std::string dir = scratch_dir();
-  const std::string in = shared_mesh("horse.ply");
-  MESHMARK_REQUIRE(in, "horse.ply");
+  const std::string in = closed_binary_ply();
+  MESHMARK_REQUIRE(in, "bunny00.off");
   for (const int qp : {14, 11, 8}) {
     SCOPED_TRACE("-qp " + std::to_string(qp));
     const std::string a =
@@ -224,7 +225,7 @@ TEST(DracoWriteBack, MarkAtFourteenElevenAndEightBits) {
 
 TEST(DracoWrite, FromScratchDecodesWithDracoDecoder) {
   REQUIRE_DRACO_TOOLS();
-  const std::string in = shared_mesh("spot.obj");
+  const std::string in = data_mesh("spot.obj");
   MESHMARK_REQUIRE(in, "spot.obj");
   const std::string dir = scratch_dir();
   const Mesh source = read_mesh(in);
@@ -247,7 +248,7 @@ TEST(DracoWrite, FromScratchDecodesWithDracoDecoder) {
 
 TEST(DracoRead, MalformedFilesThrowNamingTheFile) {
   REQUIRE_DRACO_TOOLS();
-  const std::string in = shared_mesh("bunny.ply");
+  const std::string in = data_mesh("bunny.ply");
   MESHMARK_REQUIRE(in, "bunny.ply");
   const std::string dir = scratch_dir();
   const std::string good = read_file(draco_encode(in, dir + "/good.drc", "-qp 11"));

@@ -50,7 +50,7 @@ std::string test_base64(const std::string& bin) {
 }
 
 std::string spot_obj() {
-  return test::shared_mesh("spot.obj");
+  return test::data_mesh("spot.obj");
 }
 
 bool have(const std::string& tool) {
@@ -639,7 +639,7 @@ TEST(Gltf, NodeTransformsAreAppliedAndUndone) {
 // A GLB whose one primitive is Draco-compressed (KHR_draco_mesh_compression), built by the
 // test around draco_encoder's output; counts from draco_decoder's PLY, read independently.
 TEST(Gltf, DracoCompressedPrimitiveIsReadAndReencoded) {
-  const std::string bunny = test::shared_mesh("bunny.ply");
+  const std::string bunny = test::data_mesh("bunny.ply");
   MESHMARK_REQUIRE(bunny, "bunny.ply");
   if (!have("draco_encoder")) GTEST_SKIP() << "skipped: draco_encoder is not installed";
   const std::string dir = test::scratch_dir();
@@ -715,7 +715,7 @@ TEST(Gltf, DracoCompressedPrimitiveIsReadAndReencoded) {
 
 TEST(Gltf, SampleAssetsFromDebianReadOrFailClearly) {
   const std::string root = "/usr/share/assimp/models/glTF2";
-  if (!std::filesystem::exists(root)) GTEST_SKIP() << "skipped: assimp-testmodels is not installed";
+  if (!std::filesystem::exists(root)) GTEST_FAIL() << "assimp-testmodels is not installed (scripts/setup.sh)";
   // Files that are valid glTF with triangles: read; instanced ones refuse a marked write.
   const Mesh engine = read_mesh(root + "/2CylinderEngine-glTF-Binary/2CylinderEngine.glb");
   EXPECT_GT(engine.F.rows(), 100000 / 10);

@@ -365,7 +365,7 @@ TEST(IoRegularFiles, SizeLimitsAreCheckedAndNamed) {
 }
 
 TEST(IoRegularFiles, TheCommandLineRefusesThemWithExitCodeTwo) {
-  const std::string spot = test::shared_mesh("spot.obj");
+  const std::string spot = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
   const std::string dir = test::scratch_dir();
   const std::string cli = MESHMARK_CLI;

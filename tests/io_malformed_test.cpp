@@ -138,9 +138,9 @@ TEST(IoMalformed, EveryCaseGetsATypedErrorNamingFileLineAndProblem) {
 TEST(IoMalformed, EveryTruncationOfRealFilesFailsCleanly) {
   // Cut real files at many points: each prefix either reads or throws InvalidInputError.
   for (const std::string& path :
-       {test::shared_mesh("spot.obj"), test::shared_mesh("horse.ply"),
-        test::shared_mesh("bunny.ply"), test::shared_mesh("featuretype.STL")}) {
-    if (path.empty()) GTEST_SKIP() << "skipped: ../shared/meshes not available";
+       {test::data_mesh("spot.obj"), test::closed_binary_ply(),
+        test::data_mesh("bunny.ply"), test::data_mesh("featuretype.STL")}) {
+    MESHMARK_REQUIRE(path, "a real mesh");
     const std::string bytes = read_file(path);
     const FileFormat f = format_from_path(path);
     for (int k = 1; k < 40; ++k) {

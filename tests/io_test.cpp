@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cstring>
 #include <filesystem>
 #include <set>
@@ -97,21 +99,20 @@ TEST(IoRoundTrip, StlAsciiAndBinaryWeldBackToTheSameTriangles) {
 
 TEST(IoFaithful, UnchangedMeshesWriteBackByteForByte) {
   const std::vector<std::string> files = {
-      shared_mesh("spot.obj"),        shared_mesh("spider.obj"), shared_mesh("teapot.obj"),
-      shared_mesh("bunny.ply"),       shared_mesh("horse.ply"),  shared_mesh("igea.ply"),
-      shared_mesh("featuretype.STL"), cgal_mesh("fandisk.off"),  cgal_mesh("pig.stl")};
+      data_mesh("spot.obj"),        data_mesh("spider.obj"), data_mesh("spider.obj"),
+      data_mesh("bunny.ply"),       closed_binary_ply(),  tristrip_ply(),
+      data_mesh("featuretype.STL"), cgal_mesh("fandisk.off"),  cgal_mesh("pig.stl")};
   for (const std::string& f : files) {
-    if (f.empty()) continue;
+    MESHMARK_REQUIRE(f, "a mesh of data/meshes or libcgal-demo");
     SCOPED_TRACE(f);
     const Mesh m = read_mesh(f);
     EXPECT_EQ(write_mesh_to_bytes(m, m.format), read_file(f));
   }
-  MESHMARK_REQUIRE(shared_mesh("spot.obj"), "../shared/meshes");
 }
 
 TEST(IoFaithful, ObjChangesOnlyVertexCoordinates) {
   for (const std::string name : {"spot.obj", "spider.obj"}) {
-    const std::string path = shared_mesh(name);
+    const std::string path = data_mesh(name);
     MESHMARK_REQUIRE(path, name);
     SCOPED_TRACE(name);
     Mesh m = read_mesh(path);
@@ -142,8 +143,8 @@ TEST(IoFaithful, ObjChangesOnlyVertexCoordinates) {
 }
 
 TEST(IoFaithful, BinaryPlyChangesOnlyVertexCoordinateBytes) {
-  const std::string path = shared_mesh("horse.ply");
-  MESHMARK_REQUIRE(path, "horse.ply");
+  const std::string path = closed_binary_ply();
+  MESHMARK_REQUIRE(path, "bunny00.off");
   const std::string original = read_file(path);
   // Independent reading of the layout: a vertex element first, scalar float properties only.
   const std::size_t body = original.find("end_header\n") + std::strlen("end_header\n");
@@ -189,7 +190,7 @@ TEST(IoFaithful, BinaryPlyChangesOnlyVertexCoordinateBytes) {
 }
 
 TEST(IoFaithful, AsciiPlyKeepsOtherPropertiesAndElements) {
-  const std::string path = shared_mesh("bunny.ply");
+  const std::string path = data_mesh("bunny.ply");
   MESHMARK_REQUIRE(path, "bunny.ply");
   Mesh m = read_mesh(path);
   EXPECT_EQ(m.V.rows(), 8171);
@@ -213,21 +214,36 @@ TEST(IoFaithful, AsciiPlyKeepsOtherPropertiesAndElements) {
 }
 
 TEST(IoFaithful, TriangleStripsReadAsTrianglesAndArePreserved) {
-  const std::string path = shared_mesh("igea.ply");
-  MESHMARK_REQUIRE(path, "igea.ply");
+  const std::string path = tristrip_ply(), off = cgal_mesh("bunny00.off");
+  MESHMARK_REQUIRE(path, "bunny00.off");
   Mesh m = read_mesh(path);
-  EXPECT_EQ(m.V.rows(), 134345);
+  const Mesh source = read_mesh(off);
+  EXPECT_EQ(m.V.rows(), source.V.rows());
   // Independent count: a closed genus-0 triangle mesh has F = 2V - 4 faces.
   EXPECT_EQ(m.F.rows(), 2 * m.V.rows() - 4);
+  // The strips decode to the source's triangles with their orientation (each triangle rotated
+  // to start at its smallest index, compared as sorted lists).
+  auto oriented = [](const Eigen::MatrixX3i& F) {
+    std::vector<std::array<int, 3>> t;
+    for (Eigen::Index f = 0; f < F.rows(); ++f) {
+      int r = 0;
+      for (int c = 1; c < 3; ++c)
+        if (F(f, c) < F(f, r)) r = c;
+      t.push_back({F(f, r), F(f, (r + 1) % 3), F(f, (r + 2) % 3)});
+    }
+    std::sort(t.begin(), t.end());
+    return t;
+  };
+  EXPECT_EQ(oriented(m.F), oriented(source.F));
   m.V.array() += 0.25;
   const Mesh back = read_mesh_from_bytes(write_mesh_to_bytes(m, FileFormat::Ply), FileFormat::Ply,
-                                         "igea-moved.ply");
+                                         "tristrips-moved.ply");
   EXPECT_EQ(back.F, m.F);
   EXPECT_LE((back.V - m.V.cast<float>().cast<double>()).cwiseAbs().maxCoeff(), 0.0);
 }
 
 TEST(IoFaithful, BinaryStlWritesCornersBackUnweldedInOrder) {
-  const std::string path = shared_mesh("featuretype.STL");
+  const std::string path = data_mesh("featuretype.STL");
   MESHMARK_REQUIRE(path, "featuretype.STL");
   const std::string original = read_file(path);
   std::uint32_t nt = 0;
@@ -276,7 +292,7 @@ TEST(IoFaithful, ExactWeldCountsDistinctCornerPositions) {
 }
 
 TEST(IoFaithful, FormatConversionKeepsPositionsAndPolygons) {
-  const std::string path = shared_mesh("spot.obj");
+  const std::string path = data_mesh("spot.obj");
   MESHMARK_REQUIRE(path, "spot.obj");
   const Mesh m = read_mesh(path);
   for (FileFormat f : {FileFormat::Off, FileFormat::Ply}) {

@@ -1,5 +1,5 @@
 #pragma once
-// An independent construction of the embedding QP: the problem of WATERMARK.md section 3 built
+// An independent construction of the embedding QP: the problem of docs/method.md section 3 built
 // from the geometry by code written only for the tests, to be solved by Ipopt (through the
 // library's general-purpose backend, a thin wrapper over Ipopt's C interface).
 

@@ -30,7 +30,7 @@ struct Marked {
 Marked marked_spot(const IdCode& code, const Key& key, std::uint64_t id) {
   Marked m;
   m.id = id;
-  m.mesh = read_mesh(test::shared_mesh("spot.obj"));
+  m.mesh = read_mesh(test::data_mesh("spot.obj"));
   EmbedOptions o;
   o.variant = parse_variant("VRS");
   const EmbedResult r = embed(m.mesh.V, m.mesh.F, id_bins(code, id, key), o);
@@ -55,7 +55,7 @@ ExtractOptions volume_center() {
 }
 
 TEST(MarkHardening, AVertexOnlyACollapsedFaceUsesDoesNotCount) {
-  MESHMARK_REQUIRE(test::shared_mesh("spot.obj"), "spot.obj");
+  MESHMARK_REQUIRE(test::data_mesh("spot.obj"), "spot.obj");
   const IdCode code;
   const Key key = key_from_passphrase("hardening");
   Marked m = marked_spot(code, key, 4242);
@@ -75,7 +75,7 @@ TEST(MarkHardening, AVertexOnlyACollapsedFaceUsesDoesNotCount) {
 }
 
 TEST(MarkHardening, FlatInvisibleTrianglesDoNotCount) {
-  MESHMARK_REQUIRE(test::shared_mesh("spot.obj"), "spot.obj");
+  MESHMARK_REQUIRE(test::data_mesh("spot.obj"), "spot.obj");
   const IdCode code;
   const Key key = key_from_passphrase("hardening");
   Marked m = marked_spot(code, key, 31337);
@@ -99,7 +99,7 @@ TEST(MarkHardening, FlatInvisibleTrianglesDoNotCount) {
 }
 
 TEST(MarkHardening, UpToThreeOutliersAtEachEndAreLeftOutAndFourAreNot) {
-  MESHMARK_REQUIRE(test::shared_mesh("spot.obj"), "spot.obj");
+  MESHMARK_REQUIRE(test::data_mesh("spot.obj"), "spot.obj");
   const IdCode code;
   const Key key = key_from_passphrase("hardening");
   const Marked m = marked_spot(code, key, 77);
@@ -132,8 +132,8 @@ TEST(MarkHardening, UpToThreeOutliersAtEachEndAreLeftOutAndFourAreNot) {
 }
 
 TEST(MarkHardening, KeyedStrengthsHideTheStrength) {
-  MESHMARK_REQUIRE(test::shared_mesh("spot.obj"), "spot.obj");
-  const Mesh spot = read_mesh(test::shared_mesh("spot.obj"));
+  MESHMARK_REQUIRE(test::data_mesh("spot.obj"), "spot.obj");
+  const Mesh spot = read_mesh(test::data_mesh("spot.obj"));
   const Key key = key_from_passphrase("hardening");
   const std::vector<double> alpha = keyed_strengths(key, 64, 0.05, 0.5);
   ASSERT_EQ(alpha.size(), 64u);
@@ -177,8 +177,8 @@ TEST(MarkHardening, KeyedStrengthsHideTheStrength) {
 }
 
 TEST(MarkHardening, NothingIsWrittenWhenTheFileWouldNotCarryTheMark) {
-  const std::string horse = test::shared_mesh("horse.ply");
-  MESHMARK_REQUIRE(horse, "horse.ply");
+  const std::string horse = test::closed_binary_ply();
+  MESHMARK_REQUIRE(horse, "bunny00.off");
   const std::string dir = test::scratch_dir();
   // Far below the precision of horse.ply's float32 coordinates, and below the solver's own
   // tolerance: both used to report success.
@@ -199,7 +199,7 @@ TEST(MarkHardening, NothingIsWrittenWhenTheFileWouldNotCarryTheMark) {
 }
 
 TEST(MarkHardening, BatchRefusesSharedOutputsAndReportsBadLinesPerLine) {
-  const std::string spot = test::shared_mesh("spot.obj");
+  const std::string spot = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
   const std::string dir = test::scratch_dir();
   const std::string manifest = dir + "/jobs.txt";
@@ -229,7 +229,7 @@ namespace meshmark {
 namespace {
 
 TEST(MarkHardening, CommandLineRefusesAmbiguousKeysAndPayloads) {
-  const std::string spot = test::shared_mesh("spot.obj");
+  const std::string spot = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
   const std::string out = test::scratch_dir() + "/x.obj";
   // An empty passphrase used to mean "no key": the canonical public layout, silently.
@@ -298,7 +298,7 @@ std::pair<std::uint64_t, std::uint64_t> closest_pair(const IdCode& code, const K
 }
 
 TEST(MarkHardening, ACleanCopyNeverConfirmsTheBuyerWhoseCodewordIsNearest) {
-  MESHMARK_REQUIRE(test::shared_mesh("spot.obj"), "spot.obj");
+  MESHMARK_REQUIRE(test::data_mesh("spot.obj"), "spot.obj");
   const IdCode code;
   const Key key = key_from_passphrase("neighbours");
   const auto [a, b] = closest_pair(code, key);
@@ -323,7 +323,7 @@ TEST(MarkHardening, ACleanCopyNeverConfirmsTheBuyerWhoseCodewordIsNearest) {
   EXPECT_TRUE(present.detected);
   // And a registry never issues b once a is issued from the same original under that key.
   const std::string dir = test::scratch_dir();
-  const std::string db = dir + "/r.db", spot = test::shared_mesh("spot.obj");
+  const std::string db = dir + "/r.db", spot = test::data_mesh("spot.obj");
   std::filesystem::remove(db);
   test::CliRun r = test::run_cli("embed " + spot + " " + dir + "/a.obj --id " + std::to_string(a) +
                                  " --key neighbours --registry " + db);

@@ -49,8 +49,8 @@ TEST(Mesh, GroupsIdenticalPositionsIncludingSignedZero) {
 }
 
 TEST(Mesh, GroupsOnARealMeshMatchAnOrderedMap) {
-  const std::string path = test::shared_mesh("teapot.obj");
-  MESHMARK_REQUIRE(path, "teapot.obj");
+  const std::string path = test::data_mesh("spider.obj");
+  MESHMARK_REQUIRE(path, "spider.obj");
   const Mesh mesh = read_mesh(path);
   const std::vector<std::uint8_t> referenced = referenced_vertices(mesh.F, mesh.V.rows());
   const PositionGroups g = group_identical_positions(mesh.V, referenced);
@@ -65,7 +65,7 @@ TEST(Mesh, GroupsOnARealMeshMatchAnOrderedMap) {
     ASSERT_EQ(g.group_of[i], g.group_of[it->second]) << i;
   }
   EXPECT_EQ(g.count(), groups);
-  EXPECT_LT(groups, mesh.V.rows());  // the teapot has unwelded seams
+  EXPECT_LT(groups, mesh.V.rows());  // the spider has unwelded seams
 }
 
 TEST(Mesh, BoundingBoxDiagonalOfMaskedVertices) {
@@ -76,8 +76,8 @@ TEST(Mesh, BoundingBoxDiagonalOfMaskedVertices) {
 }
 
 TEST(Mesh, AdjacencyOnARealMeshMatchesOrderedSetsOfEdges) {
-  const std::string path = test::shared_mesh("teapot.obj");
-  MESHMARK_REQUIRE(path, "teapot.obj");
+  const std::string path = test::data_mesh("spider.obj");
+  MESHMARK_REQUIRE(path, "spider.obj");
   Mesh mesh = read_mesh(path);
   // A degenerate face (a repeated vertex) and a duplicated face must add no loop, no repeat.
   Eigen::MatrixX3i F(mesh.F.rows() + 2, 3);

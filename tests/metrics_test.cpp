@@ -58,7 +58,7 @@ double brute_max_distance(const Eigen::MatrixX3d& S, const Eigen::MatrixX3d& V,
 }  // namespace
 
 TEST(Metrics, IdenticalMeshesScoreZero) {
-  const std::string path = shared_mesh("spot.obj");
+  const std::string path = data_mesh("spot.obj");
   MESHMARK_REQUIRE(path, "spot.obj");
   const Mesh m = read_mesh(path);
   const double diag = bounding_box_diagonal(m.V);
@@ -115,7 +115,7 @@ TEST(Metrics, SampledRmsAgreesWithVertexRmsForSmallSmoothDisplacements) {
 }
 
 TEST(Metrics, Msdm2IsSymmetricAndBlindToVertexOrder) {
-  const std::string path = shared_mesh("spot.obj");
+  const std::string path = data_mesh("spot.obj");
   MESHMARK_REQUIRE(path, "spot.obj");
   const Mesh m = read_mesh(path);
   const Mesh n = attack_noise(m, 0.002, NoiseReference::Diagonal, 9);
@@ -127,7 +127,7 @@ TEST(Metrics, Msdm2IsSymmetricAndBlindToVertexOrder) {
 }
 
 TEST(Metrics, PreparedMsdmEqualsTheOneCall) {
-  const std::string path = shared_mesh("spot.obj");
+  const std::string path = data_mesh("spot.obj");
   MESHMARK_REQUIRE(path, "spot.obj");
   const Mesh m = read_mesh(path);
   const MsdmReference reference(m.V, m.F);
@@ -144,7 +144,7 @@ TEST(Metrics, PreparedMsdmEqualsTheOneCall) {
 // values do not depend on how many threads share the vertices (MESHMARK_THREADS, parallel.h).
 // Spot subdivided once (12k vertices) is above the size from which the work is split.
 TEST(Metrics, MsdmDoesNotDependOnTheThreadCount) {
-  const std::string path = shared_mesh("spot.obj");
+  const std::string path = data_mesh("spot.obj");
   MESHMARK_REQUIRE(path, "spot.obj");
   const Mesh m = attack_subdivide(read_mesh(path), Subdivision::Loop, 1);
   const Mesh n = attack_noise(m, 0.001, NoiseReference::Diagonal, 3);

@@ -147,7 +147,7 @@ TEST(Registry, CopiesMarkedWithinFidelityLimitsRecordTheirOwnStrengthAndResume) 
   // Each copy of a --fidelity batch gets its own strength and G, recorded: embedding its ID
   // again at the recorded settings gives the same file, byte for byte; and the batch run again
   // skips every copy as issued (the settings were searched, not given).
-  const std::string spot = test::shared_mesh("spot.obj");
+  const std::string spot = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
   const std::string dir = test::scratch_dir();
   const std::string db = dir + "/shop.db";
@@ -249,7 +249,7 @@ TEST(Registry, KeyFingerprintsAndHashes) {
 }
 
 TEST(Registry, CommandLineIssuesRecordsAndSurvivesAKilledBatch) {
-  const std::string spot = test::shared_mesh("spot.obj");
+  const std::string spot = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
   const std::string dir = test::scratch_dir();
   const std::string db = dir + "/shop.db", key = dir + "/k.key";
@@ -416,7 +416,7 @@ TEST(RegistryPostgres, GivesWhatSqliteGivesAndRefusesTheSameIds) {
 // against each: the two JSON reports are the same, and name that copy's buyer.
 TEST(RegistryPostgres, TraceGivesTheSameResultWithEitherRegistry) {
   MESHMARK_REQUIRE_POSTGRES();
-  const std::string spot = test::shared_mesh("spot.obj");
+  const std::string spot = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
   const std::string pg = PostgresServer::get().fresh_database("trace");
   const std::string dir = test::scratch_dir();
@@ -480,7 +480,7 @@ TEST(RegistryPostgres, ConcurrentWritersLoseNothingAndNeverShareAnId) {
 
 TEST(RegistryPostgres, CommandLineIssuesToPostgres) {
   MESHMARK_REQUIRE_POSTGRES();
-  const std::string spot = test::shared_mesh("spot.obj");
+  const std::string spot = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
   const std::string pg = PostgresServer::get().fresh_database("cli");
   const std::string dir = test::scratch_dir();

@@ -91,7 +91,7 @@ TEST(Roughness, FlatCadPanelsReadSmooth) {
 }
 
 TEST(Roughness, NoisyHalfReadsRough) {
-  for (const std::string& path : {shared_mesh("spot.obj"), cgal_mesh("elephant.off")}) {
+  for (const std::string& path : {data_mesh("spot.obj"), cgal_mesh("elephant.off")}) {
     if (path.empty()) continue;
     SCOPED_TRACE(path);
     Mesh m = read_mesh(path);
@@ -120,7 +120,7 @@ TEST(Roughness, NoisyHalfReadsRough) {
 
 TEST(Roughness, LoopSubdivisionKeepsTheFieldAtTheOriginalVertices) {
   for (const std::string& path :
-       {shared_mesh("spot.obj"), cgal_mesh("fandisk.off"), cgal_mesh("elephant.off")}) {
+       {data_mesh("spot.obj"), cgal_mesh("fandisk.off"), cgal_mesh("elephant.off")}) {
     if (path.empty()) continue;
     SCOPED_TRACE(path);
     const Mesh m = read_mesh(path);

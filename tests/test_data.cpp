@@ -1,11 +1,17 @@
 #include "test_data.h"
 
 #include <sys/wait.h>
+#include <unistd.h>
+
+#include <Eigen/Geometry>
 
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <map>
 #include <iostream>
 #include <random>
 #include <sstream>
@@ -20,25 +26,142 @@ std::string existing(const std::filesystem::path& p) {
   std::error_code ec;
   return std::filesystem::is_regular_file(p, ec) ? p.string() : std::string();
 }
+
+// Campaign files' ${data} and ${cgal}, for the library and the CLI the tests run: this
+// checkout's data folder and build tree, unless the environment already names others.
+[[maybe_unused]] const bool data_environment = [] {
+  setenv("MESHMARK_DATA_DIR", MESHMARK_TEST_DATA, 0);
+  setenv("MESHMARK_CGAL_DATA", MESHMARK_CGAL_DATA, 0);
+  return true;
+}();
 }  // namespace
 
-std::string shared_mesh(const std::string& name) {
-  return existing(std::filesystem::path(MESHMARK_SHARED_DIR) / "meshes" / name);
+std::string data_mesh(const std::string& name) {
+  return existing(std::filesystem::path(MESHMARK_TEST_DATA) / "meshes" / name);
 }
 
 std::string cgal_mesh(const std::string& name) {
   return existing(std::filesystem::path(MESHMARK_CGAL_DATA) / name);
 }
 
-std::string scratch_dir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+namespace {
+
+std::filesystem::path checkout_tmp() {
   // One tree per checkout: two checkouts' suites running at once (worktrees) would otherwise
   // remove and write each other's directories (seen: a campaign's rows lost mid-run).
   const std::string checkout =
       std::to_string(std::hash<std::string>{}(MESHMARK_SOURCE_DIR) % 1000000007u);
-  std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                              ("meshmark-tests-" + checkout) /
-                              (std::string(info->test_suite_name()) + "." + info->name());
+  return std::filesystem::temp_directory_path() / ("meshmark-tests-" + checkout);
+}
+
+// Writes bytes to path through a temporary file and a rename, so that test processes running
+// at once never read a half-written fixture.
+void write_atomically(const std::filesystem::path& path, const std::string& bytes) {
+  std::filesystem::create_directories(path.parent_path());
+  const std::filesystem::path tmp = path.string() + "." + std::to_string(getpid()) + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+template <typename T>
+void put(std::string& out, T value) {
+  out.append(reinterpret_cast<const char*>(&value), sizeof value);
+}
+
+// A fixture file derived from bunny00.off, made once by make(mesh) (the bytes to write).
+std::string bunny00_fixture(const std::string& name, std::string (*make)(const Mesh&)) {
+  const std::string off = cgal_mesh("bunny00.off");
+  if (off.empty()) return {};
+  const std::filesystem::path path = checkout_tmp() / "fixtures" / name;
+  if (!std::filesystem::is_regular_file(path)) write_atomically(path, make(read_mesh(off)));
+  return path.string();
+}
+
+std::string ply_header(const Mesh& m, const std::string& vertex_props, const std::string& faces) {
+  return "ply\nformat binary_little_endian 1.0\ncomment meshmark tests, from bunny00.off\n"
+         "element vertex " + std::to_string(m.V.rows()) + "\n" + vertex_props + faces +
+         "end_header\n";
+}
+
+std::string binary_ply_with_normals(const Mesh& m) {
+  Eigen::MatrixX3d N = Eigen::MatrixX3d::Zero(m.V.rows(), 3);
+  for (Eigen::Index t = 0; t < m.F.rows(); ++t) {
+    const Eigen::RowVector3d a = m.V.row(m.F(t, 0)), b = m.V.row(m.F(t, 1)),
+                             c = m.V.row(m.F(t, 2));
+    const Eigen::RowVector3d n = (b - a).cross(c - a);  // twice the area, outwards
+    for (int k = 0; k < 3; ++k) N.row(m.F(t, k)) += n;
+  }
+  N.rowwise().normalize();
+  std::string out = ply_header(m,
+                               "property float x\nproperty float y\nproperty float z\n"
+                               "property float nx\nproperty float ny\nproperty float nz\n",
+                               "element face " + std::to_string(m.F.rows()) +
+                                   "\nproperty list uchar int vertex_indices\n");
+  for (Eigen::Index i = 0; i < m.V.rows(); ++i) {
+    for (int c = 0; c < 3; ++c) put(out, static_cast<float>(m.V(i, c)));
+    for (int c = 0; c < 3; ++c) put(out, static_cast<float>(N(i, c)));
+  }
+  for (Eigen::Index t = 0; t < m.F.rows(); ++t) {
+    put(out, static_cast<std::uint8_t>(3));
+    for (int c = 0; c < 3; ++c) put(out, static_cast<std::int32_t>(m.F(t, c)));
+  }
+  return out;
+}
+
+// Greedy strips: a strip v0 v1 v2 ... holds triangle i as (v_i, v_i+1, v_i+2) for even i and
+// (v_i+1, v_i, v_i+2) for odd i; it grows across its last triangle's edge {v_i+1, v_i+2} while
+// the neighbour there is unused.
+std::string binary_ply_tristrips(const Mesh& m) {
+  std::map<std::pair<int, int>, int> face_of_edge;  // directed edge -> face
+  for (Eigen::Index t = 0; t < m.F.rows(); ++t)
+    for (int c = 0; c < 3; ++c)
+      face_of_edge[{m.F(t, c), m.F(t, (c + 1) % 3)}] = static_cast<int>(t);
+  std::vector<char> used(static_cast<std::size_t>(m.F.rows()), 0);
+  std::vector<std::int32_t> strips;
+  for (Eigen::Index t0 = 0; t0 < m.F.rows(); ++t0) {
+    if (used[t0]) continue;
+    used[t0] = 1;
+    if (!strips.empty()) strips.push_back(-1);
+    std::vector<int> s = {m.F(t0, 0), m.F(t0, 1), m.F(t0, 2)};
+    while (true) {
+      const int a = s[s.size() - 2], b = s[s.size() - 1];
+      // The last triangle holds the directed edge a -> b when its index is even, b -> a when odd;
+      // its neighbour across that edge holds the reverse.
+      const bool even = (s.size() - 3) % 2 == 0;
+      const auto it = face_of_edge.find(even ? std::pair{b, a} : std::pair{a, b});
+      if (it == face_of_edge.end() || used[it->second]) break;
+      int third = -1;
+      for (int c = 0; c < 3; ++c)
+        if (m.F(it->second, c) != a && m.F(it->second, c) != b) third = m.F(it->second, c);
+      used[it->second] = 1;
+      s.push_back(third);
+    }
+    strips.insert(strips.end(), s.begin(), s.end());
+  }
+  std::string out = ply_header(m, "property float x\nproperty float y\nproperty float z\n",
+                               "element tristrips 1\nproperty list int int vertex_indices\n");
+  for (Eigen::Index i = 0; i < m.V.rows(); ++i)
+    for (int c = 0; c < 3; ++c) put(out, static_cast<float>(m.V(i, c)));
+  put(out, static_cast<std::int32_t>(strips.size()));
+  for (std::int32_t v : strips) put(out, v);
+  return out;
+}
+
+}  // namespace
+
+std::string closed_binary_ply() {
+  return bunny00_fixture("bunny00-normals.ply", binary_ply_with_normals);
+}
+
+std::string tristrip_ply() { return bunny00_fixture("bunny00-tristrips.ply", binary_ply_tristrips); }
+
+std::string scratch_dir() {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  std::filesystem::path dir =
+      checkout_tmp() / (std::string(info->test_suite_name()) + "." + info->name());
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir.string();

@@ -1,6 +1,7 @@
 #pragma once
-// Where the tests find real meshes: ../shared/meshes beside the project and Debian's
-// libcgal-demo data unpacked into the build tree. Tests skip, saying why, when one is absent.
+// Where the tests find real meshes: the project's data/meshes and Debian's libcgal-demo data
+// unpacked into the build tree (scripts/setup.sh installs it). A test whose mesh is missing
+// fails, naming the file: data is part of the project, never a reason to skip.
 
 #include <gtest/gtest.h>
 
@@ -11,11 +12,21 @@
 
 namespace meshmark::test {
 
-/// Path of a file in ../shared/meshes, or "" when that folder or file is absent.
-std::string shared_mesh(const std::string& name);
+/// Path of a file in the project's data/meshes (data/meshes/MANIFEST.md), or "" when absent.
+std::string data_mesh(const std::string& name);
 
 /// Path of a file in libcgal-demo's data/meshes, or "" when absent.
 std::string cgal_mesh(const std::string& name);
+
+/// libcgal-demo's bunny00.off (37,706 vertices, 75,408 faces, closed, genus 0) written as a
+/// binary little-endian PLY with float positions and unit area-weighted vertex normals (x y z nx
+/// ny nz, faces as uchar/int lists), the layout scanners and MeshLab write; written once per
+/// checkout by a writer of the tests' own, "" when bunny00.off is absent.
+std::string closed_binary_ply();
+
+/// The same mesh with its faces stored as one binary PLY TRISTRIPS element (strips of
+/// consistently oriented neighbours, separated by -1), "" when bunny00.off is absent.
+std::string tristrip_ply();
 
 /// A unique scratch directory for one test (removed by the OS's tmp cleaning, not by us).
 std::string scratch_dir();
@@ -49,10 +60,10 @@ void expect_invalid_input(const std::string& path);
 
 }  // namespace meshmark::test
 
-/// Skips the current test when path is empty, naming what is missing.
-#define MESHMARK_REQUIRE(path, what)                                   \
-  do {                                                                 \
-    if ((path).empty())                                                \
-      GTEST_SKIP() << "skipped: " << (what) << " is not available "    \
-                   << "(needs ../shared/meshes or libcgal-demo data)"; \
+/// Fails the current test when path is empty, naming the missing mesh and where it comes from.
+#define MESHMARK_REQUIRE(path, what)                                                        \
+  do {                                                                                      \
+    if ((path).empty())                                                                     \
+      GTEST_FAIL() << (what) << " is missing: the project's data/meshes, or libcgal-demo's " \
+                   << "data (scripts/setup.sh installs it; CMake unpacks it into the build)"; \
   } while (0)

@@ -32,7 +32,7 @@ Mesh transformed(const Mesh& m, double degrees, double s, const Eigen::Vector3d&
 
 TEST(Trace, RegistrationRecoversAKnownSimilarityWithAndWithoutCropping) {
   for (const std::string& name : {"spot.obj", "bunny.ply"}) {
-    const std::string path = test::shared_mesh(name);
+    const std::string path = test::data_mesh(name);
     MESHMARK_REQUIRE(path, name);
     const Mesh original = read_mesh(path);
     for (const bool crop : {false, true}) {
@@ -59,8 +59,8 @@ TEST(Trace, RegistrationRecoversAKnownSimilarityWithAndWithoutCropping) {
 }
 
 TEST(Trace, ResamplingAnUnattackedCopyGivesBackItsVertices) {
-  const std::string path = test::shared_mesh("horse.ply");
-  MESHMARK_REQUIRE(path, "horse.ply");
+  const std::string path = test::closed_binary_ply();
+  MESHMARK_REQUIRE(path, "bunny00.off");
   const Mesh original = read_mesh(path);
   const Key key = key_from_passphrase("shop");
   const IdCode code;
@@ -108,7 +108,7 @@ Mesh issued_copy(const Mesh& original, std::uint64_t id, const Key& key) {
 const Shop& shop() {
   static const Shop s = [] {
     Shop s;
-    s.original = read_mesh(test::shared_mesh("horse.ply"));
+    s.original = read_mesh(test::closed_binary_ply());
     s.marked = issued_copy(s.original, s.leaker, s.key);
     for (std::uint64_t id = 1000; id < 2000; ++id) {
       IssuedCopy c;
@@ -135,7 +135,7 @@ void expect_leaker_named_alone(const Shop& s, const Mesh& leak) {
 }
 
 TEST(Trace, NamesTheLeakerAfterRealProcessingAndNeverAnInnocent) {
-  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  MESHMARK_REQUIRE(test::closed_binary_ply(), "bunny00.off");
   const Shop& s = shop();
   // Each of these defeats the blind decoder on the horse (tested below), and trace names the
   // buyer after every one.
@@ -158,7 +158,7 @@ TEST(Trace, NamesTheLeakerAfterRealProcessingAndNeverAnInnocent) {
 // A random similarity (rotation, translation, scale up to 2) before or after real processing,
 // and chains of two kinds of processing: the leaker is still named, alone.
 TEST(Trace, NamesTheLeakerAfterASimilarityAndChainsOfTwo) {
-  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  MESHMARK_REQUIRE(test::closed_binary_ply(), "bunny00.off");
   const Shop& s = shop();
   for (const std::string attack :
        {"similarity:2,simplify:0.3", "smooth:10,similarity:2", "similarity:2,crop:0.5",
@@ -172,7 +172,7 @@ TEST(Trace, NamesTheLeakerAfterASimilarityAndChainsOfTwo) {
 // The per-bit evidence of an unprocessed copy: every bit measured, read as the leaker's
 // codeword bit, and the measured shift nearer to that bit's expected shift.
 TEST(Trace, PerBitEvidenceOfAnUnprocessedCopyIsTheCodeword) {
-  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  MESHMARK_REQUIRE(test::closed_binary_ply(), "bunny00.off");
   const Shop& s = shop();
   const TraceResult r = trace(s.marked, s.original, s.issued, s.key);
   const Payload codeword = IdCode().encode(s.leaker, s.key);
@@ -189,7 +189,7 @@ TEST(Trace, PerBitEvidenceOfAnUnprocessedCopyIsTheCodeword) {
 // Averages of two copies (consecutive IDs, and two far apart): both colluders named, or one,
 // never an innocent, also after processing.
 TEST(Trace, AveragesOfTwoCopiesNameColludersOnly) {
-  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  MESHMARK_REQUIRE(test::closed_binary_ply(), "bunny00.off");
   const Shop& s = shop();
   int both = 0;
   for (const std::uint64_t other : {s.leaker + 1, std::uint64_t{1017}}) {
@@ -213,7 +213,7 @@ TEST(Trace, AveragesOfTwoCopiesNameColludersOnly) {
 // Cho's marks against the same shop: 1,000 consecutive IDs under one key, the leaker's copy
 // alone names the leaker alone, and an average with the next ID's copy names no innocent.
 TEST(Trace, ChoMarksNameNoInnocentAmongConsecutiveIdsAloneOrAveraged) {
-  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  MESHMARK_REQUIRE(test::closed_binary_ply(), "bunny00.off");
   const Shop& s = shop();
   for (const Method method : {Method::ChoMean, Method::ChoVariance}) {
     SCOPED_TRACE(method_name(method));
@@ -249,7 +249,7 @@ TEST(Trace, ChoMarksNameNoInnocentAmongConsecutiveIdsAloneOrAveraged) {
 // Bonferroni factor and the discreteness aside, should not be far below it (at least x / 10).
 // No innocent is named.
 TEST(Trace, InnocentScoresFollowThePValueModel) {
-  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  MESHMARK_REQUIRE(test::closed_binary_ply(), "bunny00.off");
   const Shop& s = shop();
   const Mesh second = issued_copy(s.original, s.leaker + 1, s.key);
   const Mesh foreign = issued_copy(s.original, s.leaker, key_from_passphrase("other"));
@@ -293,7 +293,7 @@ TEST(Trace, InnocentScoresFollowThePValueModel) {
 }
 
 TEST(Trace, NamesNobodyForAnUnmarkedMeshAnotherKeyOrAnotherLeak) {
-  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  MESHMARK_REQUIRE(test::closed_binary_ply(), "bunny00.off");
   const Shop& s = shop();
   // The original itself (never issued), and a copy under another key, against the 1,000.
   TraceResult r = trace(s.original, s.original, s.issued, s.key);
@@ -310,7 +310,7 @@ TEST(Trace, NamesNobodyForAnUnmarkedMeshAnotherKeyOrAnotherLeak) {
 // Leaks too small to register (a triangle, a few faces of a copy), and a leak of another mesh:
 // no crash, nobody named; a registration that shrinks the leak onto a patch is a failure.
 TEST(Trace, TinyLeaksAndOtherMeshesNameNobody) {
-  MESHMARK_REQUIRE(test::shared_mesh("horse.ply"), "horse.ply");
+  MESHMARK_REQUIRE(test::closed_binary_ply(), "bunny00.off");
   const Shop& s = shop();
   for (const Eigen::Index faces : {1, 2, 5}) {
     Mesh tiny = s.marked;
@@ -318,7 +318,7 @@ TEST(Trace, TinyLeaksAndOtherMeshesNameNobody) {
     const TraceResult r = trace(tiny, s.original, s.issued, s.key);
     EXPECT_NE(r.status, TraceStatus::Named) << faces << " faces: " << r.message;
   }
-  const std::string spot = test::shared_mesh("spot.obj");
+  const std::string spot = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
   const TraceResult r = trace(read_mesh(spot), s.original, s.issued, s.key);
   EXPECT_NE(r.status, TraceStatus::Named) << r.message;
@@ -332,7 +332,7 @@ TEST(Trace, TinyLeaksAndOtherMeshesNameNobody) {
 }
 
 TEST(Trace, CommandLineNamesTheBuyerFromTheRegistry) {
-  const std::string spot = test::shared_mesh("spot.obj");
+  const std::string spot = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
   const std::string dir = test::scratch_dir();
   const std::string db = dir + "/shop.db";
@@ -368,7 +368,7 @@ TEST(Trace, CommandLineNamesTheBuyerFromTheRegistry) {
 }
 
 TEST(Trace, ChoMarksAreIssuedReadDetectedAndTracedByEveryCommand) {
-  const std::string spot = test::shared_mesh("spot.obj");
+  const std::string spot = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
   for (const std::string method : {"cho-mean", "cho-variance"}) {
     SCOPED_TRACE(method);

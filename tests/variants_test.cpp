@@ -30,7 +30,7 @@ std::vector<std::string> variant_names() {
 // Eight real meshes: closed (spot, fandisk, elephant, cow, pig, dragon) and open
 // (bunny.ply with holes and non-manifold edges, mech-holes-shark).
 std::vector<std::string> variant_meshes() {
-  std::vector<std::string> paths = {shared_mesh("spot.obj"),  shared_mesh("bunny.ply"),
+  std::vector<std::string> paths = {data_mesh("spot.obj"),  data_mesh("bunny.ply"),
                                     cgal_mesh("fandisk.off"), cgal_mesh("elephant.off"),
                                     cgal_mesh("cow.off"),     cgal_mesh("mech-holes-shark.off"),
                                     cgal_mesh("pig.stl"),     cgal_mesh("ChineseDragon-10kv.off")};
@@ -44,7 +44,7 @@ class AllVariants : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(AllVariants, EmbedSixtyFourBitsOnEightRealMeshes) {
   const auto paths = variant_meshes();
-  if (paths.empty()) GTEST_SKIP() << "skipped: no real mesh available";
+  if (paths.empty()) GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
   EXPECT_EQ(paths.size(), 8u) << "some real meshes are missing";
   EmbedOptions o;
   o.variant = parse_variant(GetParam());
@@ -77,7 +77,7 @@ INSTANTIATE_TEST_SUITE_P(Framework, AllVariants, ::testing::ValuesIn(variant_nam
 
 TEST(LaplacianCost, OptimumMatchesIpoptOnSmallMeshes) {
   std::vector<std::pair<std::string, Mesh>> meshes = {{"bumpy sphere", bumpy_sphere(40, 60, 7)}};
-  for (const std::string& path : {cgal_mesh("elephant.off"), shared_mesh("spot.obj")})
+  for (const std::string& path : {cgal_mesh("elephant.off"), data_mesh("spot.obj")})
     if (!path.empty()) meshes.push_back({path, read_mesh(path)});
   for (const auto& [label, m] : meshes) {
     SCOPED_TRACE(label);
@@ -140,8 +140,8 @@ TEST(LaplacianCost, MatrixFreeHessianMatchesTheAssembledOneOverGroups) {
   // from the definition (one row of B per referenced vertex with neighbours, one column per
   // group of identical positions, whose squared displacement counts once), on a mesh with
   // unwelded seams and random unit directions.
-  const std::string path = shared_mesh("teapot.obj");
-  MESHMARK_REQUIRE(path, "teapot.obj");
+  const std::string path = data_mesh("spider.obj");
+  MESHMARK_REQUIRE(path, "spider.obj");
   const Mesh m = read_mesh(path);
   detail::EmbedContext ctx;
   ctx.referenced = referenced_vertices(m.F, m.V.rows());
@@ -198,7 +198,7 @@ TEST(LaplacianCost, CholeskyAndConjugateGradientXStepsReachTheSameOptimum) {
   // The two x-steps of the ADMM solver (exact sparse LDL^T of the assembled matrix, inexact
   // matrix-free CG) must converge to the same embedding cost on real meshes, closed and open.
   int meshes = 0;
-  for (const std::string& path : {shared_mesh("spot.obj"), shared_mesh("bunny.ply")}) {
+  for (const std::string& path : {data_mesh("spot.obj"), data_mesh("bunny.ply")}) {
     if (path.empty()) continue;
     SCOPED_TRACE(path);
     const Mesh m = read_mesh(path);
@@ -213,7 +213,7 @@ TEST(LaplacianCost, CholeskyAndConjugateGradientXStepsReachTheSameOptimum) {
     EXPECT_NEAR(a.squared_displacement, b.squared_displacement, 1e-6 * b.squared_displacement);
     ++meshes;
   }
-  if (meshes == 0) GTEST_SKIP() << "skipped: no real mesh available";
+  if (meshes == 0) GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
 }
 
 TEST(LaplacianCost, CholeskyFactorsAreKeptForAnUnchangedHessian) {

@@ -1,7 +1,7 @@
 #pragma once
 /// \file admm_qp.h
 /// A solver for the embedding problem with a sparse, non-diagonal cost (the Laplacian cost L,
-/// WATERMARK.md section 4): minimize x^T H x over the constraint set of a SeparableQp (rows,
+/// docs/method.md section 4): minimize x^T H x over the constraint set of a SeparableQp (rows,
 /// center equality, bounds). ADMM (as in OSQP) splits it into
 ///   x-step: (2 H + rho I) x = rho (z - u)  -- by default conjugate gradients preconditioned by
 ///           the diagonal, warm-started from the previous x, H applied as an operator (the

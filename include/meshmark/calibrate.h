@@ -1,6 +1,6 @@
 #pragma once
 /// \file calibrate.h
-/// Strength calibration (../shared/spec/WATERMARK.md section 6): the strongest mark whose
+/// Strength calibration (docs/method.md section 6): the strongest mark whose
 /// vertex RMS distortion and MSDM stay within limits, for one payload on one mesh. Both
 /// distortions grow with the strength alpha; an alpha whose embedding fails (infeasible bits,
 /// not converged) counts as too strong. The search brackets the limit and interpolates on

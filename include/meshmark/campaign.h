@@ -1,19 +1,21 @@
 #pragma once
 /// \file campaign.h
-/// Benchmark campaigns (../shared/spec/WATERMARK.md section 6): models x variants x payloads,
+/// Benchmark campaigns (docs/method.md section 6): models x variants x payloads,
 /// each embedding at its calibrated strength, then attacked at every strength of every attack
 /// (several draws for random attacks) and decoded blind. One row per trial.
 ///
 /// A campaign is described by a JSON file:
 ///
 ///     {"name": "quick", "bits": 64, "payloads": 6, "draws": 10, "seed": 1,
-///      "models": ["${shared}/meshes/horse.ply", {"name": "fandisk", "path":
+///      "models": ["${data}/meshes/spot.obj", {"name": "fandisk", "path":
 ///      "${cgal}/fandisk.off"}], "variants": ["DRS", "SRS", "VRS"], "calibration": {"max_rms":
 ///      0.04, "max_msdm": 0.25, "iterations": 10}, "attacks": [{"kind": "noise", "strengths":
 ///      [0.001, 0.003]}, {"kind": "loop", "strengths": [1]}]}
 ///
-/// "${shared}" is ../shared (MESHMARK_SHARED_DIR overrides), "${cgal}" libcgal-demo's unpacked
-/// data/meshes (MESHMARK_CGAL_DATA overrides); other relative paths are relative to the file.
+/// "${data}" is meshmark's data folder (the environment variable MESHMARK_DATA_DIR, else the
+/// installed one, CMake's MESHMARK_DATA_DIR), whose meshes/ holds the project's own meshes;
+/// "${cgal}" is libcgal-demo's unpacked data/meshes (MESHMARK_CGAL_DATA, else ${data}/cgal);
+/// other relative paths are relative to the file.
 /// "strength": A instead of "calibration" embeds every model at alpha = A. Deterministic
 /// attacks (quantization, smoothing, simplification, subdivision, format changes) run one draw.
 /// Every trial is named by a key (model|variant|payload|attack|strength|draw) and seeded from

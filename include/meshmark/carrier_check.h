@@ -30,8 +30,8 @@ inline constexpr int kMinPositionsPerBin = 8;
 /// one in kThinBinsPerTolerated of the data bins (8 of 64). A thin bin's bit is at risk, not
 /// lost (its one decisive vertex must still move across most of its bin), and the tails of a
 /// healthy histogram, the first and last data bins near a mesh's nearest and farthest points,
-/// are often thin: measured at 64 bits, at most 6 thin bins on every mesh of ../shared/meshes
-/// and CGAL's data with 2,048 distinct positions or more (lion-head, femur), 9 to 43 on smaller
+/// are often thin: measured at 64 bits, at most 6 thin bins on every mesh of data/meshes, of
+/// CGAL's data and of four larger scans measured then with 2,048 distinct positions or more (lion-head, femur), 9 to 43 on smaller
 /// or very skewed ones (elk, head, three_peaks, cactus, hand, pig), which are then reported.
 inline constexpr int kThinBinsPerTolerated = 8;
 

@@ -1,6 +1,6 @@
 #pragma once
 /// \file center.h
-/// The three centers of mass of the framework (../shared/spec/WATERMARK.md sections 1 and 3;
+/// The three centers of mass of the framework (docs/method.md sections 1 and 3;
 /// TIFS 2014 section IV-A) and their Jacobians dC/dp_i, which linearize the constraint that
 /// the center must not move.
 
@@ -48,7 +48,7 @@ struct CenterJacobians {
   std::vector<Eigen::Matrix3d> J;
 };
 
-/// Analytic Jacobians (WATERMARK.md section 3, item 2): D: I / n; S: (1/A) sum_f [(c_f - C)
+/// Analytic Jacobians (docs/method.md section 3, item 2): D: I / n; S: (1/A) sum_f [(c_f - C)
 /// grad_i A_f^T + A_f / 3 I]; V: (1/W) sum_f [(c_f - C) grad_i w_f^T + w_f / 4 I], plus, for
 /// V, the dependence through the reference point O (the discrete center), which vanishes on
 /// closed meshes and makes the Jacobian exact on open ones.

@@ -1,6 +1,6 @@
 #pragma once
 /// \file decode.h
-/// Blind decoding (../shared/spec/WATERMARK.md section 2): rebuild the histogram from the mesh
+/// Blind decoding (docs/method.md section 2): rebuild the histogram from the mesh
 /// alone and read bit j from the mean normalized position of bin j + 1.
 
 #include <Eigen/Core>

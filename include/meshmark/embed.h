@@ -1,6 +1,6 @@
 #pragma once
 /// \file embed.h
-/// Watermark embedding as a constrained optimization (../shared/spec/WATERMARK.md sections 3
+/// Watermark embedding as a constrained optimization (docs/method.md sections 3
 /// to 5; Rolland-Neviere, Doerr, Alliez, IEEE TIFS 9(9) 2014): move every referenced vertex
 /// along a direction, as little as the cost allows, so that each bit's bin mean reaches its
 /// target while the center, the histogram range and every vertex's bin stay as they were.

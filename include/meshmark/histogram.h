@@ -1,7 +1,7 @@
 #pragma once
 /// \file histogram.h
 /// The watermark's carrier: the histogram of vertex distances to a center of mass
-/// (../shared/spec/WATERMARK.md section 1; Rolland-Neviere et al., IEEE TIFS 2014, sec. III).
+/// (docs/method.md section 1; Rolland-Neviere et al., IEEE TIFS 2014, sec. III).
 
 #include <Eigen/Core>
 #include <cstdint>

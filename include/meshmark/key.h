@@ -8,7 +8,7 @@
 /// ChaCha20 keystream draws a permutation of the bits over the bins (bit j is carried by bin
 /// bin_of[j] + 1) and a whitening mask (bit j is written XOR whitening[j]). Without the key
 /// the bins read as a permuted, whitened word: noise. The canonical layout (identity, no
-/// whitening, ../shared/spec/WATERMARK.md section 1) stays available and is the default.
+/// whitening, docs/method.md section 1) stays available and is the default.
 
 #include <array>
 #include <cstdint>

@@ -1,6 +1,6 @@
 #pragma once
 /// \file metrics.h
-/// Distortion metrics as the mesh watermarking field computes them (WATERMARK.md section 7):
+/// Distortion metrics as the mesh watermarking field computes them (docs/method.md section 7):
 /// vertex RMS, surface-sampled RMS (MRMS, Wang et al. SMI 2010) and Hausdorff distance, MSDM
 /// (Lavoue et al., SPIE 2006) and MSDM2 (Lavoue, SGP 2011), with per-vertex local maps.
 

@@ -2,7 +2,7 @@
 /// \file payload.h
 /// Payloads as bit vectors, their hexadecimal form, and bit error rates.
 ///
-/// Convention (../shared/spec/WATERMARK.md section 1): bit j lives in histogram bin j + 1.
+/// Convention (docs/method.md section 1): bit j lives in histogram bin j + 1.
 /// The hexadecimal form is a number of nb bits written most significant digit first; bit j is
 /// its j-th most significant bit. So the hex string read left to right lists the bits in bin
 /// order (bin 1 first): with 8 bits, "80" sets bit 0 (bin 1) and "01" sets bit 7 (bin 8).

@@ -1,7 +1,7 @@
 #pragma once
 /// \file separable_qp.h
 /// An exact solver for the embedding quadratic program with a diagonal cost
-/// (../shared/spec/WATERMARK.md section 4):
+/// (docs/method.md section 4):
 ///
 ///     minimize    sum_i h_i x_i^2
 ///     subject to  sum_{i : row(i) = j} a_i x_i >= b_j      for every watermark row j

@@ -1,6 +1,6 @@
 #pragma once
 /// \file shell_interval.h
-/// Exact bin constraints for a displacement along a non-radial direction (WATERMARK.md
+/// Exact bin constraints for a displacement along a non-radial direction (docs/method.md
 /// section 3, item 3; TIFS 2014 Appendix, Algorithm 1): the displacements r for which
 /// p + r u stays between two spheres around the center.
 

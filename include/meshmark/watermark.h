@@ -4,7 +4,7 @@
 /// ID, with or without a secret key, and how they are read back. A program using the library
 /// and the command line write and read the same marks through these functions.
 ///
-/// - A raw payload without a key uses the canonical layout (WATERMARK.md section 1), readable
+/// - A raw payload without a key uses the canonical layout (docs/method.md section 1), readable
 ///   by any implementation of the paper.
 /// - Under a key, bits are permuted over the bins and whitened (BitLayout::keyed).
 /// - A coded ID without a key is whitened with public_key(), not a secret, so that the

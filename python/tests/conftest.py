@@ -1,8 +1,8 @@
 """Shared fixtures of the meshmark Python module's tests.
 
-CTest sets MESHMARK_CLI (the built meshmark binary), MESHMARK_CGAL_DATA (CGAL's meshes,
-unpacked into the build tree) and MESHMARK_SHARED_MESHES (../shared/meshes); run by hand, the
-defaults below point into build/ and ../shared beside the checkout.
+CTest sets MESHMARK_CLI (the built meshmark binary) and MESHMARK_CGAL_DATA (CGAL's meshes,
+unpacked into the build tree); run by hand, the defaults below point into build/. The project's
+own meshes are in data/meshes. A missing mesh fails the test: data is never a reason to skip.
 """
 
 import json
@@ -17,15 +17,14 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 CLI = pathlib.Path(os.environ.get("MESHMARK_CLI", ROOT / "build" / "meshmark"))
 CGAL_DATA = pathlib.Path(
     os.environ.get("MESHMARK_CGAL_DATA", ROOT / "build" / "cgal-data" / "data" / "meshes"))
-SHARED_MESHES = pathlib.Path(
-    os.environ.get("MESHMARK_SHARED_MESHES", ROOT.parent / "shared" / "meshes"))
+DATA_MESHES = ROOT / "data" / "meshes"
 
 
 def mesh_path(directory, name):
-    """The path of a real mesh, or a skip naming it when the directory lacks it."""
+    """The path of a real mesh; fails naming it when the directory lacks it."""
     path = directory / name
     if not path.is_file():
-        pytest.skip(f"{path} is missing")
+        pytest.fail(f"{path} is missing (data/meshes, or libcgal-demo's data: scripts/setup.sh)")
     return path
 
 
@@ -41,7 +40,7 @@ def elephant():
 
 @pytest.fixture
 def spot():
-    return mesh_path(SHARED_MESHES, "spot.obj")
+    return mesh_path(DATA_MESHES, "spot.obj")
 
 
 def run_cli(*args, expect=0):

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import meshmark
-from conftest import CGAL_DATA, SHARED_MESHES, mesh_path, read_obj_numpy, read_off_numpy
+from conftest import CGAL_DATA, DATA_MESHES, mesh_path, read_obj_numpy, read_off_numpy
 
 
 # Triangles (fandisk, cow), quads (cross_quad), comments and mixed polygons (cube_poly).
@@ -21,9 +21,9 @@ def test_off_reads_as_numpy_reads_it(name):
     np.testing.assert_array_equal(F, F_np)
 
 
-@pytest.mark.parametrize("name", ["spot.obj", "teapot.obj"])
+@pytest.mark.parametrize("name", ["spot.obj", "spider.obj"])
 def test_obj_reads_as_numpy_reads_it(name):
-    path = mesh_path(SHARED_MESHES, name)
+    path = mesh_path(DATA_MESHES, name)
     mesh = meshmark.read_mesh(path)
     V_np, F_np = read_obj_numpy(path)
     np.testing.assert_array_equal(mesh.V, V_np)
