@@ -20,7 +20,7 @@ packages=(
   gltfpack draco assimp-testmodels                 # third-party tools and glTF sample files for the format tests
   libcgal-dev libcgal-demo                         # CGAL, and its real meshes (data.tar.gz)
   clang libclang-rt-14-dev                         # libFuzzer and sanitizers (scripts/fuzz.sh)
-  python3                                          # small helper scripts
+  python3 python3-cryptography                     # helper scripts; ChaCha20 for the format test vectors
   doxygen                                          # the API documentation (target meshmark_doc)
   python3-dev pybind11-dev python3-numpy python3-pytest   # the Python module (python/) and its tests
 )

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -14,14 +15,21 @@
 namespace meshmark {
 
 std::uint64_t parse_id(const std::string& text) {
-  if (text.empty() || text[0] == '-' || text[0] == '+')
-    throw InvalidArgumentError(fmt::format("ID '{}' is not a non-negative integer", text));
+  // Decimal digits (leading zeros are still decimal: "0100" is one hundred, never octal), or 0x
+  // and hexadecimal digits; nothing else, not even a space: a mistyped ID must never become
+  // another buyer's.
+  const bool hex = text.size() > 2 && text[0] == '0' && (text[1] == 'x' || text[1] == 'X');
+  const std::string digits = hex ? text.substr(2) : text;
+  const auto is_digit = [hex](unsigned char c) { return hex ? std::isxdigit(c) : std::isdigit(c); };
+  if (digits.empty() || !std::all_of(digits.begin(), digits.end(), is_digit))
+    throw InvalidArgumentError(fmt::format(
+        "ID '{}' is not a non-negative integer (decimal digits, or 0x and hexadecimal digits)",
+        text));
   errno = 0;
   char* end = nullptr;
-  const unsigned long long value = std::strtoull(text.c_str(), &end, 0);
-  if (errno != 0 || end == text.c_str() || *end != '\0')
-    throw InvalidArgumentError(
-        fmt::format("ID '{}' is not an integer (decimal, or hexadecimal with 0x)", text));
+  const unsigned long long value = std::strtoull(digits.c_str(), &end, hex ? 16 : 10);
+  if (errno != 0 || *end != '\0')
+    throw InvalidArgumentError(fmt::format("ID '{}' is out of range (at most 2^64 - 1)", text));
   return value;
 }
 

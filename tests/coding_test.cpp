@@ -319,5 +319,20 @@ TEST(Detect, CountsMatchesAndErasures) {
   EXPECT_THROW(detect({1, 0}, expected), InvalidArgumentError);
 }
 
+// A buyer ID as typed: decimal whatever its leading zeros (never octal: "0100" read as 64 would
+// issue or name another buyer), or 0x hexadecimal; anything else is refused.
+TEST(Coding, IdsParseAsDecimalOrHexAndNothingElse) {
+  EXPECT_EQ(parse_id("0100"), 100u);
+  EXPECT_EQ(parse_id("08"), 8u);
+  EXPECT_EQ(parse_id("0"), 0u);
+  EXPECT_EQ(parse_id("1042"), 1042u);
+  EXPECT_EQ(parse_id("0x1f"), 31u);
+  EXPECT_EQ(parse_id("0X1F"), 31u);
+  EXPECT_EQ(parse_id("18446744073709551615"), 18446744073709551615ull);
+  for (const char* bad : {"", " 5", "5 ", "+5", "-5", "1e3", "0x", "0x 1", "12a", "0b101",
+                          "18446744073709551616", "5\n"})
+    EXPECT_THROW(parse_id(bad), InvalidArgumentError) << "'" << bad << "'";
+}
+
 }  // namespace
 }  // namespace meshmark

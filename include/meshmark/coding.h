@@ -91,8 +91,10 @@ struct IdDecodeResult {
   std::string message;       ///< what was found, or why nothing
 };
 
-/// Parses a buyer ID: decimal, or hexadecimal with 0x.
-/// \throw InvalidArgumentError for anything else (a sign, other characters, out of range).
+/// Parses a buyer ID: decimal digits (leading zeros included: "0100" is 100, never octal), or
+/// 0x and hexadecimal digits.
+/// \throw InvalidArgumentError for anything else (a sign, a space, other characters, out of
+/// range).
 std::uint64_t parse_id(const std::string& text);
 
 /// A code for IDs of IdCodeOptions::id_bits bits in nb-bit payloads.
