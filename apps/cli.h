@@ -133,6 +133,7 @@ std::optional<Key> resolve_key(const KeyArgs& args);
 IdCode id_code(const KeyArgs& args, int nb);
 
 void register_embed(CLI::App& app, int& exit_code);
+void register_keygen(CLI::App& app, int& exit_code);  ///< meshmark keygen FILE
 void register_registry(CLI::App& app, int& exit_code);
 /// trace; argv: the command line as run (its --report writes it, quoted, in the report).
 void register_trace(CLI::App& app, int& exit_code, std::vector<std::string> argv);

@@ -3,8 +3,12 @@
 
 #include <fmt/format.h>
 
+#include <memory>
+#include <nlohmann/json.hpp>
+
 #include "cli.h"
 #include "meshmark/error.h"
+#include "meshmark/registry.h"
 
 namespace meshmark::cli {
 
@@ -21,6 +25,26 @@ std::optional<Key> resolve_key(const KeyArgs& args) {
   if (args.passphrase) return key_from_passphrase(*args.passphrase);  // refuses an empty one
   if (args.file) return key_from_file(*args.file);                    // ReadError: exit 2
   return std::nullopt;
+}
+
+void register_keygen(CLI::App& app, int& exit_code) {
+  auto path = std::make_shared<std::string>();
+  auto json = std::make_shared<bool>(false);
+  CLI::App* sub = app.add_subcommand(
+      "keygen", "Make a new secret key file: 32 random bytes, readable by its owner only");
+  sub->add_option("FILE", *path, "the key file to create (never overwritten)")->required();
+  sub->add_flag("--json", *json, "print a JSON report");
+  sub->callback([path, json, &exit_code] {
+    const Key key = generate_key_file(*path);
+    if (*json)
+      fmt::print("{}\n", nlohmann::json{{"key_file", *path}, {"key_fingerprint", key_fingerprint(key)}}
+                             .dump(2));
+    else
+      fmt::print("key file {} (mode 0600, fingerprint {}): keep it secret and backed up; without "
+                 "it no copy issued under it can be traced\n",
+                 printable(*path), key_fingerprint(key));
+    exit_code = kOk;
+  });
 }
 
 IdCode id_code(const KeyArgs& args, int nb) {

@@ -8,9 +8,7 @@
 
 #include "cli.h"
 #include "meshmark/error.h"
-#include "meshmark/evidence_report.h"
-#include "meshmark/trace.h"
-#include "meshmark/version.h"
+#include "meshmark/trace_files.h"
 
 namespace meshmark::cli {
 
@@ -57,53 +55,33 @@ std::string reproducing_command(const std::vector<std::string>& argv, bool& reda
 }
 
 // The file's content hash, or "" when it cannot be read (a PostgreSQL registry).
-std::string hash_of(const std::string& path) {
-  try {
-    return content_hash(read_file(path));
-  } catch (const IOError&) {
-    return {};
-  }
-}
-
-void write_report(const TraceArgs& a, const TraceOptions& options, const Mesh& leaked,
-                  const Mesh& original, const std::string& original_hash, const TraceResult& r,
-                  const Key& key) {
-  EvidenceContext c;
-  c.threshold = options.threshold;
-  c.leaked = {a.leaked, hash_of(a.leaked)};
-  c.original = {a.original, original_hash};
-  c.registry = {a.registry, hash_of(a.registry)};
-  c.key_fingerprint = key_fingerprint(key);
-  bool redacted = false;
-  c.command = reproducing_command(a.argv, redacted);
-  if (redacted)
-    c.command_note = "The passphrase given with --key is not written: set MESHMARK_KEY to it.";
-  c.version = "meshmark " MESHMARK_VERSION_STRING;
-  c.settings = {
-      {"erase distance", fmt::format("{:g} of the diagonal", options.erase_distance)},
-      {"registration", options.register_leak ? "similarity (ICP)" : "none (--no-register)"},
-      {"weld tolerance", fmt::format("{:g}", a.in.weld_tolerance)}};
-  write_evidence_report(a.report, leaked, original, r, c);
-}
-
 int run(const TraceArgs& a) {
   const std::optional<Key> key = resolve_key(a.keys);
   if (!key) throw InvalidArgumentError("trace needs the key the copies were issued under");
-  if (!a.report.empty())
-    refuse_overwrite(a.report, {a.leaked, a.original, a.registry, a.keys.file.value_or("")});
-  const Mesh leaked = read_input(a.leaked, a.in);
-  const Mesh original = read_input(a.original, a.in);
-  // What the copies were made from.
-  const std::string original_hash = content_hash(read_file(a.original));
-  TraceOptions options = a.options;
-  options.register_leak = !a.no_register;
-  TraceResult r;
+  TraceFilesRequest request;
+  request.leaked = a.leaked;
+  request.original = a.original;
+  request.registry = a.registry;
+  request.report = a.report;
+  request.key_file = a.keys.file.value_or("");
+  request.read = read_options(a.in);
+  request.options = a.options;
+  request.options.register_leak = !a.no_register;
+  bool redacted = false;
+  request.command = reproducing_command(a.argv, redacted);
+  if (redacted)
+    request.command_note = "The passphrase given with --key is not written: set MESHMARK_KEY to it.";
+  TraceFilesResult found;
   try {
-    r = trace_issued(leaked, original, original_hash, a.registry, *key, options);
+    found = trace_files(request, *key);
+  } catch (const WriteError&) {
+    throw;  // the report: exit kWriteFailed
   } catch (const IOError& e) {
-    throw InputFailure(e.what());  // the registry is input here
+    throw InputFailure(e.what());  // the meshes and the registry are input here
   }
-  if (!a.report.empty()) write_report(a, options, leaked, original, original_hash, r, *key);
+  for (const std::string& w : found.warnings) fmt::print(stderr, "warning: {}\n", printable(w));
+  const TraceOptions& options = request.options;
+  const TraceResult& r = found.trace;
   auto score = [](const CandidateScore& s) {
     return nlohmann::json{{"buyer", s.copy.buyer},     {"id", s.copy.id},
                           {"matches", s.matches},      {"bits", s.compared},

@@ -138,6 +138,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "meshmark " MESHMARK_VERSION_STRING);
   int exit_code = cli::kOk;
+  cli::register_keygen(app, exit_code);
   cli::register_embed(app, exit_code);
   cli::register_extract(app, exit_code);
   cli::register_attack(app, exit_code);

@@ -15,15 +15,15 @@ original="$MESHMARK_CGAL_DATA/bunny00.off"
 work="${DEMO_OUT:-$(mktemp -d /tmp/meshmark-demo.XXXXXX)}"
 mkdir -p "$work"
 cd "$work"
-rm -f shop.key registry.db manifest.txt copy-*.ply leak.* report.html
+rm -f shop.key registry.db manifest.txt copy-*.obj leak.* report.html
 
 echo "== 1. a secret key for the shop (32 random bytes, readable by its owner only)"
-(umask 077 && head -c 32 /dev/urandom > shop.key)
+"$mm" keygen shop.key
 ls -l shop.key
 
 echo "== 2. 20 copies of $(basename "$original") issued to 20 buyers, recorded in registry.db"
 for i in $(seq 1 20); do
-  echo "$original copy-$i.ply id:$((1000 + i)) buyer-$i"
+  echo "$original copy-$i.obj id:$((1000 + i)) buyer-$i"
 done > manifest.txt
 time "$mm" embed --batch manifest.txt --key-file shop.key --registry registry.db | tail -n 3
 "$mm" registry list registry.db | head -n 4
@@ -31,11 +31,11 @@ time "$mm" embed --batch manifest.txt --key-file shop.key --registry registry.db
 leaker=13
 echo "== 3. buyer-$leaker's copy leaks: converted to GLB and simplified to 50 %"
 if command -v gltfpack >/dev/null; then
-  gltfpack -i "copy-$leaker.ply" -o leak.glb -si 0.5 >/dev/null
+  gltfpack -i "copy-$leaker.obj" -o leak.glb -si 0.5 >/dev/null
   leak=leak.glb
-  echo "gltfpack -i copy-$leaker.ply -o leak.glb -si 0.5"
+  echo "gltfpack -i copy-$leaker.obj -o leak.glb -si 0.5"
 else
-  "$mm" attack similarity,simplify:0.5 "copy-$leaker.ply" leak.ply --strength 2 --seed 7 >/dev/null
+  "$mm" attack similarity,simplify:0.5 "copy-$leaker.obj" leak.ply --strength 2 --seed 7 >/dev/null
   leak=leak.ply
   echo "(gltfpack is not installed: meshmark attack similarity,simplify:0.5 instead)"
 fi
@@ -45,7 +45,7 @@ echo "== 4. trace the leak with the original and the registry"
   --report report.html | head -n 12
 
 echo "== 5. the blind read of an unprocessed copy (no original, no registry)"
-"$mm" extract copy-7.ply --coded --key-file shop.key | head -n 2
+"$mm" extract copy-7.obj --coded --key-file shop.key | head -n 2
 
 echo
 echo "evidence report: $work/report.html"

@@ -1,7 +1,13 @@
 #include "meshmark/key.h"
 
+#include <fcntl.h>
 #include <fmt/format.h>
 #include <sodium.h>
+#include <unistd.h>
+
+#include <array>
+#include <cerrno>
+#include <cstring>
 
 #include "meshmark/error.h"
 #include "meshmark/io.h"
@@ -81,6 +87,28 @@ Key key_from_file(const std::string& path) {
   if (bytes.empty()) throw InvalidInputError(path, 0, "the key file is empty");
   return hash_under_domain("meshmark/key-file/v1",
                            reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size());
+}
+
+Key generate_key_file(const std::string& path) {
+  ensure_sodium();
+  std::array<unsigned char, 32> bytes;
+  randombytes_buf(bytes.data(), bytes.size());
+  // O_EXCL: an existing key (or a link planted where it goes) is never replaced.
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC | O_NOFOLLOW, 0600);
+  if (fd < 0)
+    throw IOError(fmt::format("{}: cannot create the key file: {}", path,
+                              errno == EEXIST ? "it exists (a key is never overwritten)"
+                                              : std::strerror(errno)));
+  const bool written = ::write(fd, bytes.data(), bytes.size()) == static_cast<ssize_t>(bytes.size()) &&
+                       ::fsync(fd) == 0;
+  const int saved = errno;
+  ::close(fd);
+  sodium_memzero(bytes.data(), bytes.size());
+  if (!written) {
+    ::unlink(path.c_str());
+    throw IOError(fmt::format("{}: cannot write the key file: {}", path, std::strerror(saved)));
+  }
+  return key_from_file(path);
 }
 
 const Key& public_key() {

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <numeric>
 #include <set>
@@ -12,6 +13,7 @@
 #include "meshmark/coding.h"
 #include "meshmark/detect.h"
 #include "meshmark/error.h"
+#include "meshmark/io.h"
 #include "meshmark/key.h"
 #include "meshmark/random.h"
 #include "test_data.h"
@@ -332,6 +334,26 @@ TEST(Coding, IdsParseAsDecimalOrHexAndNothingElse) {
   for (const char* bad : {"", " 5", "5 ", "+5", "-5", "1e3", "0x", "0x 1", "12a", "0b101",
                           "18446744073709551616", "5\n"})
     EXPECT_THROW(parse_id(bad), InvalidArgumentError) << "'" << bad << "'";
+}
+
+// keygen: a new file of 32 random bytes, mode 0600, whose key is key_from_file's; an existing
+// file or a link where it goes is refused and left as it was.
+TEST(Key, GeneratedKeyFilesAreNewPrivateAndDistinct) {
+  namespace fs = std::filesystem;
+  const std::string dir = test::scratch_dir();
+  const Key a = generate_key_file(dir + "/a.key"), b = generate_key_file(dir + "/b.key");
+  EXPECT_EQ(fs::file_size(dir + "/a.key"), 32u);
+  EXPECT_EQ(fs::status(dir + "/a.key").permissions() & fs::perms::all,
+            fs::perms::owner_read | fs::perms::owner_write);
+  EXPECT_EQ(a, key_from_file(dir + "/a.key"));
+  EXPECT_NE(a, b);
+  const std::string before = read_file(dir + "/a.key");
+  EXPECT_THROW(generate_key_file(dir + "/a.key"), IOError);
+  EXPECT_EQ(read_file(dir + "/a.key"), before);
+  fs::create_symlink(dir + "/planted", dir + "/link.key");
+  EXPECT_THROW(generate_key_file(dir + "/link.key"), IOError);
+  EXPECT_FALSE(fs::exists(dir + "/planted"));
+  EXPECT_THROW(generate_key_file(dir + "/no/such/dir.key"), IOError);
 }
 
 }  // namespace

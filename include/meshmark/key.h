@@ -41,6 +41,13 @@ Key key_from_passphrase(std::string_view passphrase);
 ///        device) or holds more than 1 MiB; InvalidInputError when it is empty.
 Key key_from_file(const std::string& path);
 
+/// Makes a new secret key file at path: 32 random bytes (libsodium's randombytes_buf), created
+/// with mode 0600 (readable by its owner only) and never over an existing file, written and
+/// flushed to disk before this returns. Returns the file's key (key_from_file(path)).
+/// \throw IOError when path exists (a file, a link, anything) or cannot be created or written;
+///        a partly written file is removed.
+Key generate_key_file(const std::string& path);
+
 /// The public key meshmark uses to whiten coded IDs when no secret key is given (so that an
 /// unmarked mesh's structured bits do not look like a codeword). Not a secret.
 const Key& public_key();

@@ -8,6 +8,7 @@
 #include "meshmark/error.h"
 #include "meshmark/issue.h"
 #include "meshmark/trace.h"
+#include "meshmark/trace_files.h"
 
 namespace meshmark::python {
 
@@ -107,20 +108,23 @@ void init_issue(py::module_& m) {
   m.def(
       "trace",
       [](py::handle leaked, py::handle original, const std::string& registry, py::handle key,
-         py::handle key_file, double threshold, bool register_leak) {
+         py::handle key_file, double threshold, bool register_leak, py::handle report) {
         const std::optional<Key> k = resolve_key(key, key_file);
         if (!k) throw InvalidArgumentError("trace needs the key the copies were issued under");
-        const std::string original_path = to_path(original);
-        const Mesh leak = read_mesh(to_path(leaked));
-        const Mesh orig = read_mesh(original_path);
-        TraceOptions o;
-        o.threshold = threshold;
-        o.register_leak = register_leak;
-        TraceResult r;
+        TraceFilesRequest request;
+        request.leaked = to_path(leaked);
+        request.original = to_path(original);
+        request.registry = registry;
+        if (!report.is_none()) request.report = to_path(report);
+        if (!key_file.is_none()) request.key_file = to_path(key_file);
+        request.options.threshold = threshold;
+        request.options.register_leak = register_leak;
+        TraceFilesResult found;
         {
           py::gil_scoped_release unlocked;
-          r = trace_issued(leak, orig, content_hash(read_file(original_path)), registry, *k, o);
+          found = trace_files(request, *k);
         }
+        const TraceResult& r = found.trace;
         py::dict out;
         out["status"] = trace_status_name(r.status);
         out["message"] = r.message;
@@ -131,16 +135,17 @@ void init_issue(py::module_& m) {
         out["named"] = named;
         out["ranking"] = ranking;
         out["registration"] = r.registration.message;
+        out["report"] = request.report.empty() ? py::object(py::none()) : py::str(request.report);
         return out;
       },
       py::arg("leaked"), py::arg("original"), py::arg("registry"), py::kw_only(),
       py::arg("key") = py::none(), py::arg("key_file") = py::none(), py::arg("threshold") = 1e-6,
-      py::arg("register") = true,
+      py::arg("register") = true, py::arg("report") = py::none(),
       "Names the buyers whose copies the leaked mesh file came from, as the CLI's trace does: "
       "the copies the registry recorded of the original file under the key, each scored with "
-      "an exact p-value, family-wise below threshold. Returns a dict: status, message, "
-      "candidates, named and ranking (dicts: buyer, id, matches, bits, p_value, corrected_p, "
-      "copy), registration.");
+      "an exact p-value, family-wise below threshold; with report (a path), writes the HTML "
+      "evidence report there. Returns a dict: status, message, candidates, named and ranking "
+      "(dicts: buyer, id, matches, bits, p_value, corrected_p, copy), registration, report.");
 }
 
 }  // namespace meshmark::python

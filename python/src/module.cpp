@@ -164,6 +164,11 @@ void init_payload(py::module_& m) {
       .def_static(
           "from_file", [](py::handle path) { return key_from_file(to_path(path)); },
           py::arg("path"), "The key of a key file's bytes, as the CLI's --key-file.")
+      .def_static(
+          "generate", [](py::handle path) { return generate_key_file(to_path(path)); },
+          py::arg("path"),
+          "Makes a new key file at path (32 random bytes, mode 0600, never over an existing "
+          "file), as the CLI's keygen, and returns its key.")
       .def("__eq__", [](const Key& a, const Key& b) { return a == b; })
       .def("__repr__", [](const Key&) { return std::string("Key(<secret>)"); });
   m.def(

@@ -1,0 +1,75 @@
+// Tracing from files (trace_files.h): what the command line's trace and the Python module's
+// trace share.
+
+#include "meshmark/trace_files.h"
+
+#include <fmt/format.h>
+
+#include <filesystem>
+
+#include "meshmark/error.h"
+#include "meshmark/evidence_report.h"
+#include "meshmark/registry.h"
+#include "meshmark/version.h"
+
+namespace meshmark {
+
+namespace {
+
+std::string hash_of(const std::string& path) {
+  try {
+    return content_hash(read_file(path));
+  } catch (const IOError&) {
+    return {};  // a PostgreSQL URI, or a file that went away: the report says no hash
+  }
+}
+
+Mesh read_noting(const std::string& path, const ReadOptions& read,
+                 std::vector<std::string>& warnings) {
+  Mesh mesh = read_mesh(path, read);
+  for (const std::string& note : mesh.notes) warnings.push_back(path + ": " + note);
+  return mesh;
+}
+
+}  // namespace
+
+TraceFilesResult trace_files(const TraceFilesRequest& request, const Key& key) {
+  if (!request.report.empty())
+    for (const std::string& input :
+         {request.leaked, request.original, request.registry, request.key_file}) {
+      std::error_code ec;
+      if (!input.empty() && std::filesystem::equivalent(request.report, input, ec))
+        throw InvalidArgumentError(
+            fmt::format("{}: refusing to overwrite an input file with the report", request.report));
+    }
+  TraceFilesResult found;
+  found.leaked = read_noting(request.leaked, request.read, found.warnings);
+  found.original = read_noting(request.original, request.read, found.warnings);
+  found.original_hash = content_hash(read_file(request.original));
+  found.trace = trace_issued(found.leaked, found.original, found.original_hash, request.registry,
+                             key, request.options);
+  if (!request.report.empty()) write_trace_report(request, found, key);
+  return found;
+}
+
+void write_trace_report(const TraceFilesRequest& request, const TraceFilesResult& found,
+                        const Key& key) {
+  if (request.report.empty()) throw InvalidArgumentError("no path for the evidence report");
+  EvidenceContext c;
+  c.threshold = request.options.threshold;
+  c.leaked = {request.leaked, hash_of(request.leaked)};
+  c.original = {request.original, found.original_hash};
+  c.registry = {request.registry, hash_of(request.registry)};
+  c.key_fingerprint = key_fingerprint(key);
+  c.command = request.command;
+  c.command_note = request.command_note;
+  c.version = "meshmark " MESHMARK_VERSION_STRING;
+  c.settings = {
+      {"erase distance", fmt::format("{:g} of the diagonal", request.options.erase_distance)},
+      {"registration",
+       request.options.register_leak ? "similarity (ICP)" : "none (--no-register)"},
+      {"weld tolerance", fmt::format("{:g}", request.read.weld_tolerance)}};
+  write_evidence_report(request.report, found.leaked, found.original, found.trace, c);
+}
+
+}  // namespace meshmark
