@@ -1,6 +1,8 @@
-# The API documentation of the public headers (include/meshmark and the generated version.h):
-# `cmake --build build --target meshmark_doc` writes build/doc/html/index.html, and Doxygen's
-# warnings to build/doc/doxygen-warnings.log. Only when Doxygen is installed.
+# The documentation site: the README as its main page, every page of docs/, and the API of the
+# public headers (include/meshmark and the generated version.h). `cmake --build build --target
+# meshmark_doc` writes build/doc/html/index.html, and Doxygen's warnings to
+# build/doc/doxygen-warnings.log (the test Docs.SiteRendersEveryPage fails on a page's warning).
+# Only when Doxygen is installed.
 find_package(Doxygen QUIET)
 if(DOXYGEN_FOUND)
   set(MESHMARK_DOC_DIR ${PROJECT_BINARY_DIR}/doc)

@@ -1,0 +1,27 @@
+# The documentation site (target meshmark_doc): Doxygen renders the README as the main page and
+# every page of docs/ beside the API, and none of the pages draws a warning.
+# Usage: cmake -DBUILD_DIR=... -DSOURCE_DIR=... -P docs_site.cmake
+execute_process(COMMAND ${CMAKE_COMMAND} --build ${BUILD_DIR} --target meshmark_doc
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE out)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "the site did not build:\n${out}")
+endif()
+file(STRINGS ${BUILD_DIR}/doc/doxygen-warnings.log warnings REGEX "(/docs/|README\\.md)")
+if(warnings)
+  list(JOIN warnings "\n" warnings)
+  message(FATAL_ERROR "Doxygen warns about the pages:\n${warnings}")
+endif()
+file(GLOB pages RELATIVE ${SOURCE_DIR}/docs ${SOURCE_DIR}/docs/*.md)
+list(LENGTH pages count)
+foreach(page IN LISTS pages)
+  string(REPLACE ".md" "" name ${page})
+  string(REPLACE "-" "_" name ${name})
+  if(NOT EXISTS ${BUILD_DIR}/doc/html/md_docs_${name}.html)
+    message(FATAL_ERROR "docs/${page} has no page in the site (md_docs_${name}.html)")
+  endif()
+endforeach()
+file(READ ${BUILD_DIR}/doc/html/index.html index)
+if(NOT index MATCHES "A shop's quick start")
+  message(FATAL_ERROR "the site's main page is not the README")
+endif()
+message(STATUS "the site: the README and ${count} pages of docs/, without warnings")
