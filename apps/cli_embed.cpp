@@ -29,6 +29,7 @@ struct EmbedArgs {
   InputOptions in;
   OutputOptions out;
   bool json = false;
+  bool public_key = false;  // --public-key: coded IDs without a secret key
 };
 
 // The limits of --fidelity, --max-rms and --max-msdm, or none (a fixed --strength).
@@ -69,6 +70,7 @@ int run(const EmbedArgs& a) {
   settings.id_bits = a.keys.id_bits;
   settings.strength_spread = a.strength_spread;
   settings.registry = a.registry;
+  settings.allow_public_key = a.public_key;
   if (!a.batch.empty()) {
     if (!a.input.empty())
       throw InvalidArgumentError("--batch takes its inputs and outputs from the manifest");
@@ -81,10 +83,12 @@ int run(const EmbedArgs& a) {
     throw InvalidArgumentError("--buyer is recorded in a registry: give --registry DB");
   const std::optional<Key>& key = settings.key;
   const bool coded = !a.id.empty();
-  if (coded && !key)
+  if (coded && !key) {
     fmt::print(stderr,
                "meshmark: warning: --id without --key-file or --key codes the ID under the public "
                "key: anyone can read it, remove it, or write any other buyer's ID\n");
+    settings.allow_public_key = true;  // one copy by hand: warned; a batch needs --public-key
+  }
   CopyRequest request;
   request.input = a.input;
   request.output = a.output;
@@ -263,6 +267,9 @@ void register_embed(CLI::App& app, int& exit_code) {
   CLI::Option* buyer =
       sub->add_option("--buyer", args->buyer, "the buyer's label recorded with --registry");
   sub->add_flag("--json", args->json, "print a JSON report");
+  sub->add_flag("--public-key", args->public_key,
+                "--batch with coded IDs and no key: code them under the public key anyway "
+                "(anyone can then read, remove or forge them); refused without it");
   add_key_options(*sub, args->keys);
   add_input_options(*sub, args->in);
   add_output_options(*sub, args->out);

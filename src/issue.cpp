@@ -281,6 +281,13 @@ IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings&
       refuse(out[k], r.refusal);
       continue;
     }
+    if (r.id && !settings.key && !settings.allow_public_key) {
+      refuse(out[k],
+             "a coded ID without a secret key is coded under the public key: anyone could read "
+             "it, remove it or write another buyer's ID; give a key (--key-file), or say "
+             "--public-key to issue it anyway");
+      continue;
+    }
     any_coded = any_coded || r.id.has_value();
     if (!r.id) {
       try {

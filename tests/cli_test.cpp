@@ -221,7 +221,7 @@ TEST(Cli, EmbedAtThePapersFidelityMeetsItsLimitsForEveryCopy) {
     for (int id = 41; id < 44; ++id)
       manifest << in << " " << dir << "/c" << id << ".obj id:" << id << " buyer" << id << "\n";
   }
-  const CliRun b = run("embed --batch " + dir + "/copies.txt --fidelity paper");
+  const CliRun b = run("embed --batch " + dir + "/copies.txt --fidelity paper --public-key");
   ASSERT_EQ(b.code, 0) << b.out;
   const CliRun one = run("embed " + in + " " + dir + "/c44.obj --id 44 --fidelity paper --json");
   ASSERT_EQ(one.code, 0) << one.out;

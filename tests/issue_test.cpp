@@ -165,6 +165,88 @@ TEST(Issue, ClashesAndMalformedRequestsAreRefusedAndWriteNothing) {
   EXPECT_EQ(recorded[0].buyer, "Ivy");
 }
 
+// A CSV manifest keeps every buyer label as written: commas, quotes, '#', line breaks, any
+// UTF-8; the whitespace manifest refuses a label that its '#' comment would cut; a CSV record
+// with broken quoting or a header without the needed columns is refused, naming the line.
+TEST(Issue, CsvManifestsKeepEveryLabelAndRefuseWhatTheyCannotRead) {
+  const std::string dir = test::scratch_dir();
+  const std::string csv = dir + "/copies.csv";
+  std::ofstream(csv, std::ios::binary)
+      << "\xEF\xBB\xBFinput,output,id,buyer\r\n"
+         "o.obj,a.ply,1,Jane Doe (order #123)\r\n"
+         "o.obj,b.ply,2,\"Doe, Jane \"\"JD\"\"\"\r\n"
+         "\"o.obj\",c.ply,0x10,\"two\nlines\"\n"
+         "o.obj,d.ply,3,Zo\xC3\xAB \xE2\x9C\x93\n"
+         "\n"
+         "o.obj,e.ply,,nobody\n"
+         "o.obj,f.ply,4\n";
+  const std::vector<CopyRequest> r = read_manifest(csv);
+  ASSERT_EQ(r.size(), 6u);
+  EXPECT_EQ(r[0].buyer, "Jane Doe (order #123)");
+  EXPECT_EQ(r[1].buyer, "Doe, Jane \"JD\"");
+  EXPECT_EQ(r[2].buyer, "two\nlines");
+  EXPECT_EQ(r[2].id, 16u);
+  EXPECT_EQ(r[3].buyer, "Zo\xC3\xAB \xE2\x9C\x93");
+  EXPECT_EQ(r[3].line, 6u);  // the quoted line break counts
+  for (int k = 0; k < 4; ++k) EXPECT_TRUE(r[k].refusal.empty()) << k << ": " << r[k].refusal;
+  EXPECT_EQ(r[0].input, "o.obj");
+  EXPECT_EQ(r[1].output, "b.ply");
+  EXPECT_NE(r[4].refusal.find("an id or a payload"), std::string::npos) << r[4].refusal;
+  EXPECT_NE(r[5].refusal.find("3 fields where the header has 4"), std::string::npos)
+      << r[5].refusal;
+  // Broken CSV is refused with its line.
+  for (const auto& [bytes, line] : std::vector<std::pair<std::string, std::size_t>>{
+           {"input,output,id\no.obj,\"a.ply,1\n", 2},
+           {"input,output,id\no.obj,a\"b.ply,1\n", 2},
+           {"input,output,buyer\no.obj,a.ply,x\n", 1},
+           {"input,output,id,colour\no.obj,a.ply,1,red\n", 1}}) {
+    std::ofstream(dir + "/bad.csv", std::ios::binary) << bytes;
+    try {
+      read_manifest(dir + "/bad.csv");
+      ADD_FAILURE() << "read: " << bytes;
+    } catch (const InvalidInputError& e) {
+      EXPECT_EQ(e.line(), line) << e.what();
+    }
+  }
+  // The whitespace manifest: a '#' that would cut a label refuses the line.
+  std::ofstream(dir + "/copies.txt") << "o.obj a.ply id:1 Jane Doe (order #123)\n"
+                                        "o.obj b.ply id:2 Bo\n";
+  const std::vector<CopyRequest> w = read_manifest(dir + "/copies.txt");
+  ASSERT_EQ(w.size(), 2u);
+  EXPECT_NE(w[0].refusal.find("CSV"), std::string::npos) << w[0].refusal;
+  EXPECT_TRUE(w[1].refusal.empty());
+}
+
+// Coded IDs without a secret key are refused unless public-key coding is asked for: anyone can
+// read, remove or forge a mark under the public key.
+TEST(Issue, CodedIdsWithoutAKeyNeedThePublicKeyAskedFor) {
+  const std::string original = test::cgal_mesh("fandisk.off");
+  MESHMARK_REQUIRE(original, "libcgal-demo's fandisk.off");
+  const std::string dir = test::scratch_dir();
+  IssueSettings s;
+  CopyRequest copy;
+  copy.input = original;
+  copy.output = dir + "/a.ply";
+  copy.id = 7;
+  IssueResult r = issue_copies({copy}, s);
+  EXPECT_EQ(r.copies[0].status, CopyStatus::Refused);
+  EXPECT_NE(r.copies[0].message.find("public key"), std::string::npos) << r.copies[0].message;
+  EXPECT_FALSE(fs::exists(dir + "/a.ply"));
+  s.allow_public_key = true;
+  r = issue_copies({copy}, s);
+  EXPECT_EQ(r.copies[0].status, CopyStatus::Written) << r.copies[0].message;
+  // The command line: a batch needs --public-key, a single copy only warns.
+  std::ofstream(dir + "/m.txt") << original << " " << dir << "/b.ply id:8 Bo\n";
+  test::CliRun run = test::run_cli("embed --batch " + dir + "/m.txt");
+  EXPECT_NE(run.code, 0) << run.out;
+  EXPECT_FALSE(fs::exists(dir + "/b.ply"));
+  run = test::run_cli("embed --batch " + dir + "/m.txt --public-key");
+  EXPECT_EQ(run.code, 0) << run.out;
+  run = test::run_cli("embed " + original + " " + dir + "/c.ply --id 9");
+  EXPECT_EQ(run.code, 0) << run.out;
+  EXPECT_NE(run.out.find("warning"), std::string::npos) << run.out;
+}
+
 // A registry that does not exist is not created by reading it.
 TEST(Issue, ReadingARegistryThatDoesNotExistCreatesNothing) {
   const std::string db = test::scratch_dir() + "/no-such-registry.db";

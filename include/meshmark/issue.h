@@ -41,6 +41,9 @@ struct IssueSettings {
   ReadOptions read;        ///< how originals are read, and written copies read back
   WriteOptions write;      ///< output format settings (format from the path when unset)
   std::optional<Key> key;  ///< keyed layout; the key of coded IDs (public_key() without)
+  /// Coded IDs without key are coded under public_key(), which anyone can read, remove or
+  /// forge: such a request is refused unless this is set.
+  bool allow_public_key = false;
   int id_bits = 32;        ///< length of a coded ID in bits (1..32)
   double strength_spread =
       0.25;  ///< keyed or coded marks: per-bit strength spread (keyed_strengths)
@@ -126,10 +129,15 @@ struct IssueResult {
 ///        opened.
 IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings& settings);
 
-/// Reads a manifest: one copy per line, `INPUT OUTPUT PAYLOAD` (hexadecimal) or `INPUT OUTPUT
-/// id:N BUYER...` (a coded ID and the buyer's label); `#` starts a comment; blank lines are
-/// skipped. A malformed line is a request with its refusal set, so that it is reported like
-/// any other failure. \throw IOError when the file cannot be read (at most 64 MiB).
+/// Reads a manifest. A path ending in `.csv` is CSV (RFC 4180: commas, quoted fields holding
+/// commas, doubled quotes or line breaks, any UTF-8) with a header row naming the columns
+/// `input`, `output`, `id` or `payload`, and `buyer`, in any order. Any other path holds one
+/// copy per line, `INPUT OUTPUT PAYLOAD` (hexadecimal) or `INPUT OUTPUT id:N BUYER...` (a coded
+/// ID and the buyer's label); `#` starts a comment, and a line whose buyer label a `#` would
+/// cut is refused (such a label needs CSV); blank lines are skipped. A malformed line or
+/// record is a request with its refusal set, so that it is reported like any other failure.
+/// \throw IOError when the file cannot be read (at most 64 MiB); InvalidInputError for a CSV
+///        header without the needed columns, or a CSV record whose quoting is broken.
 std::vector<CopyRequest> read_manifest(const std::string& path);
 
 /// The registry record of a copy of input (its content hash read from the file) carrying the

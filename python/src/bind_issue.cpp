@@ -73,8 +73,9 @@ void init_issue(py::module_& m) {
       "issue",
       [](py::iterable copies, const std::string& registry, py::handle key, py::handle key_file,
          int bits, int id_bits, double strength_spread, py::handle options, int threads,
-         bool resume) {
+         bool resume, bool public_key) {
         IssueSettings s;
+        s.allow_public_key = public_key;
         std::vector<CopyRequest> requests;
         std::size_t k = 0;
         for (py::handle item : copies) requests.push_back(to_request(item, k++));
@@ -98,12 +99,13 @@ void init_issue(py::module_& m) {
       py::arg("copies"), py::kw_only(), py::arg("registry") = "", py::arg("key") = py::none(),
       py::arg("key_file") = py::none(), py::arg("bits") = 64, py::arg("id_bits") = 32,
       py::arg("strength_spread") = 0.25, py::arg("options") = py::none(), py::arg("threads") = 0,
-      py::arg("resume") = true,
+      py::arg("resume") = true, py::arg("public_key") = false,
       "Issues watermarked copies as the CLI's embed --batch does: copies is a list of dicts "
       "{input, output, id (a coded buyer ID) or payload (hex), buyer}; with a registry, IDs "
       "issued before, given twice or with codewords too close are refused and the copies "
-      "written are recorded in one transaction. options: an EmbedOptions (strength, variant, "
-      "method). Returns one dict per copy: status, ok, message, warnings, strength, bin_offset, "
+      "written are recorded in one transaction; coded IDs without a key are refused unless "
+      "public_key=True (anyone can read, remove or forge them). options: an EmbedOptions "
+      "(strength, variant, method). Returns one dict per copy: status, ok, message, warnings, strength, bin_offset, "
       "rms_percent, min_margin, rounds, msdm (with fidelity limits).");
   m.def(
       "trace",
