@@ -4,8 +4,11 @@
 #include <fmt/format.h>
 #include <malloc.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string_view>
 
 #include "cli.h"
 #include "meshmark/color.h"
@@ -155,16 +158,47 @@ int main(int argc, char** argv) {
     return printable(e.what()) + "\n" +
            (a->get_help_ptr() ? "Run with --help for more information.\n" : "");
   });
+  const std::string exit_codes =
+      "Exit codes: 0 done; 1 bad command line or option value; 2 an input cannot be read or is "
+      "malformed; 3 an output cannot be written; 4 not embedded (infeasible, not within the "
+      "limits, no histogram); 5 extract --expect found bit errors; 6 no valid ID, not detected, "
+      "no buyer named; 70 a bug. With --json, an error is printed on stdout as {\"error\": "
+      "{\"exit_code\": N, \"message\": ...}}.";
+  app.footer(exit_codes);
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; }))
+    sub->footer(sub->get_footer().empty() ? exit_codes : sub->get_footer() + "\n\n" + exit_codes);
+  // --json anywhere: errors go to stdout as JSON too, for the scripts that asked for it.
+  const bool json = std::any_of(argv + 1, argv + argc, [](const char* w) {
+    return std::string_view(w) == "--json";
+  });
+  auto fail = [json](int rc, const std::string& message) {
+    if (json)
+      fmt::print("{}\n", nlohmann::json{{"error", {{"exit_code", rc}, {"message", message}}}}.dump(2));
+    else
+      fmt::print(stderr, "meshmark: {}: {}\n", rc == cli::kInternal ? "internal error" : "error",
+                 printable(message));
+    return rc;
+  };
+  // An unknown command: name the known ones (CLI11 would only say that one is required).
+  const auto subs = app.get_subcommands([](const CLI::App*) { return true; });
+  const auto is_command = [&](std::string_view w) {
+    return std::any_of(subs.begin(), subs.end(), [w](const CLI::App* c) { return c->get_name() == w; });
+  };
+  if (argc > 1 && argv[1][0] != '-' && !is_command(argv[1])) {
+    std::string known;
+    for (const CLI::App* sub : subs) known += (known.empty() ? "" : ", ") + sub->get_name();
+    return fail(cli::kUsage, fmt::format("unknown command '{}'; the commands are {} (meshmark "
+                                         "--help)",
+                                         argv[1], known));
+  }
   try {
     app.parse(argc, argv);
     return exit_code;
   } catch (const CLI::ParseError& e) {
+    if (json && e.get_exit_code() != 0) return fail(cli::kUsage, e.what());
     const int rc = app.exit(e);
     return rc == 0 ? cli::kOk : cli::kUsage;
   } catch (const std::exception& e) {
-    const int rc = exit_code_of(e);
-    fmt::print(stderr, "meshmark: {}: {}\n", rc == cli::kInternal ? "internal error" : "error",
-               printable(e.what()));
-    return rc;
+    return fail(exit_code_of(e), e.what());
   }
 }

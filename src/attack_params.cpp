@@ -45,11 +45,8 @@ const ParamField kFields[] = {
      [](const AttackParams& p) { return p.convention != QuantizeConvention::Levels; }},
 };
 
-// The kind's table entry. \throw InvalidArgumentError for an unknown kind.
-const AttackKind& kind_of(const std::string& kind) {
-  if (const AttackKind* k = find_attack_kind(kind)) return *k;
-  throw InvalidArgumentError(fmt::format("unknown attack '{}'", kind));
-}
+// The kind's table entry. \throw InvalidArgumentError for an unknown kind, listing the kinds.
+const AttackKind& kind_of(const std::string& kind) { return attack_kind(kind); }
 
 }  // namespace
 

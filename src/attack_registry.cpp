@@ -139,14 +139,6 @@ const std::vector<AttackKind> kKinds = {
      [](const Mesh& m, double, const P&, Seed) { return converted(m, "stl", false); }, nullptr},
 };
 
-// The kind of a step, or InvalidArgumentError naming it (and the chain it is in, if any).
-const AttackKind& known_kind(std::string_view name, std::string_view chain = {}) {
-  if (const AttackKind* k = find_attack_kind(name)) return *k;
-  if (chain.empty() || chain == name)
-    throw InvalidArgumentError(fmt::format("unknown attack '{}'", name));
-  throw InvalidArgumentError(fmt::format("unknown attack '{}' in '{}'", name, chain));
-}
-
 }  // namespace
 
 const std::vector<AttackKind>& attack_registry() {
@@ -159,6 +151,15 @@ const AttackKind* find_attack_kind(std::string_view name) {
   return nullptr;
 }
 
+const AttackKind& attack_kind(std::string_view name, std::string_view chain) {
+  if (const AttackKind* k = find_attack_kind(name)) return *k;
+  std::string kinds;
+  for (const AttackKind& k : kKinds) kinds += (kinds.empty() ? "" : ", ") + std::string(k.name);
+  const std::string in = chain.empty() || chain == name ? "" : fmt::format(" in '{}'", chain);
+  throw InvalidArgumentError(
+      fmt::format("unknown attack '{}'{} (the kinds: {})", name, in, kinds));
+}
+
 std::vector<AttackStep> parse_attack_chain(const std::string& text) {
   std::vector<AttackStep> steps;
   std::size_t start = 0;
@@ -167,7 +168,7 @@ std::vector<AttackStep> parse_attack_chain(const std::string& text) {
     const std::string item = text.substr(start, end - start);
     const std::size_t colon = item.find(':');
     AttackStep step;
-    step.kind = known_kind(item.substr(0, colon), text).name;
+    step.kind = attack_kind(item.substr(0, colon), text).name;
     if (colon != std::string::npos &&
         !detail::parse_double(std::string_view(item).substr(colon + 1), step.strength))
       throw InvalidArgumentError(fmt::format("attack '{}': strength '{}' is not a number",
@@ -198,7 +199,7 @@ bool attack_chain_is_deterministic(const std::string& chain) {
 
 Mesh apply_attack(const Mesh& mesh, const AttackStep& s, std::uint64_t seed) {
   validate_mesh(mesh);
-  const AttackKind& kind = known_kind(s.kind);
+  const AttackKind& kind = attack_kind(s.kind);
   check_attack_params(s.kind, s.params);
   return kind.apply(mesh, s.strength == 0 ? kind.default_strength : s.strength, s.params, seed);
 }

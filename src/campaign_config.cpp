@@ -64,8 +64,11 @@ void check_series(const std::string& file, const std::string& where, const Attac
     bad(file, fmt::format("{}: the last step of the chain \"{}\" takes the strengths: write it "
                           "without \":\"",
                           where, s.kind));
-  if (!find_attack_kind(last))
-    bad(file, fmt::format("{}: unknown attack kind \"{}\"", where, last));
+  try {
+    (void)attack_kind(last);
+  } catch (const InvalidArgumentError& e) {
+    bad(file, fmt::format("{}: {}", where, e.what()));
+  }
   for (const double x : s.strengths) try {
       (void)series_chain(s.kind, x);
     } catch (const Error& e) {

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <sys/wait.h>
 #include <array>
 #include <cstdio>
@@ -36,6 +38,34 @@ TEST(Cli, EmbedThenExtractRoundTrips) {
   const CliRun json = run("extract " + dir + "/w.obj --json");
   EXPECT_EQ(json.code, 0);
   EXPECT_NE(json.out.find("\"payload\": \"0123456789abcdef\""), std::string::npos) << json.out;
+}
+
+// A newcomer's mistakes get the list to choose from; a script that asked for --json gets its
+// error as JSON on stdout, with the exit code; every --help lists the exit codes.
+TEST(Cli, MistakesListTheChoicesAndJsonErrorsAreJson) {
+  CliRun r = run("frobnicate");
+  EXPECT_EQ(r.code, 1) << r.out;
+  for (const char* command : {"keygen", "embed", "extract", "trace", "registry"})
+    EXPECT_NE(r.out.find(command), std::string::npos) << r.out;
+  r = run("attack melt a.off b.off");
+  EXPECT_EQ(r.code, 1) << r.out;
+  for (const char* kind : {"noise", "simplify", "remesh", "to-stl"})
+    EXPECT_NE(r.out.find(kind), std::string::npos) << r.out;
+  const std::string missing = test::scratch_dir() + "/none.ply";
+  for (const auto& [args, code] : std::vector<std::pair<std::string, int>>{
+           {"extract " + missing + " --json", 2}, {"extract --json", 1}, {"nothing --json", 1}}) {
+    const std::string out = test::run_command(std::string(MESHMARK_CLI) + " " + args + " 2>/dev/null").out;
+    const nlohmann::json j = nlohmann::json::parse(out);  // stdout holds the JSON alone
+    EXPECT_EQ(j.at("error").at("exit_code"), code) << args;
+    EXPECT_EQ(run(args).code, code) << args;
+    EXPECT_FALSE(j.at("error").at("message").get<std::string>().empty()) << args;
+  }
+  EXPECT_NE(run("extract " + missing + " --json").out.find("none.ply"), std::string::npos);
+  for (const char* help : {"--help", "embed --help", "trace --help", "keygen --help"}) {
+    r = run(help);
+    EXPECT_EQ(r.code, 0) << help;
+    EXPECT_NE(r.out.find("Exit codes: 0 done; 1 bad command line"), std::string::npos) << help;
+  }
 }
 
 TEST(Cli, MalformedInputExitsWithCodeTwoAndNamesFileAndLine) {

@@ -249,6 +249,10 @@ std::vector<std::string> attack_param_names(unsigned bits);
 /// The kind called `name` (exactly), or nullptr.
 const AttackKind* find_attack_kind(std::string_view name);
 
+/// The kind called `name`. \throw InvalidArgumentError for an unknown name, listing the kinds
+/// (and naming the chain it is in, when given).
+const AttackKind& attack_kind(std::string_view name, std::string_view chain = {});
+
 /// True when every step of a chain ("quant:8,simplify") is a kind whose output does not depend
 /// on the seed. \throw InvalidArgumentError for an unknown kind.
 bool attack_chain_is_deterministic(const std::string& chain);

@@ -124,7 +124,7 @@ def test_a_dict_runs_the_same_campaign_and_a_stopped_run_resumes(fandisk, tmp_pa
 
 @pytest.mark.parametrize("change,message", [
     (lambda c: c.update(atacks=[]), 'unknown key "atacks"'),
-    (lambda c: c["attacks"][0].update(kind="nosie"), 'unknown attack kind "nosie"'),
+    (lambda c: c["attacks"][0].update(kind="nosie"), r"unknown attack 'nosie' \(the kinds: "),
     (lambda c: c.update(models=["no-such-mesh.off"]), "no-such-mesh.off does not exist"),
     (lambda c: c.update(payloads=0), "payloads must be at least 1"),
     (lambda c: c.update(variants=["DRX"]), 'variant "DRX"'),
