@@ -22,7 +22,7 @@ packages=(
   clang libclang-rt-14-dev                         # libFuzzer and sanitizers (scripts/fuzz.sh)
   python3 python3-cryptography                     # helper scripts; ChaCha20 for the format test vectors
   doxygen                                          # the API documentation (target meshmark_doc)
-  python3-dev pybind11-dev python3-numpy python3-pytest   # the Python module (python/) and its tests
+  python3-dev pybind11-dev python3-numpy python3-pytest python3-pip   # the Python module, its tests, pip install .
 )
 # Node.js and npm for the glTF validator: Debian's, unless a node with its own npm (such as
 # NodeSource's, whose nodejs conflicts with Debian's npm package) is already installed.

@@ -51,7 +51,7 @@ TEST(Campaign, RejectsBadFilesNamingFileAndKey) {
   const std::vector<Case> cases = {
       {head + ", \"draw\": 3}", "unknown key \"draw\""},
       {head + ", \"attacks\": [{\"kind\": \"melt\", \"strengths\": [1]}]}",
-       "unknown attack 'melt' (the kinds: noise,"},
+       "unknown attack 'melt' (the kinds: reorder, similarity, noise"},
       {head + ", \"attacks\": [{\"kind\": \"noise\"}]}", "attacks[0]: \"strengths\""},
       {"{\"models\": [\"" + dir + "/none.off\"], \"variants\": [\"DRS\"]}",
        "none.off does not exist"},
@@ -65,7 +65,7 @@ TEST(Campaign, RejectsBadFilesNamingFileAndKey) {
       {head + ", \"attacks\": [{\"kind\": \"melt:2,simplify\", \"strengths\": [0.5]}]}",
        "attacks[0]: strength 0.5: unknown attack 'melt'"},
       {head + ", \"attacks\": [{\"kind\": \"noise,melt\", \"strengths\": [1]}]}",
-       "unknown attack 'melt' (the kinds: noise,"},
+       "unknown attack 'melt' (the kinds: reorder, similarity, noise"},
       // Trace mode's settings.
       {head + ", \"mode\": \"forensic\"}", "mode \"forensic\" is neither"},
       {head + ", \"copies\": 10}", "\"copies\" needs \"mode\": \"trace\""},

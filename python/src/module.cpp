@@ -8,6 +8,7 @@
 #include "meshmark/error.h"
 #include "meshmark/histogram.h"
 #include "meshmark/variant.h"
+#include "meshmark/version.h"
 
 namespace meshmark::python {
 
@@ -213,6 +214,7 @@ PYBIND11_MODULE(meshmark, m) {
       "meshmark: blind, robust watermarking of triangle meshes (Rolland-Neviere, Doerr, Alliez, "
       "IEEE TIFS 2014). Meshes are (V, F): V an (n, 3) float64 array of positions, F an (m, 3) "
       "int array of 0-based vertex indices (returned as int32).";
+  m.attr("__version__") = MESHMARK_VERSION_STRING;
   mp::init_types(m);
   mp::init_io(m);
   mp::init_embed(m);
