@@ -15,7 +15,8 @@ namespace meshmark::cli {
 namespace {
 
 struct TraceArgs {
-  std::string leaked, original, registry, report;
+  std::string leaked, original, registry, report, case_id, analyst;
+  bool redact = false;
   KeyArgs keys;
   InputOptions in;
   TraceOptions options;
@@ -64,6 +65,9 @@ int run(const TraceArgs& a) {
   request.registry = a.registry;
   request.report = a.report;
   request.key_file = a.keys.file.value_or("");
+  request.case_id = a.case_id;
+  request.analyst = a.analyst;
+  request.redact = a.redact;
   request.read = read_options(a.in);
   request.options = a.options;
   request.options.register_leak = !a.no_register;
@@ -162,6 +166,11 @@ void register_trace(CLI::App& app, int& exit_code, std::vector<std::string> argv
   sub->add_option("--report", args->report,
                   "write a self-contained HTML evidence report there (views of the registered "
                   "leak, the scores, the bits, the settings, hashes and command)");
+  sub->add_option("--case", args->case_id, "the report: the case it belongs to (free text)");
+  sub->add_option("--analyst", args->analyst, "the report: who ran the trace (free text)");
+  sub->add_flag("--redact", args->redact,
+                "the report for sharing: buyer labels as 'the buyer of ID N', file names "
+                "without their folders (the hashes stay)");
   add_key_options(*sub, args->keys);
   add_input_options(*sub, args->in);
   sub->callback([args, &exit_code] { exit_code = run(*args); });

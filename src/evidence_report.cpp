@@ -5,6 +5,8 @@
 
 #include <fmt/format.h>
 
+#include <filesystem>
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
@@ -14,6 +16,7 @@
 #include <unordered_map>
 
 #include "meshmark/io.h"
+#include "meshmark/registry.h"
 #include "svg_markup.h"
 
 namespace meshmark {
@@ -184,7 +187,7 @@ double score_of(const CandidateScore& s) {
 
 // Histogram of -log10(corrected p) over every candidate, bar heights on a square-root scale,
 // the threshold a dashed line, the named buyers and the runner-up marked.
-std::string score_plot(const TraceResult& r, double threshold) {
+std::string score_plot(const TraceResult& r, double threshold, bool redact) {
   const double W = 1000, H = 300, ml = 60, mr = 20, mt = 40, mb = 46;
   const double pw = W - ml - mr, ph = H - mt - mb;
   std::string s = plot_begin(W, H);
@@ -234,9 +237,10 @@ std::string score_plot(const TraceResult& r, double threshold) {
     const bool left = x > ml + pw / 2;  // the label on the side with room
     s += fmt::format(
         "<path d='M{0:.1f} {1:.1f}l-5 -9h10z' fill='{2}'/>\n<text x='{3:.1f}' y='{1:.1f}' "
-        "text-anchor='{4}' fill='{2}'>{5} (ID {6}){7}</text>\n",
+        "text-anchor='{4}' fill='{2}'>{5}ID {6}{7}{8}</text>\n",
         x, y, named ? "#d62728" : "#777", left ? x - 8 : x + 8, left ? "end" : "start",
-        xml_escape(c->copy.buyer), c->copy.id, named ? "" : ", the best not named");
+        redact ? "" : xml_escape(c->copy.buyer) + " (", c->copy.id, redact ? "" : ")",
+        named ? "" : ", the best not named");
   }
   return s + "</svg>\n";
 }
@@ -289,11 +293,21 @@ std::string bit_plot(const std::vector<BitEvidence>& bits) {
 
 // ---------------------------------------------------------------- tables
 
+// A buyer's label, or "the buyer of ID N" in a redacted report.
+std::string buyer_label(const IssuedCopy& c, bool redact) {
+  return redact ? fmt::format("the buyer of ID {}", c.id) : c.buyer;
+}
+
+// A path, or its file name alone in a redacted report.
+std::string shown_path(const std::string& path, bool redact) {
+  return redact ? std::filesystem::path(path).filename().string() : path;
+}
+
 std::string row(const std::string& name, const std::string& value_html) {
   return fmt::format("<tr><th>{}</th><td>{}</td></tr>\n", xml_escape(name), value_html);
 }
 
-std::string candidate_rows(const TraceResult& r, double threshold) {
+std::string candidate_rows(const TraceResult& r, double threshold, bool redact) {
   std::string s =
       "<table><tr><th>rank</th><th>buyer</th><th>ID</th><th>matching bits</th><th>p-value</th>"
       "<th>corrected p</th><th>copy</th><th></th></tr>\n";
@@ -305,17 +319,17 @@ std::string candidate_rows(const TraceResult& r, double threshold) {
         "<tr><td class='num'>{}</td><td>{}</td><td class='num'>{}</td><td class='num'>{} of "
         "{}</td><td class='num'>{:.3g}</td><td class='num'>{:.3g}</td><td>{}</td><td>{}</td>"
         "</tr>\n",
-        i + 1, xml_escape(c.copy.buyer), c.copy.id, c.matches, c.compared, c.p_value, c.corrected_p,
-        xml_escape(c.copy.output_path),
+        i + 1, xml_escape(buyer_label(c.copy, redact)), c.copy.id, c.matches, c.compared, c.p_value,
+        c.corrected_p, xml_escape(shown_path(c.copy.output_path, redact)),
         named ? "<b>named</b>" : (i == r.named.size() ? "runner-up" : ""));
   }
   return s + "</table>\n";
 }
 
-std::string file_row(const std::string& what, const EvidenceFile& f) {
+std::string file_row(const std::string& what, const EvidenceFile& f, bool redact) {
   if (f.path.empty()) return {};
   return row(what, fmt::format(
-                       "{}<br><span class='hash'>{}</span>", xml_escape(f.path),
+                       "{}<br><span class='hash'>{}</span>", xml_escape(shown_path(f.path, redact)),
                        f.hash.empty() ? "(no content hash)" : "BLAKE2b-256 " + xml_escape(f.hash)));
 }
 
@@ -344,9 +358,11 @@ std::string context_rows(const EvidenceContext& c) {
            fmt::format("{:.3g} (corrected p-value, Bonferroni over the candidates)", c.threshold));
   for (const auto& [name, value] : c.settings) s += row(name, xml_escape(value));
   s += row("key fingerprint", "<span class='hash'>" + xml_escape(c.key_fingerprint) + "</span>");
-  s += file_row("leaked mesh", c.leaked);
-  s += file_row("original", c.original);
-  s += file_row("registry", c.registry);
+  s += file_row("leaked mesh", c.leaked, c.redact);
+  s += file_row("original", c.original, c.redact);
+  s += file_row("registry", c.registry, c.redact);
+  if (!c.case_id.empty()) s += row("case", xml_escape(c.case_id));
+  if (!c.analyst.empty()) s += row("analyst", xml_escape(c.analyst));
   s += row("meshmark", xml_escape(c.version));
   return s;
 }
@@ -360,6 +376,34 @@ std::string mark_row(const TraceResult& r) {
                          "mark format {}",
                          xml_escape(c.variant), c.bits, c.id_bits, c.strength, c.strength_spread,
                          c.bin_offset, c.mark_format));
+}
+
+// Each named copy as the registry recorded it: who, when, and the hash of the file issued.
+std::string named_rows(const TraceResult& r, bool redact) {
+  std::string s;
+  for (const CandidateScore& c : r.named)
+    s += row(fmt::format("named copy, ID {}", c.copy.id),
+             fmt::format("{}; issued {} as {}<br><span class='hash'>recorded BLAKE2b-256 {}</span>",
+                         xml_escape(buyer_label(c.copy, redact)), xml_escape(c.copy.issued_at),
+                         xml_escape(shown_path(c.copy.output_path, redact)),
+                         xml_escape(c.copy.output_hash)));
+  return s.empty() ? s : "<table>" + s + "</table>\n";
+}
+
+// The command without the folder it ran in and with file names for paths, when redacted.
+std::string shown_command(const EvidenceContext& c) {
+  if (!c.redact) return c.command;
+  std::string cmd = c.command;
+  if (cmd.rfind("cd ", 0) == 0)
+    if (const std::size_t amp = cmd.find(" && "); amp != std::string::npos) cmd = cmd.substr(amp + 4);
+  for (const EvidenceFile* f : {&c.leaked, &c.original, &c.registry}) {
+    if (f->path.empty()) continue;
+    const std::string name = shown_path(f->path, true);
+    for (std::size_t at = cmd.find(f->path); at != std::string::npos;
+         at = cmd.find(f->path, at + name.size()))
+      cmd.replace(at, f->path.size(), name);
+  }
+  return cmd;
 }
 
 std::string mesh_row(const std::string& what, const Mesh& m, const Mesh& drawn) {
@@ -398,11 +442,15 @@ std::string evidence_report_html(const Mesh& leaked, const Mesh& original,
   std::string h = "<!DOCTYPE html>\n<html lang='en'>\n<head>\n<meta charset='utf-8'>\n";
   h += "<title>meshmark trace evidence</title>\n<style>" + std::string(kStyle) + shade_classes() +
        "</style>\n</head>\n<body>\n<h1>Trace evidence</h1>\n";
-  // Outcome.
-  h += fmt::format("<div class='status {}'><b>{}</b>: {}</div>\n", named ? "named" : "none",
-                   trace_status_name(r.status), xml_escape(r.message));
-  h += "<h2>Candidates</h2>\n" + candidate_rows(r, context.threshold);
-  h += score_plot(r, context.threshold);
+  // Outcome: the verdict in a sentence, then the program's own summary.
+  h += fmt::format("<div class='status {}'><p class='verdict'>{}</p><b>{}</b>: {}</div>\n",
+                   named ? "named" : "none",
+                   xml_escape(verdict_sentence(r, context.threshold, context.redact)),
+                   trace_status_name(r.status),
+                   xml_escape(context.redact ? "(redacted: see the tables)" : r.message));
+  h += named_rows(r, context.redact);
+  h += "<h2>Candidates</h2>\n" + candidate_rows(r, context.threshold, context.redact);
+  h += score_plot(r, context.threshold, context.redact);
   // Views.
   h += "<h2>The registered leak over the original</h2>\n";
   for (const auto& [yaw, caption] :
@@ -423,11 +471,54 @@ std::string evidence_report_html(const Mesh& leaked, const Mesh& original,
        bit_plot(r.bits);
   // Settings, files, command.
   h += "<h2>Settings and files</h2>\n<table>" + context_rows(context) + mark_row(r) + "</table>\n";
-  h += "<h2>Command</h2>\n<pre>" + xml_escape(context.command) + "</pre>\n";
+  h += "<h2>Command</h2>\n<pre>" + xml_escape(shown_command(context)) + "</pre>\n";
   if (!context.command_note.empty()) h += "<p>" + xml_escape(context.command_note) + "</p>\n";
   h += "<p>This report depends on the files above and nothing else (no date, no timing): the "
        "command gives the same bytes again.</p>\n";
-  return h + "</body>\n</html>\n";
+  // The report's own hash H, over the file P written with zeros Z in the three places below:
+  // the file holds H in the first two, so `sed 's/H/Z/g'` gives P back and b2sum prints H.
+  const std::string z = report_hash_placeholder;
+  const std::size_t tail = h.size();
+  h += fmt::format(
+      "<p class='hash'>Report BLAKE2b-256: {0}</p>\n<p>To check that this file is the one "
+      "written, write that hash as zeros and hash it again: <code>sed 's/{0}/{0}/g' report.html | "
+      "b2sum -l 256</code> prints the same hash.</p>\n</body>\n</html>\n",
+      z);
+  const std::string own = content_hash(h);
+  for (int k = 0; k < 2; ++k) h.replace(h.find(z, tail), z.size(), own);
+  return h;
+}
+
+std::string verdict_sentence(const TraceResult& r, double threshold, bool redact) {
+  auto chance = [](double p) {
+    return p > 0 ? fmt::format("{:.2g} (about 1 in {:.2g})", p, 1 / p) : std::string("0");
+  };
+  switch (r.status) {
+    case TraceStatus::Named: {
+      const CandidateScore& c = r.named.front();
+      const std::string who = redact ? fmt::format("the buyer of ID {}", c.copy.id)
+                                     : fmt::format("{} (ID {})", c.copy.buyer, c.copy.id);
+      return fmt::format(
+          "The leaked mesh carries the mark of the copy issued to {}{}. If that buyer's copy were "
+          "not its source, a match at least this strong with one of the {} copies issued would "
+          "occur with probability at most {}, below the threshold of {:g}.",
+          who, r.named.size() > 1 ? fmt::format(" and {} other buyer(s)", r.named.size() - 1) : "",
+          r.candidates, chance(c.corrected_p), threshold);
+    }
+    case TraceStatus::NoBuyer:
+      return fmt::format(
+          "No buyer is named: the best match among the {} copies issued (corrected p = {:.2g}) "
+          "could arise by chance too often to be evidence (the threshold is {:g}); this says "
+          "nothing against any buyer.",
+          r.candidates, r.ranking.empty() ? 1.0 : r.ranking.front().corrected_p, threshold);
+    case TraceStatus::RegistrationFailed:
+      return "No buyer is named: the leak could not be brought onto the original, so no mark was "
+             "measured; this says nothing against any buyer.";
+    case TraceStatus::NoCandidates:
+      return "No buyer is named: the registry holds no copy of this original under this key; "
+             "this says nothing against any buyer.";
+  }
+  return {};
 }
 
 void write_evidence_report(const std::string& path, const Mesh& leaked, const Mesh& original,

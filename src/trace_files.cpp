@@ -63,6 +63,9 @@ void write_trace_report(const TraceFilesRequest& request, const TraceFilesResult
   c.key_fingerprint = key_fingerprint(key);
   c.command = request.command;
   c.command_note = request.command_note;
+  c.case_id = request.case_id;
+  c.analyst = request.analyst;
+  c.redact = request.redact;
   c.version = "meshmark " MESHMARK_VERSION_STRING;
   c.settings = {
       {"erase distance", fmt::format("{:g} of the diagonal", request.options.erase_distance)},

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 #include <png.h>
+#include <sodium.h>
 
 #include <chrono>
 #include <cstdlib>
@@ -48,6 +49,9 @@ const Case& spot_case() {
       copy.variant = "VRS";
       copy.strength_spread = 0.25;
       copy.key_fingerprint = key_fingerprint(key);
+      copy.issued_at = "2026-11-" + std::to_string(id - 290) + "T10:00:00Z";
+      copy.output_path = "/shop/copies/" + std::to_string(id) + ".obj";
+      copy.output_hash = std::string(60, 'e') + std::to_string(id) + "f";
       issued.push_back(copy);
     }
     const EmbedResult e = embed(c.original.V, c.original.F, id_bins(IdCode(), 307, key), o);
@@ -130,6 +134,66 @@ TEST(EvidenceReport, WellFormedEscapedAndStatesWhatItWasGiven) {
   EXPECT_LE(leak, 2u * o.max_triangles);
   EXPECT_GE(original, 2u * o.max_triangles / 2) << "clustered far below the budget";
   EXPECT_GE(leak, 2u * o.max_triangles / 2) << "clustered far below the budget";
+}
+
+// The report a court reads: the verdict as a sentence, the named copy as the registry recorded
+// it, the case and the analyst, its own hash (checked here with libsodium directly and with
+// coreutils' b2sum, as the report tells its reader), and a redacted form without labels or
+// folders.
+TEST(EvidenceReport, StatesItsVerdictTheNamedCopyAndItsOwnHash) {
+  const Case& c = spot_case();
+  ASSERT_EQ(c.result.status, TraceStatus::Named);
+  EvidenceContext context = c.context;
+  context.case_id = "case <42>";
+  context.analyst = "A. Analyst & co";
+  const std::string html = evidence_report_html(c.leak, c.original, c.result, context);
+  const std::string label = "&lt;script&gt;alert(1)&lt;/script&gt; &amp; &quot;friends&quot;";
+  EXPECT_NE(html.find("The leaked mesh carries the mark of the copy issued to " + label +
+                      " (ID 307). If that buyer&#39;s copy were not its source"),
+            std::string::npos);
+  EXPECT_NE(html.find("one of the 20 copies issued would occur with probability at most"),
+            std::string::npos);
+  EXPECT_NE(html.find("issued 2026-11-17T10:00:00Z as /shop/copies/307.obj"), std::string::npos);
+  EXPECT_NE(html.find("recorded BLAKE2b-256 " + std::string(60, 'e') + "307f"), std::string::npos);
+  EXPECT_NE(html.find("case &lt;42&gt;"), std::string::npos);
+  EXPECT_NE(html.find("A. Analyst &amp; co"), std::string::npos);
+  // The own hash: the file with it written as zeros hashes to it.
+  const std::string mark = "Report BLAKE2b-256: ";
+  const std::size_t at = html.find(mark);
+  ASSERT_NE(at, std::string::npos);
+  const std::string own = html.substr(at + mark.size(), 64);
+  ASSERT_EQ(own.find_first_not_of("0123456789abcdef"), std::string::npos) << own;
+  ASSERT_NE(own, std::string(64, '0'));
+  std::string zeroed = html;
+  for (std::size_t k; (k = zeroed.find(own)) != std::string::npos;) zeroed.replace(k, 64, 64, '0');
+  unsigned char h[32];
+  crypto_generichash(h, sizeof h, reinterpret_cast<const unsigned char*>(zeroed.data()),
+                     zeroed.size(), nullptr, 0);
+  char hex[65];
+  sodium_bin2hex(hex, sizeof hex, h, sizeof h);
+  EXPECT_EQ(own, std::string(hex));
+  const std::string file = test::scratch_dir() + "/report.html";
+  std::ofstream(file, std::ios::binary) << html;
+  const test::CliRun b2 =
+      test::run_command("sed 's/" + own + "/" + std::string(64, '0') + "/g' " + file + " | b2sum -l 256");
+  EXPECT_EQ(b2.out.substr(0, 64), own) << b2.out;
+  // Redacted: no label, no folder, the hashes kept.
+  context.redact = true;
+  const std::string shared = evidence_report_html(c.leak, c.original, c.result, context);
+  EXPECT_EQ(shared.find("script&gt;"), std::string::npos);
+  EXPECT_EQ(shared.find("buyer 301"), std::string::npos);
+  EXPECT_EQ(shared.find("/shop/copies"), std::string::npos);
+  EXPECT_EQ(shared.find("cd /x"), std::string::npos);
+  EXPECT_NE(shared.find("the buyer of ID 307"), std::string::npos);
+  EXPECT_NE(shared.find("307.obj"), std::string::npos);
+  EXPECT_NE(shared.find(std::string(60, 'e') + "307f"), std::string::npos);
+  // No buyer named: the sentence says so, and that it is no evidence against anyone.
+  TraceResult none = c.result;
+  none.status = TraceStatus::NoBuyer;
+  none.named.clear();
+  const std::string v = verdict_sentence(none, 1e-6);
+  EXPECT_EQ(v.rfind("No buyer is named", 0), 0u) << v;
+  EXPECT_NE(v.find("says nothing against any buyer"), std::string::npos) << v;
 }
 
 TEST(EvidenceReport, StaysSmallOnAMeshOfMoreThan200kFaces) {

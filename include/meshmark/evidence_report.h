@@ -10,8 +10,13 @@
 ///  - the score distribution of every candidate (-log10 of the corrected p-value) with the
 ///    threshold and the named buyers;
 ///  - the soft evidence of each payload bit (TraceResult::bits);
+///  - the verdict in one plain sentence (what the p-value means for an innocent buyer), and the
+///    named copy as the registry recorded it (buyer, ID, issue date, the copy's content hash);
 ///  - tables: the outcome, the named buyers and the runner-up, registration, measurement,
-///    settings, file paths and content hashes, and the command that reproduces the report.
+///    settings, file paths and content hashes, the case and the analyst, and the command that
+///    reproduces the report;
+///  - the report's own hash: BLAKE2b-256 of the file with those 64 hex digits written as zeros
+///    (report_hash_placeholder), so that anyone can check that the file is the one written.
 /// Every string from the input (buyer labels, paths, messages, the command) is escaped.
 /// The report is a function of its inputs alone (no date, no timing): running the same
 /// command on the same files gives the same bytes.
@@ -41,7 +46,21 @@ struct EvidenceContext {
   std::string version;          ///< meshmark's version
   /// Further settings, (name, value) in display order (erase distance, registration...).
   std::vector<std::pair<std::string, std::string>> settings;
+  std::string case_id;  ///< the case this report belongs to (free text), or ""
+  std::string analyst;  ///< who ran the trace (free text), or ""
+  /// For a report shared outside the shop: buyer labels shown as "the buyer of ID N", file
+  /// paths as their file names, the command without its folder (hashes stay).
+  bool redact = false;
 };
+
+/// The 64 zeros that stand for the report's own hash while it is computed: the report's hash
+/// is content_hash of the file with its hash replaced by these.
+inline constexpr const char* report_hash_placeholder =
+    "0000000000000000000000000000000000000000000000000000000000000000";
+
+/// The sentence that states a trace's verdict, for a reader who is not a statistician: who is
+/// named, and how often an innocent buyer's copy would match as well (the corrected p-value).
+std::string verdict_sentence(const TraceResult& result, double threshold, bool redact = false);
 
 /// Options of the report's drawing.
 struct EvidenceReportOptions {

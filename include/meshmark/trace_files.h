@@ -30,6 +30,9 @@ struct TraceFilesRequest {
   TraceOptions options;      ///< threshold, registration, erase distance
   std::string command;       ///< for the report: a shell command that reproduces it
   std::string command_note;  ///< for the report: what its reader must supply to run it
+  std::string case_id;       ///< for the report: the case it belongs to, or ""
+  std::string analyst;       ///< for the report: who ran the trace, or ""
+  bool redact = false;       ///< the report without buyer labels and folders (EvidenceContext)
 };
 
 /// What trace_files read and concluded.

@@ -110,7 +110,8 @@ void init_issue(py::module_& m) {
   m.def(
       "trace",
       [](py::handle leaked, py::handle original, const std::string& registry, py::handle key,
-         py::handle key_file, double threshold, bool register_leak, py::handle report) {
+         py::handle key_file, double threshold, bool register_leak, py::handle report,
+         const std::string& case_id, const std::string& analyst, bool redact) {
         const std::optional<Key> k = resolve_key(key, key_file);
         if (!k) throw InvalidArgumentError("trace needs the key the copies were issued under");
         TraceFilesRequest request;
@@ -121,6 +122,9 @@ void init_issue(py::module_& m) {
         if (!key_file.is_none()) request.key_file = to_path(key_file);
         request.options.threshold = threshold;
         request.options.register_leak = register_leak;
+        request.case_id = case_id;
+        request.analyst = analyst;
+        request.redact = redact;
         TraceFilesResult found;
         {
           py::gil_scoped_release unlocked;
@@ -142,12 +146,14 @@ void init_issue(py::module_& m) {
       },
       py::arg("leaked"), py::arg("original"), py::arg("registry"), py::kw_only(),
       py::arg("key") = py::none(), py::arg("key_file") = py::none(), py::arg("threshold") = 1e-6,
-      py::arg("register") = true, py::arg("report") = py::none(),
+      py::arg("register") = true, py::arg("report") = py::none(), py::arg("case") = "",
+      py::arg("analyst") = "", py::arg("redact") = false,
       "Names the buyers whose copies the leaked mesh file came from, as the CLI's trace does: "
       "the copies the registry recorded of the original file under the key, each scored with "
       "an exact p-value, family-wise below threshold; with report (a path), writes the HTML "
-      "evidence report there. Returns a dict: status, message, candidates, named and ranking "
-      "(dicts: buyer, id, matches, bits, p_value, corrected_p, copy), registration, report.");
+      "evidence report there (with case and analyst; redact: no buyer labels, no folders). "
+      "Returns a dict: status, message, candidates, named and ranking (dicts: buyer, id, "
+      "matches, bits, p_value, corrected_p, copy), registration, report.");
 }
 
 }  // namespace meshmark::python
