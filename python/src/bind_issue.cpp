@@ -73,7 +73,7 @@ void init_issue(py::module_& m) {
       "issue",
       [](py::iterable copies, const std::string& registry, py::handle key, py::handle key_file,
          int bits, int id_bits, double strength_spread, py::handle options, int threads,
-         bool resume, bool public_key) {
+         bool resume, bool public_key, const py::kwargs& kwargs) {
         IssueSettings s;
         s.allow_public_key = public_key;
         std::vector<CopyRequest> requests;
@@ -85,6 +85,8 @@ void init_issue(py::module_& m) {
         s.id_bits = id_bits;
         s.strength_spread = strength_spread;
         if (!options.is_none()) s.embedding = options.cast<EmbedOptions>();
+        // The embedding's fields as keywords, as embed() takes them (variant="VRS", ...).
+        apply_keywords(py::cast(&s.embedding, py::return_value_policy::reference), kwargs);
         s.threads = threads;
         s.resume = resume;
         IssueResult r;
@@ -105,7 +107,8 @@ void init_issue(py::module_& m) {
       "issued before, given twice or with codewords too close are refused and the copies "
       "written are recorded in one transaction; coded IDs without a key are refused unless "
       "public_key=True (anyone can read, remove or forge them). options: an EmbedOptions "
-      "(strength, variant, method). Returns one dict per copy: status, ok, message, warnings, strength, bin_offset, "
+      "(strength, variant, method); further keywords set its fields, as embed() takes them "
+      "(variant='VRS', strength=0.05, ...). Returns one dict per copy: status, ok, message, warnings, strength, bin_offset, "
       "rms_percent, min_margin, rounds, msdm (with fidelity limits).");
   m.def(
       "trace",

@@ -61,3 +61,32 @@ def test_malformed_requests_are_refused_clearly(fandisk, tmp_path):
         meshmark.trace(fandisk, fandisk, str(tmp_path / "none.db"), key=KEY)
     out = meshmark.issue([{"input": fandisk, "output": fandisk, "id": 1}], key=KEY)
     assert out[0]["status"] == "refused" and "overwrite" in out[0]["message"]
+
+
+def test_issue_takes_embed_keywords_and_refuses_an_unkeyed_batch(fandisk, tmp_path):
+    # issue(..., variant="VRS") sets the embedding's field as embed() does: the registry records
+    # the variant, and the copy reads back under it.
+    copies, out = issue_four(fandisk, tmp_path, variant="VRS", strength=0.04)
+    assert all(o["ok"] for o in out), out
+    listed = [json.loads(line) for line in run_cli(
+        "registry", "export", tmp_path / "shop.db", "--format", "jsonl").splitlines()]
+    assert {(r["variant"], r["strength"]) for r in listed} == {("VRS", 0.04)}
+    with pytest.raises(TypeError, match="unexpected keyword 'varient'"):
+        issue_four(fandisk, tmp_path, varient="VRS")
+    # Without a key, coded IDs are refused unless public_key=True.
+    one = [{"input": fandisk, "output": tmp_path / "public.ply", "id": 5}]
+    refused = meshmark.issue(one)
+    assert refused[0]["status"] == "refused" and "public key" in refused[0]["message"]
+    assert not (tmp_path / "public.ply").exists()
+    assert meshmark.issue(one, public_key=True)[0]["ok"]
+
+
+def test_trace_writes_a_report_with_case_and_analyst(fandisk, tmp_path):
+    copies, out = issue_four(fandisk, tmp_path)
+    report = tmp_path / "report.html"
+    found = meshmark.trace(copies[2]["output"], fandisk, str(tmp_path / "shop.db"), key=KEY,
+                           report=report, case="case 9", analyst="QA")
+    assert found["status"] == "named" and found["report"] == str(report)
+    html = report.read_text(encoding="utf-8")
+    assert "case 9" in html and "QA" in html and "buyer 22" in html
+    assert meshmark.__version__ in html
