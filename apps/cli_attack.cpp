@@ -7,6 +7,8 @@
 #include <cmath>
 #include <memory>
 
+#include <nlohmann/json.hpp>
+
 #include "cli.h"
 #include "meshmark/attack.h"
 #include "meshmark/error.h"
@@ -22,6 +24,7 @@ struct AttackArgs {
   AttackParams params;
   InputOptions in;
   OutputOptions out;
+  bool json = false;
 };
 
 int run(const AttackArgs& a) {
@@ -30,9 +33,18 @@ int run(const AttackArgs& a) {
   Mesh attacked = apply_attack_chain(mesh, steps, a.seed);
   attacked.source_path = a.input;  // what a failed write (float32 range) names
   write_output(a.output, a.input, attacked, a.out);
-  fmt::print("{}: {} -> {} ({} vertices, {} faces, seed {})\n", printable(a.kind),
-             printable(a.input), printable(a.output), attacked.V.rows(), attacked.faces.size(),
-             a.seed);
+  if (a.json)
+    fmt::print("{}\n", nlohmann::json{{"kind", a.kind},
+                                      {"input", a.input},
+                                      {"output", a.output},
+                                      {"vertices", attacked.V.rows()},
+                                      {"faces", attacked.faces.size()},
+                                      {"seed", a.seed}}
+                           .dump(2));
+  else
+    fmt::print("{}: {} -> {} ({} vertices, {} faces, seed {})\n", printable(a.kind),
+               printable(a.input), printable(a.output), attacked.V.rows(), attacked.faces.size(),
+               a.seed);
   return kOk;
 }
 
@@ -64,6 +76,7 @@ void register_attack(CLI::App& app, int& exit_code) {
   sub->add_option("OUT", args->output, "output mesh")->required();
   sub->add_option("--strength", args->strength, "the attack's strength (see the kinds below)");
   sub->add_option("--seed", args->seed, "random seed");
+  sub->add_flag("--json", args->json, "print a JSON report");
   sub->add_option("--lambda", args->params.lambda,
                   "smooth, taubin: the deformation factor per step (default 0.3 for smooth, the "
                   "TIFS 2014 paper's; 0.5 for taubin; the LIRIS benchmark smooths with 0.03)");

@@ -61,6 +61,12 @@ TEST(Cli, MistakesListTheChoicesAndJsonErrorsAreJson) {
     EXPECT_FALSE(j.at("error").at("message").get<std::string>().empty()) << args;
   }
   EXPECT_NE(run("extract " + missing + " --json").out.find("none.ply"), std::string::npos);
+  // attack --json: the counts of what it wrote, as read back.
+  const std::string spot = test::data_mesh("spot.obj"), out = test::scratch_dir() + "/n.obj";
+  const nlohmann::json j = nlohmann::json::parse(
+      run("attack noise " + spot + " " + out + " --strength 0.001 --json").out);
+  EXPECT_EQ(j.at("vertices"), read_mesh(out).V.rows());
+  EXPECT_EQ(j.at("kind"), "noise");
   for (const char* help : {"--help", "embed --help", "trace --help", "keygen --help"}) {
     r = run(help);
     EXPECT_EQ(r.code, 0) << help;
