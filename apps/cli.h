@@ -134,6 +134,7 @@ IdCode id_code(const KeyArgs& args, int nb);
 
 void register_embed(CLI::App& app, int& exit_code);
 void register_keygen(CLI::App& app, int& exit_code);  ///< meshmark keygen FILE
+void register_generate(CLI::App& app, int& exit_code);  ///< the man page, the bash completion
 void register_registry(CLI::App& app, int& exit_code);
 /// trace; argv: the command line as run (its --report writes it, quoted, in the report).
 void register_trace(CLI::App& app, int& exit_code, std::vector<std::string> argv);

@@ -51,3 +51,8 @@ install(DIRECTORY ${PROJECT_SOURCE_DIR}/data/meshes DESTINATION ${CMAKE_INSTALL_
 if(EXISTS "${MESHMARK_CGAL_DATA}")
   install(DIRECTORY ${MESHMARK_CGAL_DATA}/ DESTINATION ${CMAKE_INSTALL_DATADIR}/meshmark/cgal)
 endif()
+
+# The man page and the bash completion the CLI wrote from its option tables.
+install(FILES ${PROJECT_BINARY_DIR}/share/meshmark.1 DESTINATION ${CMAKE_INSTALL_MANDIR}/man1)
+install(FILES ${PROJECT_BINARY_DIR}/share/meshmark.bash
+        DESTINATION ${CMAKE_INSTALL_DATADIR}/bash-completion/completions RENAME meshmark)
