@@ -21,7 +21,7 @@ packages=(
   libcgal-dev libcgal-demo                         # CGAL, and its real meshes (data.tar.gz)
   clang libclang-rt-14-dev                         # libFuzzer and sanitizers (scripts/fuzz.sh)
   python3 python3-cryptography                     # helper scripts; ChaCha20 for the format test vectors
-  doxygen                                          # the API documentation (target meshmark_doc)
+  doxygen groff-base                               # the documentation site (meshmark_doc); the man page test
   python3-dev pybind11-dev python3-numpy python3-pytest python3-pip   # the Python module, its tests, pip install .
 )
 # Node.js and npm for the glTF validator: Debian's, unless a node with its own npm (such as
