@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <set>
 
 #include "meshmark/attack.h"
@@ -327,14 +328,23 @@ TEST(EvidenceReport, HeadlessChromiumRendersItToAPictureThatIsNotBlank) {
   write_evidence_report(dir + "/evidence.html", c.leak, c.original, c.result, c.context);
   const std::string png = dir + "/shot.png";
   const std::string cmd =
-      "timeout 120 chromium --headless --no-sandbox --disable-gpu "
+      "timeout 60 chromium --headless --no-sandbox --disable-gpu --no-first-run "
       "--user-data-dir=" +
       dir + "/profile --screenshot=" + png + " --window-size=1200,1600 file://" + dir +
       "/evidence.html "
       "> " +
       dir + "/chromium.log 2>&1";
   const auto start = std::chrono::steady_clock::now();
-  ASSERT_EQ(std::system(cmd.c_str()), 0) << read_text(dir + "/chromium.log");
+  // Headless Chromium now and then never exits after writing the screenshot (seen once in a
+  // CI run: killed by the timeout at 120 s). The picture is what this test checks: a run that
+  // timed out counts when its PNG is there, and one that left none is tried once more.
+  int rc = -1;
+  for (int attempt = 0; attempt < 2 && !std::filesystem::exists(png); ++attempt) {
+    rc = std::system(cmd.c_str());
+    if (rc != 0) std::cout << "  chromium exited with status " << rc << "\n";
+  }
+  ASSERT_TRUE(std::filesystem::exists(png)) << "status " << rc << ": "
+                                            << read_text(dir + "/chromium.log");
   RecordProperty(
       "chromium_seconds",
       std::to_string(
