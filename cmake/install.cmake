@@ -52,7 +52,9 @@ if(EXISTS "${MESHMARK_CGAL_DATA}")
   install(DIRECTORY ${MESHMARK_CGAL_DATA}/ DESTINATION ${CMAKE_INSTALL_DATADIR}/meshmark/cgal)
 endif()
 
-# The man page and the bash completion the CLI wrote from its option tables.
-install(FILES ${PROJECT_BINARY_DIR}/share/meshmark.1 DESTINATION ${CMAKE_INSTALL_MANDIR}/man1)
+# The man page and the bash completion the CLI wrote from its option tables (target
+# meshmark_cli_docs; OPTIONAL: a build of only the library and the CLI has not written them).
+install(FILES ${PROJECT_BINARY_DIR}/share/meshmark.1 DESTINATION ${CMAKE_INSTALL_MANDIR}/man1
+        OPTIONAL)
 install(FILES ${PROJECT_BINARY_DIR}/share/meshmark.bash
-        DESTINATION ${CMAKE_INSTALL_DATADIR}/bash-completion/completions RENAME meshmark)
+        DESTINATION ${CMAKE_INSTALL_DATADIR}/bash-completion/completions RENAME meshmark OPTIONAL)
