@@ -133,15 +133,16 @@ std::optional<Key> resolve_key(const KeyArgs& args);
 IdCode id_code(const KeyArgs& args, int nb);
 
 void register_embed(CLI::App& app, int& exit_code);
-void register_keygen(CLI::App& app, int& exit_code);  ///< meshmark keygen FILE
+void register_keygen(CLI::App& app, int& exit_code);    ///< meshmark keygen FILE
 void register_generate(CLI::App& app, int& exit_code);  ///< the man page, the bash completion
 void register_registry(CLI::App& app, int& exit_code);
 /// trace; argv: the command line as run (its --report writes it, quoted, in the report).
 void register_trace(CLI::App& app, int& exit_code, std::vector<std::string> argv);
 
 /// embed --batch: issues every line of the manifest (issue.h: INPUT OUTPUT PAYLOAD, or INPUT
-/// OUTPUT id:N BUYER) with settings; prints one line per copy; kOk when every copy was issued.
-int run_batch(const std::string& manifest, const IssueSettings& settings);
+/// OUTPUT id:N BUYER) with settings; prints one line per copy, or with json one object (the
+/// copies, their status and ID, the counts); kOk when every copy was issued.
+int run_batch(const std::string& manifest, IssueSettings settings, bool json);
 void register_extract(CLI::App& app, int& exit_code);
 void register_attack(CLI::App& app, int& exit_code);
 void register_roughness(CLI::App& app, int& exit_code);

@@ -21,6 +21,7 @@
 #endif
 
 #include "cli.h"
+#include "progress.h"
 #include "meshmark/campaign.h"
 #include "meshmark/campaign_run.h"
 #include "meshmark/error.h"
@@ -29,7 +30,6 @@ namespace meshmark::cli {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
 
 struct BenchArgs {
   std::string config, out;
@@ -123,51 +123,6 @@ class World {
 #ifdef MESHMARK_HAVE_MPI
   std::unique_ptr<Mpi> mpi_;
 #endif
-};
-
-std::string format_duration(double s) {
-  if (!(s >= 0) || s > 1e7) return "?";
-  const long t = static_cast<long>(s + 0.5);
-  return t >= 3600 ? fmt::format("{}h{:02}m", t / 3600, t / 60 % 60)
-                   : fmt::format("{}m{:02}s", t / 60, t % 60);
-}
-
-// Progress on a terminal (a bar with an ETA, redrawn), or plain log lines; the library reports
-// one phase after the other, each starting with done 0.
-class Progress {
- public:
-  enum Mode { Bar, Lines, Quiet };
-  Progress(Mode mode, std::string prefix) : mode_(mode), prefix_(std::move(prefix)) {}
-  void report(const std::string& phase, long done, long total, const std::string& note) {
-    if (done == 0) {  // a phase starts
-      finish();
-      start_ = Clock::now();
-      started_ = true;
-      return;
-    }
-    const double elapsed = std::chrono::duration<double>(Clock::now() - start_).count();
-    const double eta = elapsed / done * (total - done);
-    if (mode_ == Bar) {
-      const int width = 30;
-      const int filled = total > 0 ? static_cast<int>(width * done / total) : width;
-      fmt::print(stderr, "\r{}{} [{}{}] {}/{} ETA {}   ", prefix_, phase, std::string(filled, '#'),
-                 std::string(width - filled, ' '), done, total, format_duration(eta));
-    } else if (mode_ == Lines) {
-      fmt::print(stderr, "{}{} {}/{} ({}) elapsed {} ETA {}\n", prefix_, phase, done, total, note,
-                 format_duration(elapsed), format_duration(eta));
-    }
-  }
-  // Ends the bar's line.
-  void finish() {
-    if (started_ && mode_ == Bar) fmt::print(stderr, "\n");
-    started_ = false;
-  }
-
- private:
-  Mode mode_;
-  std::string prefix_;
-  bool started_ = false;
-  Clock::time_point start_ = Clock::now();
 };
 
 // The run's summary on stdout: the files, and the medians (the outcomes in trace mode).

@@ -27,7 +27,7 @@ int run(const CompareArgs& args) {
   const bool same_connectivity = A.V.rows() == B.V.rows() && A.F == B.F;
   nlohmann::json j = {{"a", args.a}, {"b", args.b}, {"same_connectivity", same_connectivity}};
   if (same_connectivity) {
-    j["vertex_rms_percent"] = vertex_rms_percent(A.V, B.V, A.F);
+    j["rms_percent"] = vertex_rms_percent(A.V, B.V, A.F);
     j["msdm"] = msdm(A.V, B.V, A.F).global;
   }
   const SurfaceDistance d = surface_distance(A.V, A.F, B.V, B.F, args.sampling);
@@ -49,7 +49,7 @@ int run(const CompareArgs& args) {
   fmt::print("{} vs {}\n", printable(args.a), printable(args.b));
   if (same_connectivity) {
     fmt::print("  vertex RMS   {:.6f} % of the bounding-box diagonal\n",
-               j["vertex_rms_percent"].get<double>());
+               j["rms_percent"].get<double>());
     fmt::print("  MSDM         {:.6f}\n", j["msdm"].get<double>());
   }
   fmt::print("  MRMS         {:.6f} % (one-sided RMS {:.3g} and {:.3g})\n", d.mrms_percent(),

@@ -74,7 +74,7 @@ int run(const EmbedArgs& a) {
   if (!a.batch.empty()) {
     if (!a.input.empty())
       throw InvalidArgumentError("--batch takes its inputs and outputs from the manifest");
-    return run_batch(a.batch, settings);
+    return run_batch(a.batch, settings, a.json);
   }
   if (a.input.empty() || a.output.empty() || a.payload.empty() == a.id.empty())
     throw InvalidArgumentError(
@@ -92,7 +92,7 @@ int run(const EmbedArgs& a) {
   CopyRequest request;
   request.input = a.input;
   request.output = a.output;
-  if (coded) request.id = parse_id(a.id);
+  if (coded) set_copy_id(request, a.id);
   request.payload_hex = a.payload;
   request.buyer = a.buyer;
   settings.resume = false;  // one copy asked for by hand: an ID issued before is refused
@@ -111,6 +111,7 @@ int run(const EmbedArgs& a) {
   const std::string status =
       c.status == CopyStatus::Written ? embed_status_name(r.status) : copy_status_name(c.status);
   const bool ok = c.status == CopyStatus::Written;
+  const std::uint64_t id = request.auto_id ? c.record.id : request.id.value_or(0);
   if (a.json) {
     nlohmann::json j = {
         {"status", status},
@@ -121,7 +122,7 @@ int run(const EmbedArgs& a) {
         {"variant", a.variant},
         {"solver", enum_name(used.backend)},
         {"payload", payload_to_hex(payload)},
-        {"id", coded ? nlohmann::json(parse_id(a.id)) : nlohmann::json(nullptr)},
+        {"id", coded ? nlohmann::json(id) : nlohmann::json(nullptr)},
         {"keyed", key.has_value()},
         {"bits", a.bits},
         {"strength", used.strength},
@@ -138,7 +139,7 @@ int run(const EmbedArgs& a) {
         {"infeasible_bits", r.infeasible_bits},
         {"squared_displacement", r.squared_displacement},
         {"rms_displacement", r.rms_displacement},
-        {"rms_percent_of_diagonal", r.rms_percent},
+        {"rms_percent", r.rms_percent},
         {"center_drift_bins", r.center_drift},
         {"seconds", calibration ? calibration->seconds : r.seconds},
         {"fidelity",
@@ -161,7 +162,7 @@ int run(const EmbedArgs& a) {
   } else {
     fmt::print("{}: {}\n", ok ? "embedded" : "NOT embedded", ok ? r.message : c.message);
     if (coded)
-      fmt::print("  ID               {} ({} bits, coded)\n", parse_id(a.id), a.keys.id_bits);
+      fmt::print("  ID               {} ({} bits, coded)\n", id, a.keys.id_bits);
     fmt::print(
         "  payload          {} ({} bits, {}, {} {}, strength {}{})\n", payload_to_hex(payload),
         a.bits, key ? "keyed layout" : (coded ? "public whitening" : "canonical layout"),
@@ -215,7 +216,8 @@ void register_embed(CLI::App& app, int& exit_code) {
   CLI::Option* id =
       sub->add_option("--id", args->id,
                       "buyer ID to embed with error correction and an integrity check (decimal or "
-                      "0x hex; --id-bits long)");
+                      "0x hex; --id-bits long), or auto: the registry picks the smallest ID "
+                      "spaced from every issued one");
   sub->add_option("--bits", args->bits, "payload length in bits")->check(CLI::Range(1, kMaxBits));
   add_method_option(*sub, args->method, "who moves the vertices");
   sub->add_option("--variant", args->variant,

@@ -37,12 +37,14 @@ void register_keygen(CLI::App& app, int& exit_code) {
   sub->callback([path, json, &exit_code] {
     const Key key = generate_key_file(*path);
     if (*json)
-      fmt::print("{}\n", nlohmann::json{{"key_file", *path}, {"key_fingerprint", key_fingerprint(key)}}
-                             .dump(2));
+      fmt::print(
+          "{}\n",
+          nlohmann::json{{"key_file", *path}, {"key_fingerprint", key_fingerprint(key)}}.dump(2));
     else
-      fmt::print("key file {} (mode 0600, fingerprint {}): keep it secret and backed up; without "
-                 "it no copy issued under it can be traced\n",
-                 printable(*path), key_fingerprint(key));
+      fmt::print(
+          "key file {} (mode 0600, fingerprint {}): keep it secret and backed up; without "
+          "it no copy issued under it can be traced\n",
+          printable(*path), key_fingerprint(key));
     exit_code = kOk;
   });
 }

@@ -86,8 +86,10 @@ int run_list(const RegistryArgs& a) {
                  c.strength_spread, c.bin_offset, c.key_fingerprint, c.mark_format, c.issued_at,
                  csv(c.output_path), c.output_hash, c.method);
   } else {
+    // The columns say what they hold: the variant (Cho's methods: method/variant), the key
+    // fingerprint's first 8 hex digits, the copy's path.
     fmt::print("{:>6}  {:>10}  {:<20}  {:<20}  {:<14}  {:<8}  {}\n", "row", "id", "buyer",
-               "issued (UTC)", "method", "key", "copy");
+               "issued (UTC)", "variant", "key fpr.", "copy's path");
     for (const IssuedCopy& c : copies)
       fmt::print(
           "{:>6}  {:>10}  {:<20}  {:<20}  {:<14}  {:<8}  {}\n", c.row, c.id, printable(c.buyer),

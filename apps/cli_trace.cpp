@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
+#include "progress.h"
 #include "meshmark/error.h"
 #include "meshmark/trace_files.h"
 
@@ -55,7 +56,6 @@ std::string reproducing_command(const std::vector<std::string>& argv, bool& reda
   return cmd;
 }
 
-// The file's content hash, or "" when it cannot be read (a PostgreSQL registry).
 int run(const TraceArgs& a) {
   const std::optional<Key> key = resolve_key(a.keys);
   if (!key) throw InvalidArgumentError("trace needs the key the copies were issued under");
@@ -74,7 +74,10 @@ int run(const TraceArgs& a) {
   bool redacted = false;
   request.command = reproducing_command(a.argv, redacted);
   if (redacted)
-    request.command_note = "The passphrase given with --key is not written: set MESHMARK_KEY to it.";
+    request.command_note =
+        "The passphrase given with --key is not written: set MESHMARK_KEY to it.";
+  Progress progress(Progress::Bar, "");
+  request.options.progress = terminal_progress(progress, a.json);
   TraceFilesResult found;
   try {
     found = trace_files(request, *key);
@@ -83,6 +86,7 @@ int run(const TraceArgs& a) {
   } catch (const IOError& e) {
     throw InputFailure(e.what());  // the meshes and the registry are input here
   }
+  progress.finish();
   for (const std::string& w : found.warnings) fmt::print(stderr, "warning: {}\n", printable(w));
   const TraceOptions& options = request.options;
   const TraceResult& r = found.trace;

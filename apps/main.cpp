@@ -169,12 +169,12 @@ int main(int argc, char** argv) {
   for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; }))
     sub->footer(sub->get_footer().empty() ? exit_codes : sub->get_footer() + "\n\n" + exit_codes);
   // --json anywhere: errors go to stdout as JSON too, for the scripts that asked for it.
-  const bool json = std::any_of(argv + 1, argv + argc, [](const char* w) {
-    return std::string_view(w) == "--json";
-  });
+  const bool json = std::any_of(argv + 1, argv + argc,
+                                [](const char* w) { return std::string_view(w) == "--json"; });
   auto fail = [json](int rc, const std::string& message) {
     if (json)
-      fmt::print("{}\n", nlohmann::json{{"error", {{"exit_code", rc}, {"message", message}}}}.dump(2));
+      fmt::print("{}\n",
+                 nlohmann::json{{"error", {{"exit_code", rc}, {"message", message}}}}.dump(2));
     else
       fmt::print(stderr, "meshmark: {}: {}\n", rc == cli::kInternal ? "internal error" : "error",
                  printable(message));
@@ -183,7 +183,8 @@ int main(int argc, char** argv) {
   // An unknown command: name the known ones (CLI11 would only say that one is required).
   const auto subs = app.get_subcommands([](const CLI::App*) { return true; });
   const auto is_command = [&](std::string_view w) {
-    return std::any_of(subs.begin(), subs.end(), [w](const CLI::App* c) { return c->get_name() == w; });
+    return std::any_of(subs.begin(), subs.end(),
+                       [w](const CLI::App* c) { return c->get_name() == w; });
   };
   if (argc > 1 && argv[1][0] != '-' && !is_command(argv[1])) {
     std::string known;

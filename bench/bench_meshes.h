@@ -28,6 +28,8 @@ inline std::string data(const char* name) {
 }
 
 /// Path of a mesh of libcgal-demo's data/meshes (unpacked into the build tree).
-inline std::string cgal(const char* name) { return std::string(MESHMARK_CGAL_DATA) + "/" + name; }
+inline std::string cgal(const char* name) {
+  return std::string(MESHMARK_CGAL_DATA) + "/" + name;
+}
 
 }  // namespace meshmark::bench

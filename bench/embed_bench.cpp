@@ -23,9 +23,9 @@ using namespace meshmark;
 
 namespace {
 
-using bench::load;
 using bench::cgal;
 using bench::data;
+using bench::load;
 
 // Embeds 64 bits into m with the variant, once per iteration.
 void embed_mesh(benchmark::State& state, const Mesh* m, const std::string& path,
@@ -157,7 +157,7 @@ void extract_drs(benchmark::State& state, const std::string& path) {
 
 }  // namespace
 
-#define EMBED(variant, name, file)                                           \
+#define EMBED(variant, name, file)                                         \
   BENCHMARK_CAPTURE(embed_variant, variant##_##name, cgal(file), #variant) \
       ->Unit(benchmark::kMillisecond)
 EMBED(DRS, bunny00_38k, "bunny00.off");
@@ -170,7 +170,8 @@ EMBED(VRQ, elephant_44k, "refined_elephant.off");
 EMBED(VRL, elephant_44k, "refined_elephant.off");
 EMBED(VNS, elephant_44k, "refined_elephant.off");
 EMBED(VSS, elephant_44k, "refined_elephant.off");
-BENCHMARK_CAPTURE(roughness, elephant_44k, cgal("refined_elephant.off"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(roughness, elephant_44k, cgal("refined_elephant.off"))
+    ->Unit(benchmark::kMillisecond);
 // refined_elephant subdivided 0, 1, 2 times: 44k, 178k, 711k vertices.
 BENCHMARK_CAPTURE(embed_scaling, DRS_elephant_loop, cgal("refined_elephant.off"), "DRS")
     ->DenseRange(0, 2)
@@ -194,11 +195,13 @@ BENCHMARK_CAPTURE(embed_million, DRS_elephant_sqrt3x3_1200k, "DRS")->Unit(benchm
 BENCHMARK_CAPTURE(embed_million, VRS_elephant_sqrt3x3_1200k, "VRS")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(metric, hausdorff_and_mrms_elephant_44k, cgal("refined_elephant.off"), 0)
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(metric, msdm_elephant_44k, cgal("refined_elephant.off"), 1)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(metric, msdm2_elephant_44k, cgal("refined_elephant.off"), 2)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(extract_drs, bunny00_38k, cgal("bunny00.off"))
+BENCHMARK_CAPTURE(metric, msdm_elephant_44k, cgal("refined_elephant.off"), 1)
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(extract_drs, diplodocus_24k, cgal("diplodocus.off"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(metric, msdm2_elephant_44k, cgal("refined_elephant.off"), 2)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(extract_drs, bunny00_38k, cgal("bunny00.off"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(extract_drs, diplodocus_24k, cgal("diplodocus.off"))
+    ->Unit(benchmark::kMillisecond);
 
 // The registry: one batch of 10,000 issued copies recorded in one transaction into a fresh
 // SQLite file (WAL), as `embed --batch --registry` does; copies per second.

@@ -59,7 +59,11 @@ void msdm_compare(benchmark::State& state, const std::string& path) {
 
 }  // namespace
 
-BENCHMARK_CAPTURE(msdm_reference, elephant_44k, cgal("refined_elephant.off"))->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(msdm_compare, elephant_44k, cgal("refined_elephant.off"))->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(msdm_reference, diplodocus_24k, cgal("diplodocus.off"))->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(msdm_compare, diplodocus_24k, cgal("diplodocus.off"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(msdm_reference, elephant_44k, cgal("refined_elephant.off"))
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(msdm_compare, elephant_44k, cgal("refined_elephant.off"))
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(msdm_reference, diplodocus_24k, cgal("diplodocus.off"))
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(msdm_compare, diplodocus_24k, cgal("diplodocus.off"))
+    ->Unit(benchmark::kMillisecond);

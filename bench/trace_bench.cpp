@@ -1,6 +1,6 @@
-// Tracing a leak against the issued copies: refined_elephant (libcgal-demo, 44,460 vertices), one copy embedded (VRS,
-// 64 bits) and 10,000 consecutive IDs issued, the leak processed as named; one trace() per
-// iteration, registration included (the leak and the original are read before timing).
+// Tracing a leak against the issued copies: refined_elephant (libcgal-demo, 44,460 vertices), one
+// copy embedded (VRS, 64 bits) and 10,000 consecutive IDs issued, the leak processed as named; one
+// trace() per iteration, registration included (the leak and the original are read before timing).
 
 #include <benchmark/benchmark.h>
 

@@ -5,7 +5,7 @@ import meshmark
 
 original = sys.argv[1]
 key = meshmark.Key.generate("shop.key")  # 32 random bytes, mode 0600: keep it secret
-copies = [{"input": original, "output": f"copy-{n}.ply", "id": n, "buyer": f"buyer-{n}"}
+copies = [{"input": original, "output": f"copy-{n}.ply", "id": "auto", "buyer": f"buyer-{n}"}
           for n in range(1, 101)]
 issued = meshmark.issue(copies, registry="shop.db", key=key)
 print(sum(c["ok"] for c in issued), "copies issued")

@@ -46,7 +46,9 @@ const ParamField kFields[] = {
 };
 
 // The kind's table entry. \throw InvalidArgumentError for an unknown kind, listing the kinds.
-const AttackKind& kind_of(const std::string& kind) { return attack_kind(kind); }
+const AttackKind& kind_of(const std::string& kind) {
+  return attack_kind(kind);
+}
 
 }  // namespace
 

@@ -156,8 +156,7 @@ const AttackKind& attack_kind(std::string_view name, std::string_view chain) {
   std::string kinds;
   for (const AttackKind& k : kKinds) kinds += (kinds.empty() ? "" : ", ") + std::string(k.name);
   const std::string in = chain.empty() || chain == name ? "" : fmt::format(" in '{}'", chain);
-  throw InvalidArgumentError(
-      fmt::format("unknown attack '{}'{} (the kinds: {})", name, in, kinds));
+  throw InvalidArgumentError(fmt::format("unknown attack '{}'{} (the kinds: {})", name, in, kinds));
 }
 
 std::vector<AttackStep> parse_attack_chain(const std::string& text) {

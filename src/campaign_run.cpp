@@ -17,6 +17,7 @@
 #include "meshmark/error.h"
 #include "meshmark/io.h"
 #include "parallel.h"
+#include "progress_counter.h"
 
 namespace meshmark {
 
@@ -72,23 +73,10 @@ class ModelCache {
 };
 
 // Progress reports, one at a time, counted per phase.
-class Progress {
+class Progress : public detail::ProgressCounter {
  public:
   Progress(const CampaignRunOptions& o, std::string phase, long total)
-      : report_(o.progress), phase_(std::move(phase)), total_(total) {
-    if (report_ && total_ > 0) report_(phase_, 0, total_, "");
-  }
-  void step(long n, const std::string& what) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    done_ += n;
-    if (report_) report_(phase_, done_, total_, what);
-  }
-
- private:
-  const decltype(CampaignRunOptions::progress)& report_;
-  std::string phase_;
-  long total_, done_ = 0;
-  std::mutex mutex_;
+      : ProgressCounter(o.progress, std::move(phase), total) {}
 };
 
 // Process 0: a fresh start, or a check that the directory holds this campaign; cut last lines

@@ -395,7 +395,8 @@ std::string shown_command(const EvidenceContext& c) {
   if (!c.redact) return c.command;
   std::string cmd = c.command;
   if (cmd.rfind("cd ", 0) == 0)
-    if (const std::size_t amp = cmd.find(" && "); amp != std::string::npos) cmd = cmd.substr(amp + 4);
+    if (const std::size_t amp = cmd.find(" && "); amp != std::string::npos)
+      cmd = cmd.substr(amp + 4);
   for (const EvidenceFile* f : {&c.leaked, &c.original, &c.registry}) {
     if (f->path.empty()) continue;
     const std::string name = shown_path(f->path, true);

@@ -16,6 +16,7 @@
 #include "meshmark/error.h"
 #include "meshmark/watermark.h"
 #include "parallel.h"
+#include "progress_counter.h"
 
 namespace meshmark {
 
@@ -93,20 +94,37 @@ bool resumable(const IssuedCopy& taken, IssuedCopy wanted, const std::string& ou
 
 // The registry's refusals: coded IDs only, an ID issued before or given twice (or skipped, an
 // intact copy of an earlier run), a codeword too close to an issued one.
-void check_registry(const Registry& registry, const std::vector<CopyRequest>& requests,
+// Requests with id:auto get theirs here, chosen by free_ids() (watermark.h).
+void check_registry(const Registry& registry, std::vector<CopyRequest>& requests,
                     const IssueSettings& settings, std::vector<CopyOutcome>& out) {
-  std::vector<std::size_t> candidates;
+  std::vector<std::size_t> candidates, automatic;
+  std::vector<IssuedCopy> given, chosen;  // the copies with an ID, those asking for one
   for (std::size_t k = 0; k < requests.size(); ++k) {
     if (!pending(out[k])) continue;
-    if (!requests[k].id) {
-      refuse(out[k], "a registry records coded IDs only (id:N, --id)");
+    if (!requests[k].id && !requests[k].auto_id) {
+      refuse(out[k], "a registry records coded IDs only (id:N, id:auto, --id)");
       continue;
     }
     try {
-      out[k].record = issued_copy(requests[k].input, requests[k].buyer, *requests[k].id, settings);
+      out[k].record =
+          issued_copy(requests[k].input, requests[k].buyer, requests[k].id.value_or(0), settings);
       candidates.push_back(k);
+      if (requests[k].auto_id)
+        automatic.push_back(k), chosen.push_back(out[k].record);
+      else
+        given.push_back(out[k].record);
     } catch (const IOError& e) {
       out[k].status = CopyStatus::Unreadable, out[k].message = e.what();
+    }
+  }
+  if (!automatic.empty()) {
+    try {
+      const std::vector<std::uint64_t> ids =
+          free_ids(registry, given, chosen, id_key(settings.key));
+      for (std::size_t j = 0; j < automatic.size(); ++j)
+        requests[automatic[j]].id = out[automatic[j]].record.id = ids[j];
+    } catch (const InvalidArgumentError& e) {
+      for (const std::size_t k : automatic) refuse(out[k], e.what());
     }
   }
   const auto same = [&](std::size_t k, const IssuedCopy& c) {
@@ -217,6 +235,7 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
                                                 out.calibration->strength, out.calibration->msdm)
                                   : "",
                   1e3 * out.result.seconds);
+  if (request.auto_id) out.message = fmt::format("ID {}, {}", *request.id, out.message);
   if (out.result.check.status == CarrierHealth::Weak)
     out.message += fmt::format(" (warning: {})", out.result.check.summary());
 }
@@ -281,15 +300,19 @@ IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings&
       refuse(out[k], r.refusal);
       continue;
     }
-    if (r.id && !settings.key && !settings.allow_public_key) {
+    if (r.auto_id && settings.registry.empty()) {
+      refuse(out[k], "id:auto needs a registry (--registry): it picks an ID no copy has yet");
+      continue;
+    }
+    if ((r.id || r.auto_id) && !settings.key && !settings.allow_public_key) {
       refuse(out[k],
              "a coded ID without a secret key is coded under the public key: anyone could read "
              "it, remove it or write another buyer's ID; give a key (--key-file), or say "
              "--public-key to issue it anyway");
       continue;
     }
-    any_coded = any_coded || r.id.has_value();
-    if (!r.id) {
+    any_coded = any_coded || r.id || r.auto_id;
+    if (!r.id && !r.auto_id) {
       try {
         payload_from_hex(r.payload_hex, settings.bits);
       } catch (const Error& e) {
@@ -344,8 +367,10 @@ IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings&
     else
       jobs.push_back(k);
   }
+  detail::ProgressCounter progress(settings.progress, "issuing", static_cast<long>(jobs.size()));
   result.threads = detail::parallel_for(jobs.size(), settings.threads, [&](std::size_t j) {
     const std::size_t k = jobs[j];
+
     try {
       make_copy(requests[k], *originals.at(requests[k].input), settings, code ? &*code : nullptr,
                 out[k]);
@@ -354,6 +379,7 @@ IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings&
     } catch (const std::exception& e) {
       out[k].status = CopyStatus::NotEmbedded, out[k].message = e.what();
     }
+    progress.step(1, requests[k].output);
   });
   // One transaction for every copy written: all recorded, or none and their files removed.
   if (registry) {

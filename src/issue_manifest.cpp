@@ -1,5 +1,5 @@
 // Manifests of copies to issue (issue.h): whitespace-separated lines (INPUT OUTPUT PAYLOAD, or
-// INPUT OUTPUT id:N BUYER) or CSV with a header row (input, output, id or payload, buyer).
+// INPUT OUTPUT id:N BUYER, N an ID or auto) or CSV with a header row (input, output, id or payload, buyer).
 
 #include <fmt/format.h>
 
@@ -33,7 +33,7 @@ std::vector<CopyRequest> read_whitespace_manifest(const std::string& bytes) {
       r.refusal = "expected INPUT OUTPUT PAYLOAD or INPUT OUTPUT id:N BUYER";
     } else if (payload.rfind("id:", 0) == 0) {
       try {
-        r.id = parse_id(payload.substr(3));
+        set_copy_id(r, payload.substr(3));
       } catch (const Error& e) {
         r.refusal = e.what();
       }
@@ -102,11 +102,11 @@ std::vector<CopyRequest> read_csv_manifest(const std::string& path, const std::s
   for (std::size_t k = 0; k < header.size(); ++k) {
     std::string name = header[k];
     std::transform(name.begin(), name.end(), name.begin(), ::tolower);
-    if (name != "input" && name != "output" && name != "id" && name != "payload" &&
-        name != "buyer")
-      throw InvalidInputError(path, 1, fmt::format("unknown column '{}' (the columns are input, "
-                                                   "output, id or payload, buyer)",
-                                                   printable(header[k])));
+    if (name != "input" && name != "output" && name != "id" && name != "payload" && name != "buyer")
+      throw InvalidInputError(path, 1,
+                              fmt::format("unknown column '{}' (the columns are input, "
+                                          "output, id or payload, buyer)",
+                                          printable(header[k])));
     if (!column.emplace(name, k).second)
       throw InvalidInputError(path, 1, fmt::format("column '{}' given twice", name));
   }
@@ -124,8 +124,7 @@ std::vector<CopyRequest> read_csv_manifest(const std::string& path, const std::s
     r.line = first;
     auto field = [&](const char* name) {
       const auto it = column.find(name);
-      return it == column.end() || it->second >= fields.size() ? std::string()
-                                                               : fields[it->second];
+      return it == column.end() || it->second >= fields.size() ? std::string() : fields[it->second];
     };
     r.input = field("input");
     r.output = field("output");
@@ -139,7 +138,7 @@ std::vector<CopyRequest> read_csv_manifest(const std::string& path, const std::s
       r.refusal = "expected an id or a payload (one of them, not both)";
     } else if (!id.empty()) {
       try {
-        r.id = parse_id(id);
+        set_copy_id(r, id);
       } catch (const Error& e) {
         r.refusal = e.what();
       }
@@ -152,6 +151,13 @@ std::vector<CopyRequest> read_csv_manifest(const std::string& path, const std::s
 }
 
 }  // namespace
+
+void set_copy_id(CopyRequest& request, const std::string& text) {
+  if (text == "auto")
+    request.auto_id = true, request.id.reset();
+  else
+    request.id = parse_id(text), request.auto_id = false;
+}
 
 std::vector<CopyRequest> read_manifest(const std::string& path) {
   const std::string bytes = read_file(path, std::size_t(64) << 20, "manifest");

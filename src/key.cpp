@@ -96,11 +96,12 @@ Key generate_key_file(const std::string& path) {
   // O_EXCL: an existing key (or a link planted where it goes) is never replaced.
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC | O_NOFOLLOW, 0600);
   if (fd < 0)
-    throw IOError(fmt::format("{}: cannot create the key file: {}", path,
-                              errno == EEXIST ? "it exists (a key is never overwritten)"
-                                              : std::strerror(errno)));
-  const bool written = ::write(fd, bytes.data(), bytes.size()) == static_cast<ssize_t>(bytes.size()) &&
-                       ::fsync(fd) == 0;
+    throw IOError(fmt::format(
+        "{}: cannot create the key file: {}", path,
+        errno == EEXIST ? "it exists (a key is never overwritten)" : std::strerror(errno)));
+  const bool written =
+      ::write(fd, bytes.data(), bytes.size()) == static_cast<ssize_t>(bytes.size()) &&
+      ::fsync(fd) == 0;
   const int saved = errno;
   ::close(fd);
   sodium_memzero(bytes.data(), bytes.size());

@@ -19,6 +19,7 @@
 #include "meshmark/method.h"
 #include "meshmark/variant.h"
 #include "meshmark/watermark.h"
+#include "progress_counter.h"
 
 namespace meshmark {
 
@@ -276,6 +277,15 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
   auto since = [](Clock::time_point t) {
     return std::chrono::duration<double>(Clock::now() - t).count();
   };
+  // Groups of candidates read alike.
+  using GroupKey = std::tuple<char, int, int, double, double, std::string>;
+  std::map<GroupKey, std::vector<std::size_t>> groups;
+  for (std::size_t k = 0; k < mine.size(); ++k)
+    groups[{mine[k].variant.empty() ? 'D' : mine[k].variant[0], mine[k].bits, mine[k].id_bits,
+            mine[k].strength, mine[k].strength_spread, mine[k].method}]
+        .push_back(k);
+  // Progress: the registration, then each group measured and scored.
+  detail::ProgressCounter progress(o.progress, "tracing", 1 + static_cast<long>(groups.size()));
   Clock::time_point t = Clock::now();
   if (o.register_leak) {
     r.registration =
@@ -289,17 +299,11 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     r.registration.status = RegistrationStatus::Registered;
     r.registration.message = "in the original's frame (not registered)";
   }
+  progress.step(1, "registered");
   const Eigen::MatrixX3d VL = r.registration.transform.apply(leaked.V);
   const std::vector<std::uint8_t> carrier = carrier_vertices(original.V, original.F);
   const double diagonal = bounding_box_diagonal(original.V, carrier);
 
-  // Groups of candidates read alike.
-  using GroupKey = std::tuple<char, int, int, double, double, std::string>;
-  std::map<GroupKey, std::vector<std::size_t>> groups;
-  for (std::size_t k = 0; k < mine.size(); ++k)
-    groups[{mine[k].variant.empty() ? 'D' : mine[k].variant[0], mine[k].bits, mine[k].id_bits,
-            mine[k].strength, mine[k].strength_spread, mine[k].method}]
-        .push_back(k);
   r.seconds.registration = since(t);
   Eigen::MatrixX3d reference = original.V;
   const Eigen::MatrixX3d normals = vertex_normals(original.V, original.F);
@@ -359,6 +363,7 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     }
     const std::vector<std::uint8_t> read = layout.from_bins(banded_bits(evidence, 0.0));
     r.seconds.scoring += since(t);
+    progress.step(1, fmt::format("{} candidates scored", members.size()));
     if (first) {
       r.measured_fraction = m.fraction, r.attenuation = gamma, first = false;
       for (int j = 0; j < bits; ++j) {

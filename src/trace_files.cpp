@@ -69,8 +69,7 @@ void write_trace_report(const TraceFilesRequest& request, const TraceFilesResult
   c.version = "meshmark " MESHMARK_VERSION_STRING;
   c.settings = {
       {"erase distance", fmt::format("{:g} of the diagonal", request.options.erase_distance)},
-      {"registration",
-       request.options.register_leak ? "similarity (ICP)" : "none (--no-register)"},
+      {"registration", request.options.register_leak ? "similarity (ICP)" : "none (--no-register)"},
       {"weld tolerance", fmt::format("{:g}", request.read.weld_tolerance)}};
   write_evidence_report(request.report, found.leaked, found.original, found.trace, c);
 }

@@ -210,8 +210,8 @@ TEST(Attack, SubdivisionVertexAndFaceCountsOnAClosedMesh) {
 }
 
 TEST(Attack, SubdivisionHandlesOpenAndNonManifoldMeshes) {
-  for (const std::string& path : {data_mesh("bunny.ply"), data_mesh("bunny.ply"),
-                                  cgal_mesh("mech-holes-shark.off")}) {
+  for (const std::string& path :
+       {data_mesh("bunny.ply"), data_mesh("bunny.ply"), cgal_mesh("mech-holes-shark.off")}) {
     if (path.empty()) continue;
     const Mesh m = real(path);
     for (Subdivision s : {Subdivision::Loop, Subdivision::Sqrt3, Subdivision::Midpoint}) {
@@ -671,5 +671,6 @@ TEST(Attack, SimplificationLevelsFromOneRunEqualSeparateRuns) {
       }
     }
   }
-  if (meshes == 0) GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
+  if (meshes == 0)
+    GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
 }

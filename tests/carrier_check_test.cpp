@@ -125,7 +125,8 @@ TEST(CarrierCheck, EveryHealthyRealMeshPassesWithoutAWarning) {
     EXPECT_TRUE(r.check.diagnostics.empty());
     ++healthy;
   }
-  if (healthy == 0) GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
+  if (healthy == 0)
+    GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
   EXPECT_GE(healthy, 20) << "fewer real meshes than expected";
 }
 

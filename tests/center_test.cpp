@@ -92,7 +92,8 @@ TEST(CenterJacobians, MatchFiniteDifferencesOnRealMeshes) {
     }
     ++meshes;
   }
-  if (meshes == 0) GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
+  if (meshes == 0)
+    GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
 }
 
 TEST(CenterJacobians, VolumeCenterWithoutVolumeIsReportedIllDefined) {
@@ -194,5 +195,6 @@ TEST(CenterJacobians, ProductsAndCenterOfTheFusedPassAgreeWithTheMatricesAndLong
     }
     ++meshes;
   }
-  if (meshes == 0) GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
+  if (meshes == 0)
+    GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
 }

@@ -60,7 +60,8 @@ TEST(Data, ManifestMatchesTheFiles) {
   }
   EXPECT_EQ(meshes, static_cast<int>(listed.size())) << "a listed file is missing";
   // The table's vertex and face counts, as read (featuretype welded exactly, as stated).
-  const std::regex row(R"(^\| ([^ |,]+)(?:, \S+)? \| [^|]+ \| [^|]+ \| ([0-9,]+)[^|]* \| ([0-9,]+) \|)");
+  const std::regex row(
+      R"(^\| ([^ |,]+)(?:, \S+)? \| [^|]+ \| [^|]+ \| ([0-9,]+)[^|]* \| ([0-9,]+) \|)");
   int rows = 0;
   std::istringstream table(manifest);
   for (std::string line; std::getline(table, line);) {

@@ -192,7 +192,8 @@ TEST(EmbedDrs, RoundTripThroughFilesOnRealMeshes) {
     EXPECT_GE(x.min_margin(), 0.05 - 1e-3) << "float32 storage may shave a little off the margin";
     ++ran;
   }
-  if (ran == 0) GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
+  if (ran == 0)
+    GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
   EXPECT_GE(ran, 10) << "fewer than 10 real meshes were available";
 }
 

@@ -175,8 +175,8 @@ TEST(EvidenceReport, StatesItsVerdictTheNamedCopyAndItsOwnHash) {
   EXPECT_EQ(own, std::string(hex));
   const std::string file = test::scratch_dir() + "/report.html";
   std::ofstream(file, std::ios::binary) << html;
-  const test::CliRun b2 =
-      test::run_command("sed 's/" + own + "/" + std::string(64, '0') + "/g' " + file + " | b2sum -l 256");
+  const test::CliRun b2 = test::run_command("sed 's/" + own + "/" + std::string(64, '0') + "/g' " +
+                                            file + " | b2sum -l 256");
   EXPECT_EQ(b2.out.substr(0, 64), own) << b2.out;
   // Redacted: no label, no folder, the hashes kept.
   context.redact = true;
@@ -343,8 +343,8 @@ TEST(EvidenceReport, HeadlessChromiumRendersItToAPictureThatIsNotBlank) {
     rc = std::system(cmd.c_str());
     if (rc != 0) std::cout << "  chromium exited with status " << rc << "\n";
   }
-  ASSERT_TRUE(std::filesystem::exists(png)) << "status " << rc << ": "
-                                            << read_text(dir + "/chromium.log");
+  ASSERT_TRUE(std::filesystem::exists(png))
+      << "status " << rc << ": " << read_text(dir + "/chromium.log");
   RecordProperty(
       "chromium_seconds",
       std::to_string(

@@ -106,7 +106,8 @@ struct Source {
 TEST(DracoRead, CountsAndPositionsMatchDracoDecoder) {
   REQUIRE_DRACO_TOOLS();
   const std::string dir = scratch_dir();
-  for (const auto& [in, qp] : {std::pair{data_mesh("spot.obj"), 14}, {closed_binary_ply(), 11},
+  for (const auto& [in, qp] : {std::pair{data_mesh("spot.obj"), 14},
+                               {closed_binary_ply(), 11},
                                {data_mesh("bunny.ply"), 14}}) {
     MESHMARK_REQUIRE(in, "a mesh of data/meshes or bunny00.off");
     const std::string file = std::filesystem::path(in).filename().string();
@@ -158,9 +159,10 @@ TEST(DracoRead, RecoversTheEncodersSettings) {
 TEST(DracoWriteBack, MarkSurvivesAndOnlyPositionsChange) {
   REQUIRE_DRACO_TOOLS();
   const std::string dir = scratch_dir();
-  const Source sources[] = {{data_mesh("spot.obj"), "-qt 12 -cl 7"},  // texture coordinates, valence
-                            {closed_binary_ply(), "-qn 9 -cl 5"},  // normals, standard edgebreaker
-                            {data_mesh("spot.obj"), "-qt 10 -cl 0"}};  // sequential
+  const Source sources[] = {
+      {data_mesh("spot.obj"), "-qt 12 -cl 7"},   // texture coordinates, valence
+      {closed_binary_ply(), "-qn 9 -cl 5"},      // normals, standard edgebreaker
+      {data_mesh("spot.obj"), "-qt 10 -cl 0"}};  // sequential
   int k = 0;
   for (const Source& s : sources) {
     const std::string& in = s.file;

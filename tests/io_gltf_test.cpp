@@ -715,7 +715,8 @@ TEST(Gltf, DracoCompressedPrimitiveIsReadAndReencoded) {
 
 TEST(Gltf, SampleAssetsFromDebianReadOrFailClearly) {
   const std::string root = "/usr/share/assimp/models/glTF2";
-  if (!std::filesystem::exists(root)) GTEST_FAIL() << "assimp-testmodels is not installed (scripts/setup.sh)";
+  if (!std::filesystem::exists(root))
+    GTEST_FAIL() << "assimp-testmodels is not installed (scripts/setup.sh)";
   // Files that are valid glTF with triangles: read; instanced ones refuse a marked write.
   const Mesh engine = read_mesh(root + "/2CylinderEngine-glTF-Binary/2CylinderEngine.glb");
   EXPECT_GT(engine.F.rows(), 100000 / 10);

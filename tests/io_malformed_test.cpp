@@ -138,8 +138,8 @@ TEST(IoMalformed, EveryCaseGetsATypedErrorNamingFileLineAndProblem) {
 TEST(IoMalformed, EveryTruncationOfRealFilesFailsCleanly) {
   // Cut real files at many points: each prefix either reads or throws InvalidInputError.
   for (const std::string& path :
-       {test::data_mesh("spot.obj"), test::closed_binary_ply(),
-        test::data_mesh("bunny.ply"), test::data_mesh("featuretype.STL")}) {
+       {test::data_mesh("spot.obj"), test::closed_binary_ply(), test::data_mesh("bunny.ply"),
+        test::data_mesh("featuretype.STL")}) {
     MESHMARK_REQUIRE(path, "a real mesh");
     const std::string bytes = read_file(path);
     const FileFormat f = format_from_path(path);

@@ -99,9 +99,9 @@ TEST(IoRoundTrip, StlAsciiAndBinaryWeldBackToTheSameTriangles) {
 
 TEST(IoFaithful, UnchangedMeshesWriteBackByteForByte) {
   const std::vector<std::string> files = {
-      data_mesh("spot.obj"),        data_mesh("spider.obj"), data_mesh("spider.obj"),
-      data_mesh("bunny.ply"),       closed_binary_ply(),  tristrip_ply(),
-      data_mesh("featuretype.STL"), cgal_mesh("fandisk.off"),  cgal_mesh("pig.stl")};
+      data_mesh("spot.obj"),        data_mesh("spider.obj"),  data_mesh("spider.obj"),
+      data_mesh("bunny.ply"),       closed_binary_ply(),      tristrip_ply(),
+      data_mesh("featuretype.STL"), cgal_mesh("fandisk.off"), cgal_mesh("pig.stl")};
   for (const std::string& f : files) {
     MESHMARK_REQUIRE(f, "a mesh of data/meshes or libcgal-demo");
     SCOPED_TRACE(f);

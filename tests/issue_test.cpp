@@ -171,15 +171,14 @@ TEST(Issue, ClashesAndMalformedRequestsAreRefusedAndWriteNothing) {
 TEST(Issue, CsvManifestsKeepEveryLabelAndRefuseWhatTheyCannotRead) {
   const std::string dir = test::scratch_dir();
   const std::string csv = dir + "/copies.csv";
-  std::ofstream(csv, std::ios::binary)
-      << "\xEF\xBB\xBFinput,output,id,buyer\r\n"
-         "o.obj,a.ply,1,Jane Doe (order #123)\r\n"
-         "o.obj,b.ply,2,\"Doe, Jane \"\"JD\"\"\"\r\n"
-         "\"o.obj\",c.ply,0x10,\"two\nlines\"\n"
-         "o.obj,d.ply,3,Zo\xC3\xAB \xE2\x9C\x93\n"
-         "\n"
-         "o.obj,e.ply,,nobody\n"
-         "o.obj,f.ply,4\n";
+  std::ofstream(csv, std::ios::binary) << "\xEF\xBB\xBFinput,output,id,buyer\r\n"
+                                          "o.obj,a.ply,1,Jane Doe (order #123)\r\n"
+                                          "o.obj,b.ply,2,\"Doe, Jane \"\"JD\"\"\"\r\n"
+                                          "\"o.obj\",c.ply,0x10,\"two\nlines\"\n"
+                                          "o.obj,d.ply,3,Zo\xC3\xAB \xE2\x9C\x93\n"
+                                          "\n"
+                                          "o.obj,e.ply,,nobody\n"
+                                          "o.obj,f.ply,4\n";
   const std::vector<CopyRequest> r = read_manifest(csv);
   ASSERT_EQ(r.size(), 6u);
   EXPECT_EQ(r[0].buyer, "Jane Doe (order #123)");
@@ -248,6 +247,133 @@ TEST(Issue, CodedIdsWithoutAKeyNeedThePublicKeyAskedFor) {
 }
 
 // A registry that does not exist is not created by reading it.
+// id:auto: the registry picks IDs. Against copies already recorded (IDs 1 to 40, some closer
+// to each other than the spacing: recorded by hand, not issued) and copies of the same issue
+// given their ID, every chosen ID is new, every pair of issued codewords is at least
+// kIssuedSpacing bits apart (Hamming distances counted here), and each ID skipped below the
+// largest chosen one is taken or too close to a smaller issued one: the choice is the
+// smallest that passes.
+TEST(Issue, AutoIdsAreTheSmallestFreeIdsSpacedFromEveryIssuedOne) {
+  const std::string dir = test::scratch_dir() + "/issue-auto-ids";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const Key key = key_from_passphrase("auto id test key");
+  IssuedCopy like;
+  like.original_hash = std::string(64, 'a');
+  like.key_fingerprint = key_fingerprint(key);
+  like.id_bits = 32;
+  like.bits = 64;
+  std::vector<IssuedCopy> recorded;
+  for (std::uint64_t id = 1; id <= 40; ++id) {
+    IssuedCopy c = like;
+    c.id = id;
+    c.buyer = fmt::format("recorded {}", id);
+    c.output_path = fmt::format("{}/r{}.ply", dir, id);
+    c.output_hash = std::string(64, 'b');
+    recorded.push_back(c);
+  }
+  IssuedCopy other_original = like;  // another original's rows constrain nothing
+  other_original.original_hash = std::string(64, 'c');
+  other_original.id = 41;
+  other_original.output_path = dir + "/o.ply";
+  recorded.push_back(other_original);
+  Registry registry(dir + "/shop.db");
+  registry.record(recorded);
+  recorded.pop_back();
+  std::vector<IssuedCopy> given(2, like);
+  given[0].id = 45, given[1].id = 60;
+  IdCodeOptions co;
+  const IdCode code(co);
+  const auto distance = [&](std::uint64_t a, std::uint64_t b) {
+    const Payload x = code.encode(a, key), y = code.encode(b, key);
+    int d = 0;
+    for (int j = 0; j < 64; ++j) d += x.bits[j] != y.bits[j];
+    return d;
+  };
+  std::set<std::uint64_t> before;  // recorded and given: taken, not respaced
+  for (const IssuedCopy& c : recorded) before.insert(c.id);
+  for (const IssuedCopy& c : given) before.insert(c.id);
+  // The default spacing, and a wider one under which some IDs are too close to a
+  // given one, so that skipping is exercised.
+  for (const int spacing : {kIssuedSpacing, 22}) {
+    SCOPED_TRACE(fmt::format("spacing {}", spacing));
+    const std::vector<IssuedCopy> wanted(spacing == 22 ? 60 : 200, like);
+    const std::vector<std::uint64_t> ids = free_ids(registry, given, wanted, key, spacing);
+    ASSERT_EQ(ids.size(), wanted.size());
+    EXPECT_TRUE(std::is_sorted(ids.begin(), ids.end()));
+    std::set<std::uint64_t> chosen;
+    for (const std::uint64_t id : ids) {
+      EXPECT_FALSE(before.count(id)) << "ID " << id << " was taken";
+      EXPECT_TRUE(chosen.insert(id).second) << "ID " << id << " chosen twice";
+      for (const std::uint64_t other : before) EXPECT_GE(distance(id, other), spacing);
+    }
+    for (const std::uint64_t a : chosen)
+      for (const std::uint64_t b : chosen)
+        if (a < b) EXPECT_GE(distance(a, b), spacing) << a << " and " << b;
+    int skipped_as_close = 0;
+    for (std::uint64_t x = 1; x < ids.back(); ++x) {
+      if (chosen.count(x) || before.count(x)) continue;
+      bool close = false;
+      for (const std::uint64_t y : before) close = close || distance(x, y) < spacing;
+      for (const std::uint64_t y : chosen) close = close || (y < x && distance(x, y) < spacing);
+      EXPECT_TRUE(close) << "ID " << x << " was free and spaced, yet skipped";
+      skipped_as_close += close;
+    }
+    if (spacing == 22) EXPECT_GT(skipped_as_close, 3);
+  }
+  // The registry holds its rows unchanged: free_ids reserves nothing.
+  EXPECT_EQ(read_registry(dir + "/shop.db").size(), recorded.size() + 1);
+}
+
+// A batch of id:auto lines through issue_copies: each written copy gets its chosen ID, which
+// the copy itself carries (read back blind) and the registry records; id:auto without a
+// registry is refused before anything is written.
+TEST(Issue, AutoIdCopiesCarryAndRecordTheirChosenId) {
+  const std::string original = test::cgal_mesh("fandisk.off");
+  MESHMARK_REQUIRE(original, "libcgal-demo's fandisk.off");
+  const std::string dir = test::scratch_dir() + "/issue-auto-copies";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  {
+    std::ofstream m(dir + "/manifest.txt");
+    m << original << " " << dir << "/a.ply id:7 buyer seven\n";
+    for (int k = 0; k < 3; ++k) m << original << " " << dir << "/auto-" << k << ".ply id:auto buyer " << k << "\n";
+  }
+  const std::vector<CopyRequest> requests = read_manifest(dir + "/manifest.txt");
+  ASSERT_EQ(requests.size(), 4u);
+  EXPECT_TRUE(requests[1].auto_id && !requests[1].id);
+  IssueSettings settings = shop_settings(dir + "/shop.db");
+  const IssueResult result = issue_copies(requests, settings);
+  ASSERT_EQ(result.count(CopyStatus::Written), 4u) << result.copies[1].message;
+  const std::vector<IssuedCopy> rows = read_registry(settings.registry);
+  ASSERT_EQ(rows.size(), 4u);
+  IdCodeOptions co;
+  const IdCode code(co);
+  std::set<std::uint64_t> ids;
+  for (int k = 0; k < 3; ++k) {
+    const std::string output = fmt::format("{}/auto-{}.ply", dir, k);
+    const auto row = std::find_if(rows.begin(), rows.end(), [&](const IssuedCopy& c) {
+      return c.output_path == fs::absolute(output).lexically_normal().string();
+    });
+    ASSERT_NE(row, rows.end());
+    EXPECT_NE(row->id, 7u);
+    EXPECT_TRUE(ids.insert(row->id).second);
+    EXPECT_NE(result.copies[k + 1].message.find(fmt::format("ID {},", row->id)),
+              std::string::npos) << result.copies[k + 1].message;
+    const Mesh copy = read_mesh(output);
+    const IdReading read = read_id(copy.V, copy.F, ExtractOptions{}, code, settings.key);
+    ASSERT_TRUE(read.id.valid) << read.id.message;
+    EXPECT_EQ(read.id.id, row->id);
+  }
+  settings.registry.clear();
+  CopyRequest r = requests[1];
+  r.output = dir + "/none.ply";
+  const IssueResult refused = issue_copies({r}, settings);
+  EXPECT_EQ(refused.copies[0].status, CopyStatus::Refused);
+  EXPECT_NE(refused.copies[0].message.find("needs a registry"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir + "/none.ply"));
+}
+
 TEST(Issue, ReadingARegistryThatDoesNotExistCreatesNothing) {
   const std::string db = test::scratch_dir() + "/no-such-registry.db";
   fs::remove(db);

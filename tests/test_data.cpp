@@ -11,8 +11,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <map>
 #include <iostream>
+#include <map>
 #include <random>
 #include <sstream>
 
@@ -82,24 +82,23 @@ std::string bunny00_fixture(const std::string& name, std::string (*make)(const M
 
 std::string ply_header(const Mesh& m, const std::string& vertex_props, const std::string& faces) {
   return "ply\nformat binary_little_endian 1.0\ncomment meshmark tests, from bunny00.off\n"
-         "element vertex " + std::to_string(m.V.rows()) + "\n" + vertex_props + faces +
-         "end_header\n";
+         "element vertex " +
+         std::to_string(m.V.rows()) + "\n" + vertex_props + faces + "end_header\n";
 }
 
 std::string binary_ply_with_normals(const Mesh& m) {
   Eigen::MatrixX3d N = Eigen::MatrixX3d::Zero(m.V.rows(), 3);
   for (Eigen::Index t = 0; t < m.F.rows(); ++t) {
-    const Eigen::RowVector3d a = m.V.row(m.F(t, 0)), b = m.V.row(m.F(t, 1)),
-                             c = m.V.row(m.F(t, 2));
+    const Eigen::RowVector3d a = m.V.row(m.F(t, 0)), b = m.V.row(m.F(t, 1)), c = m.V.row(m.F(t, 2));
     const Eigen::RowVector3d n = (b - a).cross(c - a);  // twice the area, outwards
     for (int k = 0; k < 3; ++k) N.row(m.F(t, k)) += n;
   }
   N.rowwise().normalize();
-  std::string out = ply_header(m,
-                               "property float x\nproperty float y\nproperty float z\n"
-                               "property float nx\nproperty float ny\nproperty float nz\n",
-                               "element face " + std::to_string(m.F.rows()) +
-                                   "\nproperty list uchar int vertex_indices\n");
+  std::string out = ply_header(
+      m,
+      "property float x\nproperty float y\nproperty float z\n"
+      "property float nx\nproperty float ny\nproperty float nz\n",
+      "element face " + std::to_string(m.F.rows()) + "\nproperty list uchar int vertex_indices\n");
   for (Eigen::Index i = 0; i < m.V.rows(); ++i) {
     for (int c = 0; c < 3; ++c) put(out, static_cast<float>(m.V(i, c)));
     for (int c = 0; c < 3; ++c) put(out, static_cast<float>(N(i, c)));
@@ -156,7 +155,9 @@ std::string closed_binary_ply() {
   return bunny00_fixture("bunny00-normals.ply", binary_ply_with_normals);
 }
 
-std::string tristrip_ply() { return bunny00_fixture("bunny00-tristrips.ply", binary_ply_tristrips); }
+std::string tristrip_ply() {
+  return bunny00_fixture("bunny00-tristrips.ply", binary_ply_tristrips);
+}
 
 std::string scratch_dir() {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();

@@ -61,9 +61,9 @@ void expect_invalid_input(const std::string& path);
 }  // namespace meshmark::test
 
 /// Fails the current test when path is empty, naming the missing mesh and where it comes from.
-#define MESHMARK_REQUIRE(path, what)                                                        \
-  do {                                                                                      \
-    if ((path).empty())                                                                     \
-      GTEST_FAIL() << (what) << " is missing: the project's data/meshes, or libcgal-demo's " \
+#define MESHMARK_REQUIRE(path, what)                                                          \
+  do {                                                                                        \
+    if ((path).empty())                                                                       \
+      GTEST_FAIL() << (what) << " is missing: the project's data/meshes, or libcgal-demo's "  \
                    << "data (scripts/setup.sh installs it; CMake unpacks it into the build)"; \
   } while (0)

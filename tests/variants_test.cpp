@@ -30,7 +30,7 @@ std::vector<std::string> variant_names() {
 // Eight real meshes: closed (spot, fandisk, elephant, cow, pig, dragon) and open
 // (bunny.ply with holes and non-manifold edges, mech-holes-shark).
 std::vector<std::string> variant_meshes() {
-  std::vector<std::string> paths = {data_mesh("spot.obj"),  data_mesh("bunny.ply"),
+  std::vector<std::string> paths = {data_mesh("spot.obj"),    data_mesh("bunny.ply"),
                                     cgal_mesh("fandisk.off"), cgal_mesh("elephant.off"),
                                     cgal_mesh("cow.off"),     cgal_mesh("mech-holes-shark.off"),
                                     cgal_mesh("pig.stl"),     cgal_mesh("ChineseDragon-10kv.off")};
@@ -44,7 +44,8 @@ class AllVariants : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(AllVariants, EmbedSixtyFourBitsOnEightRealMeshes) {
   const auto paths = variant_meshes();
-  if (paths.empty()) GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
+  if (paths.empty())
+    GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
   EXPECT_EQ(paths.size(), 8u) << "some real meshes are missing";
   EmbedOptions o;
   o.variant = parse_variant(GetParam());
@@ -213,7 +214,8 @@ TEST(LaplacianCost, CholeskyAndConjugateGradientXStepsReachTheSameOptimum) {
     EXPECT_NEAR(a.squared_displacement, b.squared_displacement, 1e-6 * b.squared_displacement);
     ++meshes;
   }
-  if (meshes == 0) GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
+  if (meshes == 0)
+    GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
 }
 
 TEST(LaplacianCost, CholeskyFactorsAreKeptForAnUnchangedHessian) {

@@ -145,7 +145,8 @@ bool all_faces_have_area(const Mesh& m) {
 
 TEST(Weld, SplitCornersReadAsTheWeldedMeshInEveryCenterAndFormat) {
   const auto meshes = real_meshes();
-  if (meshes.empty()) GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
+  if (meshes.empty())
+    GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
   for (const auto& [label, m] : meshes) {
     SCOPED_TRACE(label);
     const Mesh welded = weld(m);
@@ -187,7 +188,8 @@ TEST(Weld, DiscreteBinMeansFollowTheDefinitionOverDistinctPositions) {
 
 TEST(Weld, AMarkEmbeddedOnTheSplitMeshReadsOnTheWeldedOneAndViceVersa) {
   const auto meshes = real_meshes();
-  if (meshes.empty()) GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
+  if (meshes.empty())
+    GTEST_FAIL() << "no real mesh available (data/meshes, libcgal-demo: scripts/setup.sh)";
   std::mt19937 gen(11);
   for (const auto& [label, m] : meshes) {
     SCOPED_TRACE(label);
@@ -225,9 +227,8 @@ TEST(Weld, AMarkEmbeddedOnTheSplitMeshReadsOnTheWeldedOneAndViceVersa) {
     const Mesh split_of_welded = split_corners(welded_marked, 9);
     ExtractOptions read;
     read.bits = bits;
-    for (const ExtractResult& r :
-         {extract(split_result.V, split_result.F, read),
-          extract(split_of_welded.V, split_of_welded.F, read)}) {
+    for (const ExtractResult& r : {extract(split_result.V, split_result.F, read),
+                                   extract(split_of_welded.V, split_of_welded.F, read)}) {
       EXPECT_EQ(r.erasures, 0);
       for (int j = 0; j < bits; ++j) {
         EXPECT_EQ(r.bits[j], p.bits[j]) << "bit " << j;

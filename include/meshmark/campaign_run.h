@@ -18,6 +18,7 @@
 
 #include "meshmark/campaign.h"
 #include "meshmark/enum_names.h"
+#include "meshmark/progress.h"
 
 namespace meshmark {
 
@@ -36,11 +37,9 @@ struct CampaignRunOptions {
   std::string out_dir;  ///< results directory; empty: bench-results/NAME
   int jobs = 0;         ///< threads of this process (nested work included); 0: every core
   bool fresh = false;   ///< discard what the directory holds and start over
-  /// Called as work is done, from any worker thread but never from two at once: phase
-  /// ("calibrating", then "trials"), units done and to do in this phase on this process, and
-  /// what was just done. Called with done 0 when a phase with work starts.
-  std::function<void(const std::string& phase, long done, long total, const std::string& what)>
-      progress;
+  /// Called as work is done (progress.h): phase ("calibrating", then "trials"), units done
+  /// and to do in this phase on this process, and what was just done.
+  ProgressCallback progress;
   /// Called with a warning about an input (a model file's notes).
   std::function<void(const std::string& message)> warn;
   CampaignRanks ranks;

@@ -31,8 +31,9 @@ inline constexpr int kMinPositionsPerBin = 8;
 /// lost (its one decisive vertex must still move across most of its bin), and the tails of a
 /// healthy histogram, the first and last data bins near a mesh's nearest and farthest points,
 /// are often thin: measured at 64 bits, at most 6 thin bins on every mesh of data/meshes, of
-/// CGAL's data and of four larger scans measured then with 2,048 distinct positions or more (lion-head, femur), 9 to 43 on smaller
-/// or very skewed ones (elk, head, three_peaks, cactus, hand, pig), which are then reported.
+/// CGAL's data and of four larger scans measured then with 2,048 distinct positions or more
+/// (lion-head, femur), 9 to 43 on smaller or very skewed ones (elk, head, three_peaks, cactus,
+/// hand, pig), which are then reported.
 inline constexpr int kThinBinsPerTolerated = 8;
 
 /// What the check concluded.

@@ -8,7 +8,8 @@
 /// - Before anything is embedded: no two copies write the same file and no copy writes a file
 ///   any copy reads; an ID already issued from the same original under the same key, an ID
 ///   given twice, or an ID whose codeword is closer than kIssuedSpacing bits to one already
-///   issued is refused (a buyer must never get a copy that could be taken for another's).
+///   issued is refused (a buyer must never get a copy that could be taken for another's). A
+///   copy asking for `id:auto` gets the smallest ID that passes these rules (free_ids()).
 /// - Each distinct original is read and prepared once, then the copies are embedded on
 ///   IssueSettings::threads threads, each at the fixed strength or at the strongest within
 ///   fidelity limits (calibrate.h).
@@ -30,6 +31,7 @@
 #include "meshmark/io.h"
 #include "meshmark/key.h"
 #include "meshmark/payload.h"
+#include "meshmark/progress.h"
 #include "meshmark/registry.h"
 
 namespace meshmark {
@@ -44,7 +46,7 @@ struct IssueSettings {
   /// Coded IDs without key are coded under public_key(), which anyone can read, remove or
   /// forge: such a request is refused unless this is set.
   bool allow_public_key = false;
-  int id_bits = 32;        ///< length of a coded ID in bits (1..32)
+  int id_bits = 32;  ///< length of a coded ID in bits (1..32)
   double strength_spread =
       0.25;  ///< keyed or coded marks: per-bit strength spread (keyed_strengths)
   /// Fidelity limits: each copy gets the strongest mark within them; none: every copy at
@@ -53,6 +55,9 @@ struct IssueSettings {
   std::string registry;  ///< record coded copies there (SQLite file or postgresql:// URI); "" none
   bool resume = true;    ///< skip copies an earlier run issued and recorded, their files intact
   int threads = 0;       ///< copies embedded at once; 0: one per hardware thread
+  /// Called as copies are made (progress.h): phase "issuing", copies done of those to make,
+  /// the output just made.
+  ProgressCallback progress;
 };
 
 /// One copy to issue.
@@ -64,6 +69,7 @@ struct CopyRequest {
   std::string buyer;                ///< the buyer's label, recorded with a coded ID
   std::size_t line = 0;             ///< its manifest line (1-based), 0 when not from one
   std::string refusal;              ///< why the request is refused before it runs, or ""
+  bool auto_id = false;  ///< no id given: the registry picks it (id:auto, free_ids())
 };
 
 /// What became of a copy.
@@ -129,12 +135,16 @@ struct IssueResult {
 ///        opened.
 IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings& settings);
 
+/// Sets request's ID from text: "auto" (the registry picks it: CopyRequest::auto_id) or an ID
+/// in decimal or 0x hex (parse_id() in coding.h, which throws InvalidArgumentError).
+void set_copy_id(CopyRequest& request, const std::string& text);
+
 /// Reads a manifest. A path ending in `.csv` is CSV (RFC 4180: commas, quoted fields holding
 /// commas, doubled quotes or line breaks, any UTF-8) with a header row naming the columns
 /// `input`, `output`, `id` or `payload`, and `buyer`, in any order. Any other path holds one
 /// copy per line, `INPUT OUTPUT PAYLOAD` (hexadecimal) or `INPUT OUTPUT id:N BUYER...` (a coded
-/// ID and the buyer's label); `#` starts a comment, and a line whose buyer label a `#` would
-/// cut is refused (such a label needs CSV); blank lines are skipped. A malformed line or
+/// ID, or `id:auto`, and the buyer's label); `#` starts a comment, and a line whose buyer label
+/// a `#` would cut is refused (such a label needs CSV); blank lines are skipped. A malformed line or
 /// record is a request with its refusal set, so that it is reported like any other failure.
 /// \throw IOError when the file cannot be read (at most 64 MiB); InvalidInputError for a CSV
 ///        header without the needed columns, or a CSV record whose quoting is broken.

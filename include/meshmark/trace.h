@@ -28,6 +28,7 @@
 #include "meshmark/enum_names.h"
 #include "meshmark/key.h"
 #include "meshmark/mesh.h"
+#include "meshmark/progress.h"
 #include "meshmark/registration.h"
 #include "meshmark/registry.h"
 
@@ -57,6 +58,9 @@ struct TraceOptions {
   double erase_distance = 0.005;  ///< no surface within this fraction of the diagonal: erased
   bool register_leak = true;      ///< false: the leak is already in the original's frame
   RegistrationOptions registration;
+  /// Called as the trace goes (progress.h): phase "tracing", the registration and then each
+  /// group of candidates read alike.
+  ProgressCallback progress;
 };
 
 /// One candidate's evidence.

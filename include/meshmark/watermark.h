@@ -114,6 +114,16 @@ std::vector<CloseCodeword> close_codewords(const Registry& registry,
                                            const std::vector<IssuedCopy>& copies, const Key& key,
                                            int spacing = kIssuedSpacing);
 
+/// IDs for new copies, chosen by the registry (`id:auto`, `--id auto`): for each copy of
+/// `wanted` in order (its id ignored; original, bits and ID length used), the smallest ID >= 1
+/// that is neither recorded in registry for that original, key, bits and ID length nor held by
+/// a copy of `taken` (the other copies of this issue) or an earlier one of `wanted`, and whose
+/// codeword is at least spacing bits from all of theirs. Throws InvalidArgumentError when no
+/// such ID is found among the next 10^6.
+std::vector<std::uint64_t> free_ids(const Registry& registry, const std::vector<IssuedCopy>& taken,
+                                    const std::vector<IssuedCopy>& wanted, const Key& key,
+                                    int spacing = kIssuedSpacing);
+
 /// What write_marked_mesh found in the bytes it was about to write.
 struct WrittenCheck {
   bool carried = false;   ///< every bit decodes right with at least the required margin

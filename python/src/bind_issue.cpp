@@ -14,7 +14,7 @@ namespace meshmark::python {
 
 namespace {
 
-// One request from a dict with keys input, output, and id (int) or payload (hex str), and
+// One request from a dict with keys input, output, and id (int, or "auto": the registry picks it) or payload (hex str), and
 // optionally buyer.
 CopyRequest to_request(py::handle item, std::size_t k) {
   if (!py::isinstance<py::dict>(item))
@@ -33,14 +33,19 @@ CopyRequest to_request(py::handle item, std::size_t k) {
   CopyRequest r;
   r.input = to_path(d["input"]);
   r.output = to_path(d["output"]);
-  if (d.contains("id")) r.id = to_id(d["id"], "id");
+  if (d.contains("id") && py::isinstance<py::str>(d["id"]) && py::str(d["id"]).cast<std::string>() == "auto")
+    r.auto_id = true;  // the registry picks it
+  else if (d.contains("id"))
+    r.id = to_id(d["id"], "id");
   if (d.contains("payload")) r.payload_hex = py::str(d["payload"]);
   if (d.contains("buyer")) r.buyer = py::str(d["buyer"]);
   return r;
 }
 
-py::dict to_dict(const CopyOutcome& c) {
+py::dict to_dict(const CopyRequest& r, const CopyOutcome& c) {
   py::dict out;
+  out["id"] = r.auto_id ? (c.record.id ? py::cast(c.record.id) : py::none())
+                        : (r.id ? py::cast(*r.id) : py::none());
   out["status"] = copy_status_name(c.status);
   out["ok"] = c.ok();
   out["message"] = c.message;
@@ -92,10 +97,11 @@ void init_issue(py::module_& m) {
         IssueResult r;
         {
           py::gil_scoped_release unlocked;
-          r = issue_copies(std::move(requests), s);
+          r = issue_copies(requests, s);
         }
         py::list out;
-        for (const CopyOutcome& c : r.copies) out.append(to_dict(c));
+        for (std::size_t k = 0; k < r.copies.size(); ++k)
+          out.append(to_dict(requests[k], r.copies[k]));
         return out;
       },
       py::arg("copies"), py::kw_only(), py::arg("registry") = "", py::arg("key") = py::none(),
@@ -103,12 +109,14 @@ void init_issue(py::module_& m) {
       py::arg("strength_spread") = 0.25, py::arg("options") = py::none(), py::arg("threads") = 0,
       py::arg("resume") = true, py::arg("public_key") = false,
       "Issues watermarked copies as the CLI's embed --batch does: copies is a list of dicts "
-      "{input, output, id (a coded buyer ID) or payload (hex), buyer}; with a registry, IDs "
+      "{input, output, id (a coded buyer ID, or 'auto': the registry picks the smallest ID "
+      "spaced from every issued one) or payload (hex), buyer}; with a registry, IDs "
       "issued before, given twice or with codewords too close are refused and the copies "
       "written are recorded in one transaction; coded IDs without a key are refused unless "
       "public_key=True (anyone can read, remove or forge them). options: an EmbedOptions "
       "(strength, variant, method); further keywords set its fields, as embed() takes them "
-      "(variant='VRS', strength=0.05, ...). Returns one dict per copy: status, ok, message, warnings, strength, bin_offset, "
+      "(variant='VRS', strength=0.05, ...). Returns one dict per copy: id, status, ok, "
+      "message, warnings, strength, bin_offset, "
       "rms_percent, min_margin, rounds, msdm (with fidelity limits).");
   m.def(
       "trace",

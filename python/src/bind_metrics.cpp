@@ -61,7 +61,7 @@ py::dict compare(const Mesh& A, const Mesh& B, const SurfaceDistanceOptions& sam
   }
   py::dict out;
   out["same_connectivity"] = same;
-  if (same) out["vertex_rms_percent"] = rms, out["msdm"] = msdm_global;
+  if (same) out["rms_percent"] = rms, out["msdm"] = msdm_global;
   out["mrms_percent"] = d.mrms_percent();
   out["hausdorff_percent"] = d.hausdorff_percent();
   out["rms_ab"] = d.rms_ab;
@@ -96,7 +96,7 @@ void init_metrics(py::module_& m) {
       },
       py::arg("a"), py::arg("b"), py::kw_only(), py::arg("samples") = 0, py::arg("seed") = 1,
       "The CLI's compare of two Meshes (or (V, F) pairs), as a dict with its JSON keys: "
-      "same_connectivity, vertex_rms_percent and msdm (same connectivity only), mrms_percent, "
+      "same_connectivity, rms_percent and msdm (same connectivity only), mrms_percent, "
       "hausdorff_percent, rms_ab, rms_ba, hausdorff (model units), msdm2.");
   m.def(
       "vertex_rms_percent",

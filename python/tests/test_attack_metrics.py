@@ -83,7 +83,7 @@ def test_compare_equals_the_cli(fandisk, tmp_path):
     run_cli("embed", fandisk, marked, "--payload", "ff00ff00ff00ff00", "--strength", "0.1")
     cli = run_cli("compare", fandisk, marked, "--json")
     py = meshmark.compare(meshmark.read_mesh(fandisk), meshmark.read_mesh(marked))
-    for key in ["vertex_rms_percent", "msdm", "mrms_percent", "hausdorff_percent", "rms_ab",
+    for key in ["rms_percent", "msdm", "mrms_percent", "hausdorff_percent", "rms_ab",
                 "rms_ba", "hausdorff", "msdm2"]:
         assert py[key] == pytest.approx(cli[key], rel=SUM_ORDER_RTOL, abs=0), key
     assert py["same_connectivity"] is True and py["msdm"] > 0
@@ -92,7 +92,7 @@ def test_compare_equals_the_cli(fandisk, tmp_path):
 def test_metrics_of_a_mesh_with_itself_are_zero_and_rms_is_numpy_s(fandisk):
     V, F = meshmark.read_mesh(fandisk)
     same = meshmark.compare((V, F), (V, F))
-    assert same["vertex_rms_percent"] == 0  # differences of equal numbers
+    assert same["rms_percent"] == 0  # differences of equal numbers
     # Closest points and curvature windows are computed, not looked up: rounding only.
     for key in ["hausdorff_percent", "mrms_percent", "msdm", "msdm2"]:
         assert 0 <= same[key] < SELF_DISTANCE_ROUNDING, key

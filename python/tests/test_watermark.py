@@ -123,7 +123,7 @@ def test_embed_equals_the_cli(fandisk, tmp_path, cli_args, kwargs):
     np.testing.assert_array_equal(meshmark.read_mesh(cli_out).V, result.V)
     assert report["rounds"] == result.rounds
     assert report["min_margin"] == result.min_margin
-    assert report["rms_percent_of_diagonal"] == result.rms_percent
+    assert report["rms_percent"] == result.rms_percent
     assert report["margins"] == result.margins.tolist()
 
 
