@@ -16,7 +16,7 @@ namespace meshmark::cli {
 namespace {
 
 struct TraceArgs {
-  std::string leaked, original, registry, report, case_id, analyst;
+  std::string leaked, original, registry, report, pdf, case_id, analyst;
   bool redact = false;
   KeyArgs keys;
   InputOptions in;
@@ -64,6 +64,7 @@ int run(const TraceArgs& a) {
   request.original = a.original;
   request.registry = a.registry;
   request.report = a.report;
+  request.pdf = a.pdf;
   request.key_file = a.keys.file.value_or("");
   request.case_id = a.case_id;
   request.analyst = a.analyst;
@@ -122,6 +123,7 @@ int run(const TraceArgs& a) {
                         {"processing", r.processing},
                         {"bit_evidence", evidence}};
     if (!a.report.empty()) j["report"] = a.report;
+    if (!a.pdf.empty()) j["pdf"] = a.pdf;
     fmt::print("{}\n", j.dump(2));
   } else {
     fmt::print("{}\n", printable(r.message));
@@ -140,6 +142,7 @@ int run(const TraceArgs& a) {
                  s.corrected_p < options.threshold ? "  NAMED" : "");
     }
     if (!a.report.empty()) fmt::print("  report           {}\n", printable(a.report));
+    if (!a.pdf.empty()) fmt::print("  pdf              {}\n", printable(a.pdf));
   }
   return r.status == TraceStatus::Named ? kOk : kNoId;
 }
@@ -170,6 +173,8 @@ void register_trace(CLI::App& app, int& exit_code, std::vector<std::string> argv
   sub->add_option("--report", args->report,
                   "write a self-contained HTML evidence report there (views of the registered "
                   "leak, the scores, the bits, the settings, hashes and command)");
+  sub->add_option("--pdf", args->pdf,
+                  "also print the report as PDF there (headless Chromium; needs --report)");
   sub->add_option("--case", args->case_id, "the report: the case it belongs to (free text)");
   sub->add_option("--analyst", args->analyst, "the report: who ran the trace (free text)");
   sub->add_flag("--redact", args->redact,

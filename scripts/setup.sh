@@ -15,7 +15,7 @@ packages=(
   postgresql                                       # a real server for the registry's tests
   libopenmpi-dev openmpi-bin                       # distributed benchmark campaigns (mpirun)
   librsvg2-bin                                     # campaign figures: SVG to PNG
-  chromium libpng-dev                              # the trace report's rendering test
+  chromium libpng-dev poppler-utils                # the trace report's rendering and PDF tests
   libtinygltf-dev libmeshoptimizer-dev libdraco-dev lib3mf-dev libzip-dev   # glTF, meshopt, Draco, 3MF
   gltfpack draco assimp-testmodels                 # third-party tools and glTF sample files for the format tests
   libcgal-dev libcgal-demo                         # CGAL, and its real meshes (data.tar.gz)

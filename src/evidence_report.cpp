@@ -7,6 +7,7 @@
 
 #include <filesystem>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
@@ -15,6 +16,8 @@
 #include <set>
 #include <unordered_map>
 
+#include "meshmark/closest_point.h"
+#include "meshmark/error.h"
 #include "meshmark/io.h"
 #include "meshmark/registry.h"
 #include "svg_markup.h"
@@ -28,7 +31,9 @@ namespace {
 // ---------------------------------------------------------------- simplification for display
 
 // One clustering of the referenced vertices on a grid of g cells along the longest side.
-Mesh cluster_once(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, int g) {
+// values (optional, one per vertex of V): averaged over each cluster into *averaged.
+Mesh cluster_once(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, int g,
+                  const Eigen::VectorXd* values = nullptr, Eigen::VectorXd* averaged = nullptr) {
   const std::vector<std::uint8_t> used = referenced_vertices(F, V.rows());
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = -lo;
   for (Eigen::Index i = 0; i < V.rows(); ++i)
@@ -37,6 +42,7 @@ Mesh cluster_once(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, int g) {
   std::unordered_map<std::int64_t, int> index;  // cell -> new vertex
   std::vector<int> of(static_cast<std::size_t>(V.rows()), -1);
   std::vector<Eigen::Vector3d> sum;
+  std::vector<double> value_sum;
   std::vector<int> count;
   for (Eigen::Index i = 0; i < V.rows(); ++i) {
     if (!used[i]) continue;
@@ -45,9 +51,10 @@ Mesh cluster_once(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, int g) {
       c[a] = std::clamp<std::int64_t>(static_cast<std::int64_t>((V(i, a) - lo(a)) / cell), 0, g);
     const std::int64_t key = c[0] + (g + 1) * (c[1] + (g + 1) * c[2]);
     const auto [it, fresh] = index.emplace(key, static_cast<int>(sum.size()));
-    if (fresh) sum.emplace_back(Eigen::Vector3d::Zero()), count.push_back(0);
+    if (fresh) sum.emplace_back(Eigen::Vector3d::Zero()), count.push_back(0), value_sum.push_back(0);
     of[i] = it->second;
     sum[it->second] += V.row(i).transpose();
+    if (values) value_sum[it->second] += (*values)[i];
     ++count[it->second];
   }
   std::set<std::array<int, 3>> faces;  // rotated so that the smallest index comes first
@@ -59,6 +66,10 @@ Mesh cluster_once(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, int g) {
   }
   Eigen::MatrixX3d CV(static_cast<Eigen::Index>(sum.size()), 3);
   for (std::size_t k = 0; k < sum.size(); ++k) CV.row(k) = sum[k].transpose() / count[k];
+  if (values && averaged) {
+    averaged->resize(static_cast<Eigen::Index>(sum.size()));
+    for (std::size_t k = 0; k < sum.size(); ++k) (*averaged)[k] = value_sum[k] / count[k];
+  }
   Eigen::MatrixX3i CF(static_cast<Eigen::Index>(faces.size()), 3);
   Eigen::Index k = 0;
   for (const auto& t : faces) CF.row(k++) << t[0], t[1], t[2];
@@ -77,8 +88,11 @@ td,th{border:1px solid #ccc;padding:3px 8px;text-align:left;vertical-align:top}
 th{background:#f2f2f2}td.num{text-align:right;font-variant-numeric:tabular-nums}
 .hash{font-family:"DejaVu Sans Mono",monospace;font-size:12px;word-break:break-all}
 pre{background:#f6f6f6;border:1px solid #ccc;padding:8px;white-space:pre-wrap;word-break:break-all}
-figure{display:inline-block;margin:0 12px 0 0}figcaption{font-size:12px;color:#555;max-width:520px}
+figure{display:inline-block;margin:0 12px 8px 0;vertical-align:top}figcaption{font-size:12px;color:#555}
 svg{background:#fff}
+@media print{body{margin:0;max-width:none}svg{max-width:100%;height:auto}
+figure{width:32%!important;margin:0 1% 8px 0}figure svg{width:100%}h2{break-after:avoid}
+figure,table{break-inside:avoid}}
 )";
 
 constexpr int kShades = 32;
@@ -108,12 +122,43 @@ struct Triangle {
   int shade;
 };
 
-// World to camera: yaw about the original's y axis, then pitch about the camera's x axis; the
-// camera looks along -z.
-Eigen::Matrix3d view_rotation(double yaw_degrees, double pitch_degrees) {
-  return (Eigen::AngleAxisd(pitch_degrees * M_PI / 180, Eigen::Vector3d::UnitX()) *
-          Eigen::AngleAxisd(yaw_degrees * M_PI / 180, Eigen::Vector3d::UnitY()))
-      .toRotationMatrix();
+// The original's principal axes: the columns of a rotation, by decreasing spread of its
+// vertices, each signed so that its largest component is positive (the same mesh gives the
+// same views), the third the cross product of the first two.
+Eigen::Matrix3d principal_axes(const Eigen::MatrixX3d& V) {
+  const Eigen::RowVector3d mean = V.colwise().mean();
+  const Eigen::MatrixX3d X = V.rowwise() - mean;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(X.transpose() * X);
+  Eigen::Matrix3d A;
+  for (int k = 0; k < 2; ++k) {
+    Eigen::Vector3d a = es.eigenvectors().col(2 - k);  // eigenvalues ascending
+    Eigen::Index at = 0;
+    a.cwiseAbs().maxCoeff(&at);
+    A.col(k) = a[at] < 0 ? Eigen::Vector3d(-a) : a;
+  }
+  A.col(2) = A.col(0).cross(A.col(1));
+  return A;
+}
+
+// One of the three views along the principal axes: which axes run right and up, and the
+// rotation from world to camera (rows: right, up, towards the viewer).
+struct AxisView {
+  Eigen::Matrix3d R;
+  const char* caption;
+};
+
+std::array<AxisView, 3> axis_views(const Eigen::Matrix3d& A) {
+  auto rows = [](const Eigen::Vector3d& x, const Eigen::Vector3d& y, const Eigen::Vector3d& z) {
+    Eigen::Matrix3d R;
+    R.row(0) = x.transpose(), R.row(1) = y.transpose(), R.row(2) = z.transpose();
+    return R;
+  };
+  return {AxisView{rows(A.col(0), A.col(1), A.col(2)),
+                   "principal axes 1 (right) and 2 (up), seen along axis 3"},
+          AxisView{rows(A.col(0), A.col(2), -A.col(1)),
+                   "principal axes 1 (right) and 3 (up), seen along axis 2"},
+          AxisView{rows(A.col(1), A.col(2), A.col(0)),
+                   "principal axes 2 (right) and 3 (up), seen along axis 1"}};
 }
 
 // The triangles of mesh seen through R (camera coordinates, not yet on screen), shaded.
@@ -136,33 +181,106 @@ void add_triangles(const Mesh& m, const Eigen::Matrix3d& R, bool leak, double bi
   }
 }
 
-// One view: both meshes rotated, fitted into a size x size square, painted far to near.
-std::string mesh_view(const Mesh& original, const Mesh& leak, double yaw, double pitch, int size,
-                      double diagonal) {
-  const Eigen::Matrix3d R = view_rotation(yaw, pitch);
+// A scale bar in a view's lower left corner: a round length in model units, numbered.
+std::string scale_bar(double pixels_per_unit, int size) {
+  const double target = 0.25 * size / pixels_per_unit;  // about a quarter of the view
+  const double p10 = std::pow(10, std::floor(std::log10(target)));
+  double length = p10;
+  for (const double m : {2.0, 5.0, 10.0})
+    if (m * p10 <= target) length = m * p10;
+  const double w = length * pixels_per_unit, x = 14, y = size - 14;
+  return fmt::format(
+      "<path d='M{0} {1}v-5M{0} {1}h{2:.1f}v-5' fill='none' stroke='#222' stroke-width='1.5'/>"
+      "<text x='{0}' y='{3}' font-size='12' text-anchor='middle'>0</text><text x='{4:.1f}' "
+      "y='{1}' font-size='12'>{5:g} (model units)</text>\n",
+      x, y, w, y - 8, x + w + 5, length);
+}
+
+// One view: the meshes rotated by R (camera looks along -z), fitted into a size x size square,
+// painted far to near, with a numbered scale bar. Each triangle of leak is drawn with the
+// class its index gets from leak_class (the leak over the original), or the original alone.
+template <typename LeakClass>
+std::string mesh_view(const Mesh* original, const Mesh& leak, const Eigen::Matrix3d& R, int size,
+                      double diagonal, LeakClass leak_class) {
   std::vector<Triangle> tris;
   std::vector<Eigen::Vector3d> points;
-  add_triangles(original, R, false, 0, tris, points);
+  if (original) add_triangles(*original, R, false, 0, tris, points);
+  const std::size_t first_leak = tris.size();
   add_triangles(leak, R, true, 0.01 * diagonal, tris, points);
+  std::vector<std::string> classes(tris.size());
+  for (std::size_t k = 0; k < tris.size(); ++k)
+    classes[k] = k < first_leak ? fmt::format("o{}", tris[k].shade)
+                                : leak_class(k - first_leak, tris[k].shade);
   Eigen::Vector2d lo(INFINITY, INFINITY), hi = -lo;
   for (const Eigen::Vector3d& p : points)
     lo = lo.cwiseMin(p.head<2>()), hi = hi.cwiseMax(p.head<2>());
   const double margin = 10, extent = std::max((hi - lo).maxCoeff(), 1e-300);
-  const double s = (size - 2 * margin) / extent;
+  const double s = (size - 2 * margin - 24) / extent;  // room for the scale bar below
   const Eigen::Vector2d mid = (lo + hi) / 2;
-  std::stable_sort(tris.begin(), tris.end(),
-                   [](const Triangle& a, const Triangle& b) { return a.depth < b.depth; });
+  std::vector<std::size_t> order(tris.size());
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return tris[a].depth < tris[b].depth; });
   std::string svg = fmt::format(
       "<svg xmlns='http://www.w3.org/2000/svg' width='{0}' height='{0}' viewBox='0 0 {0} {0}'>\n"
       "<rect width='100%' height='100%' fill='white' stroke='#ccc'/>\n",
       size);
   auto X = [&](double x) { return size / 2.0 + s * (x - mid.x()); };
-  auto Y = [&](double y) { return size / 2.0 - s * (y - mid.y()); };
-  for (const Triangle& t : tris)
-    svg += fmt::format("<path class='{}{}' d='M{:.1f} {:.1f}L{:.1f} {:.1f}L{:.1f} {:.1f}z'/>\n",
-                       t.leak ? 'l' : 'o', t.shade, X(t.xy[0]), Y(t.xy[1]), X(t.xy[2]), Y(t.xy[3]),
-                       X(t.xy[4]), Y(t.xy[5]));
-  return svg + "</svg>\n";
+  auto Y = [&](double y) { return (size - 24) / 2.0 - s * (y - mid.y()); };
+  for (const std::size_t k : order) {
+    const Triangle& t = tris[k];
+    svg += fmt::format("<path class='{}' d='M{:.1f} {:.1f}L{:.1f} {:.1f}L{:.1f} {:.1f}z'/>\n",
+                       classes[k], X(t.xy[0]), Y(t.xy[1]), X(t.xy[2]), Y(t.xy[3]), X(t.xy[4]),
+                       Y(t.xy[5]));
+  }
+  return svg + scale_bar(s, size) + "</svg>\n";
+}
+
+// The distance map's colours, d0..d15 from near (dark blue) to far (yellow), viridis-like.
+constexpr int kDistanceShades = 16;
+
+std::array<int, 3> distance_colour(double t) {
+  static constexpr double stops[5][3] = {
+      {68, 1, 84}, {59, 82, 139}, {33, 145, 140}, {94, 201, 98}, {253, 231, 37}};
+  const double x = std::clamp(t, 0.0, 1.0) * 4;
+  const int k = std::min(3, static_cast<int>(x));
+  const double f = x - k;
+  std::array<int, 3> c{};
+  for (int i = 0; i < 3; ++i)
+    c[i] = static_cast<int>(std::lround(stops[k][i] + f * (stops[k + 1][i] - stops[k][i])));
+  return c;
+}
+
+std::string distance_classes() {
+  std::string s;
+  for (int k = 0; k < kDistanceShades; ++k) {
+    const auto [r, g, b] = distance_colour((k + 0.5) / kDistanceShades);
+    s += fmt::format(".d{0}{{fill:#{1:02x}{2:02x}{3:02x};stroke:#{1:02x}{2:02x}{3:02x};"
+                     "stroke-width:.4}}\n",
+                     k, r, g, b);
+  }
+  return s;
+}
+
+// The colour bar of the distance map, numbered in % of the original's diagonal, 0 to top.
+std::string distance_bar(double top_percent, int width) {
+  const double W = width, H = 46, ml = 14, pw = W - 2 * ml;
+  std::string s = fmt::format(
+      "<svg xmlns='http://www.w3.org/2000/svg' width='{0}' height='{1}' viewBox='0 0 {0} {1}' "
+      "font-size='12'>\n",
+      W, H);
+  for (int k = 0; k < kDistanceShades; ++k)
+    s += fmt::format("<rect class='d{}' x='{:.1f}' y='4' width='{:.1f}' height='12'/>\n", k,
+                     ml + pw * k / kDistanceShades, pw / kDistanceShades + 0.5);
+  for (const double t : detail::nice_ticks(0, top_percent))
+    if (t <= top_percent * (1 + 1e-9))
+      s += fmt::format(
+          "<line x1='{0:.1f}' y1='16' x2='{0:.1f}' y2='20' stroke='#222'/><text x='{0:.1f}' "
+          "y='32' text-anchor='middle'>{1:g}</text>\n",
+          ml + pw * t / top_percent, t);
+  return s + fmt::format("<text x='{}' y='44' text-anchor='middle'>distance of the leak to the "
+                         "original's surface, % of the diagonal</text>\n</svg>\n",
+                         ml + pw / 2);
 }
 
 // ---------------------------------------------------------------- plots
@@ -286,6 +404,10 @@ std::string bit_plot(const std::vector<BitEvidence>& bits) {
         e.bit > 1 ? "#777" : dot, fmt::arg("x", x), fmt::arg("one", Y(e.if_one)),
         fmt::arg("zero", Y(e.if_zero)));
   }
+  const std::size_t every = bits.size() <= 16 ? 1 : bits.size() <= 64 ? 8 : 16;
+  for (std::size_t j = 0; j < bits.size(); j += every)
+    s += fmt::format("<text x='{:.1f}' y='{}' text-anchor='middle'>{}</text>\n", X(j),
+                     mt + ph + 14, j);
   s += fmt::format("<text x='{}' y='{}' text-anchor='middle'>payload bit</text>\n", ml + pw / 2,
                    H - 8);
   return s + "</svg>\n";
@@ -414,18 +536,80 @@ std::string mesh_row(const std::string& what, const Mesh& m, const Mesh& drawn) 
 
 }  // namespace
 
-Mesh cluster_for_display(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, int max_triangles) {
+namespace {
+
+// cluster_for_display, with values per vertex averaged as the positions are (into *averaged).
+Mesh cluster_with_values(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, int max_triangles,
+                         const Eigen::VectorXd* values, Eigen::VectorXd* averaged) {
   assert(max_triangles >= 1);
-  if (F.rows() <= max_triangles) return make_mesh(V, F);
+  if (F.rows() <= max_triangles) {
+    if (values && averaged) *averaged = *values;
+    return make_mesh(V, F);
+  }
   // A closed surface on a g-cell grid keeps about 6 g^2 triangles: start finer, then shrink the
   // grid by the square root of the excess until the budget holds.
   double g = 2 * std::sqrt(static_cast<double>(max_triangles));
   for (int attempt = 0;; ++attempt) {
-    Mesh m = cluster_once(V, F, std::max(1, static_cast<int>(g)));
+    Mesh m = cluster_once(V, F, std::max(1, static_cast<int>(g)), values, averaged);
     if (m.F.rows() <= max_triangles || g <= 1 || attempt == 30) return m;
     g *= 0.97 * std::sqrt(static_cast<double>(max_triangles) / static_cast<double>(m.F.rows()));
   }
 }
+
+}  // namespace
+
+Mesh cluster_for_display(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, int max_triangles) {
+  return cluster_with_values(V, F, max_triangles, nullptr, nullptr);
+}
+
+namespace {
+
+// The leak (moved by the registration) alone, each vertex's distance to the original's surface
+// measured on the leak as it is, then drawn through the display's simplification (each drawn
+// triangle coloured by its corners' averaged distances) in the first principal view, with a
+// numbered colour bar; the caption states the median and largest over the leak's vertices.
+std::string distance_map(const Mesh& original, const Mesh& moved, const AxisView& view,
+                         const EvidenceReportOptions& options, double diagonal) {
+  std::string h = "<h2>Where the leak departs from the original</h2>\n";
+  const std::vector<std::uint8_t> used = referenced_vertices(moved.F, moved.V.rows());
+  std::vector<Eigen::Index> rows;
+  for (Eigen::Index i = 0; i < moved.V.rows(); ++i)
+    if (used[i]) rows.push_back(i);
+  Eigen::MatrixX3d Q(static_cast<Eigen::Index>(rows.size()), 3);
+  for (std::size_t k = 0; k < rows.size(); ++k) Q.row(k) = moved.V.row(rows[k]);
+  ClosestPoints cp;
+  try {
+    cp = closest_points(original.V, original.F, Q);
+  } catch (const InvalidArgumentError& e) {
+    return h + "<p>No map: " + xml_escape(e.what()) + "</p>\n";
+  }
+  Eigen::VectorXd distance = Eigen::VectorXd::Zero(moved.V.rows());
+  std::vector<double> sorted(rows.size());
+  for (std::size_t k = 0; k < rows.size(); ++k)
+    sorted[k] = distance[rows[k]] = 100 / diagonal * cp.distance[k];
+  std::sort(sorted.begin(), sorted.end());
+  const double largest = sorted.empty() ? 0 : sorted.back();
+  const double median = sorted.empty() ? 0 : sorted[sorted.size() / 2];
+  Eigen::VectorXd drawn_distance;
+  const Mesh l = cluster_with_values(moved.V, moved.F, options.max_triangles, &distance,
+                                     &drawn_distance);
+  const double top = std::max(largest, 1e-9);
+  const auto by_distance = [&](std::size_t f, int) {
+    const double d = (drawn_distance[l.F(f, 0)] + drawn_distance[l.F(f, 1)] +
+                      drawn_distance[l.F(f, 2)]) / 3;
+    return fmt::format("d{}", std::clamp(static_cast<int>(d / top * kDistanceShades), 0,
+                                         kDistanceShades - 1));
+  };
+  h += "<figure>" + mesh_view(nullptr, l, view.R, options.view_size, diagonal, by_distance) +
+       "<br>" + distance_bar(top, options.view_size) +
+       fmt::format("<figcaption class='distance-map'>the leak alone, {}; coloured by the "
+                   "distance of its vertices to the original's surface: median {:.3g} %, "
+                   "largest {:.3g} % of the diagonal, over its {} vertices</figcaption></figure>\n",
+                   view.caption, median, largest, rows.size());
+  return h;
+}
+
+}  // namespace
 
 std::string evidence_report_html(const Mesh& leaked, const Mesh& original,
                                  const TraceResult& result, const EvidenceContext& context,
@@ -442,7 +626,8 @@ std::string evidence_report_html(const Mesh& leaked, const Mesh& original,
   const bool named = r.status == TraceStatus::Named;
   std::string h = "<!DOCTYPE html>\n<html lang='en'>\n<head>\n<meta charset='utf-8'>\n";
   h += "<title>meshmark trace evidence</title>\n<style>" + std::string(kStyle) + shade_classes() +
-       "</style>\n</head>\n<body>\n<h1>Trace evidence</h1>\n";
+       distance_classes() +
+       fmt::format("figure{{width:{}px}}\n", options.view_size) + "</style>\n</head>\n<body>\n<h1>Trace evidence</h1>\n";
   // Outcome: the verdict in a sentence, then the program's own summary.
   h += fmt::format("<div class='status {}'><p class='verdict'>{}</p><b>{}</b>: {}</div>\n",
                    named ? "named" : "none",
@@ -452,16 +637,17 @@ std::string evidence_report_html(const Mesh& leaked, const Mesh& original,
   h += named_rows(r, context.redact);
   h += "<h2>Candidates</h2>\n" + candidate_rows(r, context.threshold, context.redact);
   h += score_plot(r, context.threshold, context.redact);
-  // Views.
+  // Views: three along the original's principal axes, then where the leak departs from it.
+  const std::array<AxisView, 3> views = axis_views(principal_axes(original.V));
   h += "<h2>The registered leak over the original</h2>\n";
-  for (const auto& [yaw, caption] :
-       {std::pair<double, const char*>{35, "front, from the original's +z side"},
-        std::pair<double, const char*>{215, "back, from the original's -z side"}})
-    h += "<figure>" + mesh_view(o, l, yaw, 20, options.view_size, diagonal) +
+  const auto over = [](std::size_t, int shade) { return fmt::format("l{}", shade); };
+  for (const AxisView& v : views)
+    h += "<figure>" + mesh_view(&o, l, v.R, options.view_size, diagonal, over) +
          fmt::format(
-             "<figcaption>{}; grey: the original, orange: the leak moved by the "
-             "registration (grey alone: no leaked surface there)</figcaption></figure>\n",
-             caption);
+             "<figcaption>{}; grey: the original, orange: the leak moved by the registration "
+             "(grey alone: no leaked surface there)</figcaption></figure>\n",
+             v.caption);
+  h += distance_map(original, moved, views[0], options, diagonal);
   h += "<table>" + mesh_row("leaked mesh", leaked, l) + mesh_row("original", original, o) +
        registration_rows(r) + "</table>\n";
   // Bits.

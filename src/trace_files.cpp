@@ -10,6 +10,7 @@
 #include "meshmark/error.h"
 #include "meshmark/evidence_report.h"
 #include "meshmark/registry.h"
+#include "meshmark/report_pdf.h"
 #include "meshmark/version.h"
 
 namespace meshmark {
@@ -34,13 +35,15 @@ Mesh read_noting(const std::string& path, const ReadOptions& read,
 }  // namespace
 
 TraceFilesResult trace_files(const TraceFilesRequest& request, const Key& key) {
-  if (!request.report.empty())
+  if (!request.pdf.empty() && request.report.empty())
+    throw InvalidArgumentError("a PDF is printed from the HTML report: give the report's path too");
+  for (const std::string& output : {request.report, request.pdf})
     for (const std::string& input :
          {request.leaked, request.original, request.registry, request.key_file}) {
       std::error_code ec;
-      if (!input.empty() && std::filesystem::equivalent(request.report, input, ec))
+      if (!output.empty() && !input.empty() && std::filesystem::equivalent(output, input, ec))
         throw InvalidArgumentError(
-            fmt::format("{}: refusing to overwrite an input file with the report", request.report));
+            fmt::format("{}: refusing to overwrite an input file with the report", output));
     }
   TraceFilesResult found;
   found.leaked = read_noting(request.leaked, request.read, found.warnings);
@@ -49,6 +52,7 @@ TraceFilesResult trace_files(const TraceFilesRequest& request, const Key& key) {
   found.trace = trace_issued(found.leaked, found.original, found.original_hash, request.registry,
                              key, request.options);
   if (!request.report.empty()) write_trace_report(request, found, key);
+  if (!request.pdf.empty()) print_pdf(request.report, request.pdf);
   return found;
 }
 

@@ -16,7 +16,9 @@
 #include "meshmark/attack.h"
 #include "meshmark/embed.h"
 #include "meshmark/evidence_report.h"
+#include "meshmark/error.h"
 #include "meshmark/io.h"
+#include "meshmark/report_pdf.h"
 #include "meshmark/variant.h"
 #include "meshmark/watermark.h"
 #include "test_data.h"
@@ -111,7 +113,8 @@ TEST(EvidenceReport, WellFormedEscapedAndStatesWhatItWasGiven) {
   const std::string html = evidence_report_html(c.leak, c.original, c.result, c.context, o);
   EXPECT_EQ(nesting_error(html), "");
   EXPECT_EQ(count(html, "<svg"), count(html, "</svg>"));
-  EXPECT_EQ(count(html, "<svg"), 4u) << "two views, the scores, the bits";
+  EXPECT_EQ(count(html, "<svg"), 7u)
+      << "three views, the distance map and its colour bar, the scores, the bits";
   // Nothing from the input is markup.
   EXPECT_EQ(html.find("<script"), std::string::npos);
   EXPECT_NE(html.find("&lt;script&gt;alert(1)&lt;/script&gt; &amp; &quot;friends&quot;"),
@@ -129,12 +132,16 @@ TEST(EvidenceReport, WellFormedEscapedAndStatesWhatItWasGiven) {
   EXPECT_NE(html.find(">named</b>"), std::string::npos);
   EXPECT_NE(html.find("<td class='num'>307</td>"), std::string::npos) << "the named ID";
   EXPECT_EQ(count(html, "<title>bit "), 64u) << "one mark per payload bit";
-  // The views draw each mesh through at most max_triangles triangles, in both views.
+  // The views draw each mesh through at most max_triangles triangles: both in the three
+  // principal views, the leak alone in the distance map.
   const std::size_t original = count(html, "<path class='o"), leak = count(html, "<path class='l");
-  EXPECT_LE(original, 2u * o.max_triangles);
-  EXPECT_LE(leak, 2u * o.max_triangles);
-  EXPECT_GE(original, 2u * o.max_triangles / 2) << "clustered far below the budget";
-  EXPECT_GE(leak, 2u * o.max_triangles / 2) << "clustered far below the budget";
+  const std::size_t map = count(html, "<path class='d");
+  EXPECT_LE(original, 3u * o.max_triangles);
+  EXPECT_LE(leak, 3u * o.max_triangles);
+  EXPECT_LE(map, 1u * o.max_triangles);
+  EXPECT_GE(original, 3u * o.max_triangles / 2) << "clustered far below the budget";
+  EXPECT_GE(leak, 3u * o.max_triangles / 2) << "clustered far below the budget";
+  EXPECT_GE(map, 1u * o.max_triangles / 2) << "clustered far below the budget";
 }
 
 // The report a court reads: the verdict as a sentence, the named copy as the registry recorded
@@ -300,6 +307,75 @@ TEST(EvidenceReport, CommandLineWritesAReportWhoseCommandReproducesIt) {
   EXPECT_EQ(r.code, 1) << r.out;
 }
 
+// The distance from p to triangle abc (Ericson, Real-Time Collision Detection, 5.1.5), written
+// here for the test.
+double point_triangle_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                               const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return (p - a).norm();
+  const Eigen::Vector3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return (p - b).norm();
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (p - (a + d1 / (d1 - d3) * ab)).norm();
+  const Eigen::Vector3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return (p - c).norm();
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (p - (a + d2 / (d2 - d6) * ac)).norm();
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0)
+    return (p - (b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b))).norm();
+  const double denom = 1 / (va + vb + vc);
+  return (p - (a + ab * vb * denom + ac * vc * denom)).norm();
+}
+
+// The number after `label` in text (the first one), or NaN.
+double number_after(const std::string& text, const std::string& label) {
+  const auto at = text.find(label);
+  return at == std::string::npos ? NAN : std::strtod(text.c_str() + at + label.size(), nullptr);
+}
+
+// Three views along the original's principal axes and a distance map: the map's median and
+// largest distance (over the leak's vertices, % of the diagonal) agree within the printed
+// 3 significant digits with a brute-force computation over every triangle of the original.
+TEST(EvidenceReport, ThreePrincipalViewsAndADistanceMapThatAgreesWithBruteForce) {
+  const Case& c = spot_case();
+  const std::string html = evidence_report_html(c.leak, c.original, c.result, c.context);
+  std::size_t figures = 0;
+  for (auto at = html.find("<figure>"); at != std::string::npos; at = html.find("<figure>", at + 1))
+    ++figures;
+  EXPECT_EQ(figures, 4u);
+  for (const char* caption : {"principal axes 1 (right) and 2 (up), seen along axis 3",
+                              "principal axes 1 (right) and 3 (up), seen along axis 2",
+                              "principal axes 2 (right) and 3 (up), seen along axis 1"})
+    EXPECT_NE(html.find(caption), std::string::npos) << caption;
+  EXPECT_NE(html.find("(model units)</text>"), std::string::npos);  // the numbered scale bars
+  const Eigen::MatrixX3d moved = c.result.registration.transform.apply(c.leak.V);
+  const Eigen::MatrixX3d& V = c.original.V;
+  const Eigen::Vector3d lo = V.colwise().minCoeff(), hi = V.colwise().maxCoeff();
+  const double diagonal = (hi - lo).norm();
+  std::vector<double> d;
+  for (Eigen::Index i = 0; i < moved.rows(); ++i) {
+    double best = INFINITY;
+    for (Eigen::Index f = 0; f < c.original.F.rows(); ++f)
+      best = std::min(best, point_triangle_distance(moved.row(i), V.row(c.original.F(f, 0)),
+                                                    V.row(c.original.F(f, 1)),
+                                                    V.row(c.original.F(f, 2))));
+    d.push_back(100 * best / diagonal);
+  }
+  std::sort(d.begin(), d.end());
+  const auto map = html.find("class='distance-map'");
+  ASSERT_NE(map, std::string::npos);
+  const std::string caption = html.substr(map, 400);
+  constexpr double kPrinted = 5e-3;  // 3 significant digits
+  const double median = number_after(caption, "median "), largest = number_after(caption, "largest ");
+  EXPECT_NEAR(median, d[d.size() / 2], kPrinted * d[d.size() / 2]) << caption;
+  EXPECT_NEAR(largest, d.back(), kPrinted * d.back()) << caption;
+  EXPECT_GT(d.back(), 0);  // the leak was simplified: it departs somewhere
+}
+
 // ------------------------------------------------------------------ rendering
 
 struct Picture {
@@ -371,6 +447,53 @@ TEST(EvidenceReport, HeadlessChromiumRendersItToAPictureThatIsNotBlank) {
   RecordProperty("ink_fraction", std::to_string(ink / pixels));
   RecordProperty("orange_fraction", std::to_string(orange / pixels));
   RecordProperty("colours", std::to_string(colours.size()));
+}
+
+// The PDF beside the HTML: printed by headless Chromium, read back by Poppler (pdfinfo,
+// pdftotext, pdftoppm: another program than the one that wrote it), it holds the verdict and
+// the tables as text, and its first page is not blank. A PDF over its HTML, and a browser that
+// does not exist, are refused with nothing written.
+TEST(EvidenceReport, PrintsAsAPdfThatPopplerReadsWithTheVerdict) {
+  if (std::system("command -v chromium > /dev/null 2>&1") != 0)
+    GTEST_SKIP() << "skipped: chromium is not on PATH (Debian's chromium package)";
+  ASSERT_EQ(std::system("command -v pdftotext pdfinfo pdftoppm > /dev/null 2>&1"), 0)
+      << "poppler-utils (set up by scripts/setup.sh) is missing";
+  const Case& c = spot_case();
+  const std::string dir = test::scratch_dir() + "/report-pdf";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string html = dir + "/evidence.html", pdf = dir + "/evidence.pdf";
+  write_evidence_report(html, c.leak, c.original, c.result, c.context);
+  EXPECT_THROW(print_pdf(html, html), InvalidArgumentError);
+  PdfOptions none;
+  none.chromium = "no-such-browser";
+  EXPECT_THROW(print_pdf(html, dir + "/none.pdf", none), WriteError);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/none.pdf"));
+  print_pdf(html, pdf);
+  ASSERT_EQ(std::system(("pdfinfo " + pdf + " > " + dir + "/info.txt 2>&1").c_str()), 0)
+      << read_text(dir + "/info.txt");
+  EXPECT_GE(number_after(read_text(dir + "/info.txt"), "Pages:"), 1);
+  ASSERT_EQ(std::system(("pdftotext -layout " + pdf + " " + dir + "/text.txt").c_str()), 0);
+  std::string text = read_text(dir + "/text.txt");
+  std::string flat;  // white space runs (line breaks of the layout) as one space
+  for (const char ch : text)
+    if (!std::isspace(static_cast<unsigned char>(ch)) || (!flat.empty() && flat.back() != ' '))
+      flat += std::isspace(static_cast<unsigned char>(ch)) ? ' ' : ch;
+  EXPECT_NE(flat.find("Trace evidence"), std::string::npos);
+  EXPECT_NE(flat.find("Candidates"), std::string::npos);
+  EXPECT_NE(flat.find("Where the leak departs from the original"), std::string::npos);
+  const std::string verdict = verdict_sentence(c.result, c.context.threshold, c.context.redact);
+  EXPECT_NE(flat.find(verdict.substr(0, 40)), std::string::npos) << verdict;
+  ASSERT_EQ(std::system(("pdftoppm -r 40 -png -f 1 -l 1 -singlefile " + pdf + " " + dir +
+                         "/page").c_str()),
+            0);
+  const Picture p = read_png(dir + "/page.png");
+  ASSERT_GT(p.width, 0);
+  std::size_t ink = 0;
+  for (std::size_t k = 0; k + 2 < p.rgb.size(); k += 3)
+    ink += std::min({p.rgb[k], p.rgb[k + 1], p.rgb[k + 2]}) < 235;
+  constexpr double kMinInk = 0.02;
+  EXPECT_GT(ink / (static_cast<double>(p.width) * p.height), kMinInk);
 }
 
 }  // namespace

@@ -2,14 +2,17 @@
 /// \file evidence_report.h
 /// A self-contained HTML evidence report of a trace (trace.h): one file with no script, no
 /// network and no external resource, readable in any browser and printable. It shows
-///  - the registered leak over the original, as inline SVG: two orthographic views along fixed
-///    directions of the original's frame, flat Lambert shading, painter's algorithm (the
-///    original grey, the leak a translucent orange drawn over it where the surfaces coincide);
+///  - the registered leak over the original, as inline SVG: three orthographic views along the
+///    original's principal axes (the axes of its vertices' covariance, by decreasing spread),
+///    flat Lambert shading, painter's algorithm (the original grey, the leak a translucent
+///    orange drawn over it where the surfaces coincide), each with a numbered scale bar in
+///    model units; and a map of the leak alone, each triangle coloured by its distance to the
+///    original's surface (closest_point.h), with a numbered colour bar in % of the diagonal;
 ///    each mesh drawn through a vertex-clustering simplification of at most max_triangles
 ///    triangles, so the file stays small whatever the meshes' size;
 ///  - the score distribution of every candidate (-log10 of the corrected p-value) with the
 ///    threshold and the named buyers;
-///  - the soft evidence of each payload bit (TraceResult::bits);
+///  - the soft evidence of each payload bit (TraceResult::bits), bits numbered;
 ///  - the verdict in one plain sentence (what the p-value means for an innocent buyer), and the
 ///    named copy as the registry recorded it (buyer, ID, issue date, the copy's content hash);
 ///  - tables: the outcome, the named buyers and the runner-up, registration, measurement,
@@ -64,8 +67,8 @@ std::string verdict_sentence(const TraceResult& result, double threshold, bool r
 
 /// Options of the report's drawing.
 struct EvidenceReportOptions {
-  int max_triangles = 8000;  ///< per mesh (each is drawn in both views); at least 100
-  int view_size = 520;       ///< width and height of each view (CSS pixels)
+  int max_triangles = 6000;  ///< per mesh as drawn (in every view); at least 100
+  int view_size = 380;       ///< width and height of each of the four views (CSS pixels)
 };
 
 /// The report as one HTML document. leaked as read (the registration in result is applied to

@@ -14,6 +14,7 @@
 #include "meshmark/embed.h"            // one embedding, its options and result
 #include "meshmark/error.h"            // the exceptions every call throws
 #include "meshmark/evidence_report.h"  // the HTML evidence report
+#include "meshmark/report_pdf.h"       // ... and its PDF, printed by headless Chromium
 #include "meshmark/io.h"               // reading and writing every mesh format
 #include "meshmark/issue.h"            // issuing marked copies, recorded in a registry
 #include "meshmark/key.h"              // secret keys and key files

@@ -25,6 +25,7 @@ struct TraceFilesRequest {
   std::string original;      ///< path of the original the copies were issued from
   std::string registry;      ///< the registry: an SQLite file or a postgresql:// URI
   std::string report;        ///< where to write the HTML evidence report; "" for none
+  std::string pdf;           ///< where to print the report as PDF (report_pdf.h); "" for none
   std::string key_file;      ///< the key's file, when the key came from one (never overwritten)
   ReadOptions read;          ///< how both meshes are read (weld tolerance)
   TraceOptions options;      ///< threshold, registration, erase distance
@@ -45,12 +46,13 @@ struct TraceFilesResult {
 };
 
 /// Reads both meshes, traces the leak against the registry's copies of the original under key,
-/// and writes the evidence report when request.report is set (write_trace_report). Refuses,
-/// before reading anything, a report path that is the leak, the original, the registry or the
-/// key file.
-/// \throw InvalidArgumentError for such a report path; InvalidInputError or ReadError when a
+/// and writes the evidence report when request.report is set (write_trace_report), and its PDF
+/// when request.pdf is (print_pdf). Refuses, before reading anything, a report or PDF path
+/// that is the leak, the original, the registry or the key file, and a PDF without a report.
+/// \throw InvalidArgumentError for such a path; InvalidInputError or ReadError when a
 ///        mesh cannot be read; IOError when the registry does not exist or cannot be read;
-///        WriteError when the report cannot be written.
+///        WriteError when the report cannot be written or the PDF printed (the HTML report is
+///        written by then).
 TraceFilesResult trace_files(const TraceFilesRequest& request, const Key& key);
 
 /// Writes the evidence report of found (trace_files(request, key)'s) to request.report,

@@ -121,7 +121,7 @@ void init_issue(py::module_& m) {
   m.def(
       "trace",
       [](py::handle leaked, py::handle original, const std::string& registry, py::handle key,
-         py::handle key_file, double threshold, bool register_leak, py::handle report,
+         py::handle key_file, double threshold, bool register_leak, py::handle report, py::handle pdf,
          const std::string& case_id, const std::string& analyst, bool redact) {
         const std::optional<Key> k = resolve_key(key, key_file);
         if (!k) throw InvalidArgumentError("trace needs the key the copies were issued under");
@@ -130,6 +130,7 @@ void init_issue(py::module_& m) {
         request.original = to_path(original);
         request.registry = registry;
         if (!report.is_none()) request.report = to_path(report);
+        if (!pdf.is_none()) request.pdf = to_path(pdf);
         if (!key_file.is_none()) request.key_file = to_path(key_file);
         request.options.threshold = threshold;
         request.options.register_leak = register_leak;
@@ -153,18 +154,20 @@ void init_issue(py::module_& m) {
         out["ranking"] = ranking;
         out["registration"] = r.registration.message;
         out["report"] = request.report.empty() ? py::object(py::none()) : py::str(request.report);
+        out["pdf"] = request.pdf.empty() ? py::object(py::none()) : py::str(request.pdf);
         return out;
       },
       py::arg("leaked"), py::arg("original"), py::arg("registry"), py::kw_only(),
       py::arg("key") = py::none(), py::arg("key_file") = py::none(), py::arg("threshold") = 1e-6,
-      py::arg("register") = true, py::arg("report") = py::none(), py::arg("case") = "",
+      py::arg("register") = true, py::arg("report") = py::none(), py::arg("pdf") = py::none(), py::arg("case") = "",
       py::arg("analyst") = "", py::arg("redact") = false,
       "Names the buyers whose copies the leaked mesh file came from, as the CLI's trace does: "
       "the copies the registry recorded of the original file under the key, each scored with "
       "an exact p-value, family-wise below threshold; with report (a path), writes the HTML "
-      "evidence report there (with case and analyst; redact: no buyer labels, no folders). "
+      "evidence report there (with case and analyst; redact: no buyer labels, no folders), and "
+      "with pdf (a path) the same as PDF, printed by headless Chromium. "
       "Returns a dict: status, message, candidates, named and ranking (dicts: buyer, id, "
-      "matches, bits, p_value, corrected_p, copy), registration, report.");
+      "matches, bits, p_value, corrected_p, copy), registration, report, pdf.");
 }
 
 }  // namespace meshmark::python
