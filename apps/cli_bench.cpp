@@ -6,6 +6,7 @@
 // the summary.
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 #include <unistd.h>
 
 #include <algorithm>
@@ -34,7 +35,7 @@ namespace {
 struct BenchArgs {
   std::string config, out;
   int jobs = 0;
-  bool fresh = false;
+  bool fresh = false, json = false;
 };
 
 #ifdef MESHMARK_HAVE_MPI
@@ -149,6 +150,46 @@ void print_summary(const CampaignConfig& config, const CampaignRunResult& r, int
                  s.median_ber, s.trials);
 }
 
+// The summary as one JSON object (--json): the files and the summary rows.
+void print_summary_json(const CampaignConfig& config, const CampaignRunResult& r, int processes) {
+  nlohmann::json j = {{"campaign", config.name},
+                      {"trials", r.rows.size()},
+                      {"trials_run", r.trials_run},
+                      {"processes", processes},
+                      {"threads", r.jobs},
+                      {"seconds", r.wall_seconds},
+                      {"seconds_over_all_runs", r.total_wall_seconds},
+                      {"rows", r.rows_csv},
+                      {"summary", r.summary_csv},
+                      {"report", r.report}};
+  nlohmann::json rows = nlohmann::json::array();
+  if (config.trace) {
+    for (const TraceSummaryRow& s : summarize_trace(config, r.rows))
+      rows.push_back({{"attack", s.attack},
+                      {"attack_strength", s.attack_strength},
+                      {"colluders", s.colluders},
+                      {"trials", s.trials},
+                      {"trace", {{"right", s.trace_right}, {"none", s.trace_none},
+                                 {"wrong", s.trace_wrong}}},
+                      {"blind", {{"right", s.blind_right}, {"none", s.blind_none},
+                                 {"wrong", s.blind_wrong}}},
+                      {"worst_right_p", s.worst_right_p},
+                      {"median_trace_seconds", s.median_trace_seconds}});
+  } else {
+    for (const SummaryRow& s : summarize(config, r.rows))
+      rows.push_back({{"protocol", s.protocol},
+                      {"variant", s.variant},
+                      {"attack", s.attack},
+                      {"attack_strength", s.attack_strength},
+                      {"median_ber", s.median_ber},
+                      {"mean_ber", s.mean_ber},
+                      {"trials", s.trials},
+                      {"excluded", s.excluded}});
+  }
+  j["medians"] = rows;
+  fmt::print("{}\n", j.dump(2));
+}
+
 int run(const BenchArgs& a) {
   World world;
   const CampaignConfig config = load_campaign(a.config);  // ReadError: exit 2
@@ -175,7 +216,7 @@ int run(const BenchArgs& a) {
   progress.finish();
   for (const std::string& d : r.diagnostics) fmt::print(stderr, "note: {}\n", printable(d));
   if (r.status == CampaignRunResult::Status::Refused) return kUsage;
-  if (rank == 0) print_summary(config, r, size);
+  if (rank == 0) a.json ? print_summary_json(config, r, size) : print_summary(config, r, size);
   return kOk;
 }
 
@@ -193,6 +234,8 @@ void register_bench(CLI::App& app, int& exit_code) {
   sub->add_option("--jobs", args->jobs, "threads per process (default: cores / local ranks)")
       ->check(CLI::Range(1, 1024));
   sub->add_flag("--fresh", args->fresh, "discard earlier results in the directory and start over");
+  sub->add_flag("--json", args->json,
+                "print the summary as JSON (the files, and the medians or the trace outcomes)");
   sub->callback([args, &exit_code] { exit_code = run(*args); });
 }
 

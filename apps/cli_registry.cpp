@@ -54,6 +54,7 @@ std::string csv(const std::string& raw) {
 
 struct RegistryArgs {
   std::string db, original, buyer, id, format = "table";
+  bool json = false;  // --json: --format json
 };
 
 RegistryQuery query_of(const RegistryArgs& a) {
@@ -114,9 +115,13 @@ void register_registry(CLI::App& app, int& exit_code) {
     cmd->add_option("--buyer", args->buyer, "only copies issued to this buyer");
     cmd->add_option("--id", args->id, "only copies carrying this ID");
     cmd->add_option("--original", args->original, "only copies of this original (its file)");
-    cmd->add_option("--format", args->format, "table, csv, json or jsonl")
-        ->check(CLI::IsMember({"table", "csv", "json", "jsonl"}));
-    cmd->callback([args, &exit_code] { exit_code = run_list(*args); });
+    CLI::Option* format = cmd->add_option("--format", args->format, "table, csv, json or jsonl")
+                              ->check(CLI::IsMember({"table", "csv", "json", "jsonl"}));
+    cmd->add_flag("--json", args->json, "the same as --format json")->excludes(format);
+    cmd->callback([args, &exit_code] {
+      if (args->json) args->format = "json";
+      exit_code = run_list(*args);
+    });
   };
   add("list", "List the issued copies", "table");
   add("show", "Every field of the matching copies (give --id or --buyer)", "json");

@@ -166,6 +166,41 @@ TEST(Cli, BatchEmbedsOneCopyPerLineAndReportsFailuresPerLine) {
   EXPECT_NE(bad.out.find("expected INPUT OUTPUT PAYLOAD"), std::string::npos) << bad.out;
 }
 
+// --json on a batch and on the registry: one object per batch (each copy with its status and
+// the ID id:auto chose), the exit code as without it, and `registry list --json` listing the
+// same IDs; --json with another --format is refused.
+TEST(Cli, BatchAndRegistryTalkJson) {
+  const std::string spot = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir() + "/cli-json";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  {
+    std::ofstream manifest(dir + "/manifest.txt");
+    manifest << spot << " " << dir << "/a.ply id:auto buyer a\n";
+    manifest << spot << " " << dir << "/b.ply id:auto buyer b\n";
+    manifest << spot << " " << dir << "/a.ply id:9 buyer c\n";  // a.ply twice: both refused
+  }
+  const std::string db = dir + "/shop.db";
+  const CliRun r = run("embed --batch " + dir + "/manifest.txt --public-key --registry " + db +
+                       " --json");
+  EXPECT_EQ(r.code, 4) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["copies"].size(), 3u);
+  EXPECT_EQ(j["written"], 1);
+  EXPECT_EQ(j["failed"], 2);
+  EXPECT_EQ(j["copies"][0]["status"], "refused");
+  EXPECT_EQ(j["copies"][1]["status"], "written");
+  EXPECT_TRUE(j["copies"][1]["id"].is_number_unsigned()) << j.dump();
+  const CliRun list = run("registry list " + db + " --json");
+  EXPECT_EQ(list.code, 0) << list.out;
+  const nlohmann::json rows = nlohmann::json::parse(list.out);
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0]["id"], j["copies"][1]["id"]);
+  EXPECT_EQ(rows[0]["buyer"], "buyer b");
+  EXPECT_EQ(run("registry list " + db + " --json --format csv").code, 1);
+}
+
 TEST(Cli, OptionValuesThatAreNotFiniteAreRefusedAndNamedSo) {
   const std::string in = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(in, "spot.obj");
