@@ -26,6 +26,7 @@ std::vector<IssuedCopy> read_registry_input(const std::string& where, const Regi
 nlohmann::json to_json(const IssuedCopy& c) {
   return {{"row", c.row},
           {"original_hash", c.original_hash},
+          {"original_geometry", c.original_geometry},
           {"original_path", c.original_path},
           {"buyer", c.buyer},
           {"id", c.id},
@@ -80,12 +81,12 @@ int run_list(const RegistryArgs& a) {
     fmt::print(
         "row,original_hash,original_path,buyer,id,id_bits,bits,variant,strength,"
         "strength_spread,bin_offset,key_fingerprint,mark_format,issued_at,output_path,"
-        "output_hash,method\n");
+        "output_hash,method,original_geometry\n");
     for (const IssuedCopy& c : copies)
-      fmt::print("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.row, c.original_hash,
+      fmt::print("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.row, c.original_hash,
                  csv(c.original_path), csv(c.buyer), c.id, c.id_bits, c.bits, c.variant, c.strength,
                  c.strength_spread, c.bin_offset, c.key_fingerprint, c.mark_format, c.issued_at,
-                 csv(c.output_path), c.output_hash, c.method);
+                 csv(c.output_path), c.output_hash, c.method, c.original_geometry);
   } else {
     // The columns say what they hold: the variant (Cho's methods: method/variant), the key
     // fingerprint's first 8 hex digits, the copy's path.

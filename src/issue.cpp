@@ -99,6 +99,7 @@ void check_registry(const Registry& registry, std::vector<CopyRequest>& requests
                     const IssueSettings& settings, std::vector<CopyOutcome>& out) {
   std::vector<std::size_t> candidates, automatic;
   std::vector<IssuedCopy> given, chosen;  // the copies with an ID, those asking for one
+  std::map<std::string, IssuedCopy> originals;  // each input read and hashed once
   for (std::size_t k = 0; k < requests.size(); ++k) {
     if (!pending(out[k])) continue;
     if (!requests[k].id && !requests[k].auto_id) {
@@ -106,14 +107,21 @@ void check_registry(const Registry& registry, std::vector<CopyRequest>& requests
       continue;
     }
     try {
-      out[k].record =
-          issued_copy(requests[k].input, requests[k].buyer, requests[k].id.value_or(0), settings);
+      auto it = originals.find(requests[k].input);
+      if (it == originals.end())
+        it = originals.emplace(requests[k].input, issued_copy(requests[k].input, "", 0, settings))
+                 .first;
+      out[k].record = it->second;
+      out[k].record.buyer = requests[k].buyer;
+      out[k].record.id = requests[k].id.value_or(0);
       candidates.push_back(k);
       if (requests[k].auto_id)
         automatic.push_back(k), chosen.push_back(out[k].record);
       else
         given.push_back(out[k].record);
     } catch (const IOError& e) {
+      out[k].status = CopyStatus::Unreadable, out[k].message = e.what();
+    } catch (const InvalidInputError& e) {
       out[k].status = CopyStatus::Unreadable, out[k].message = e.what();
     }
   }
@@ -127,9 +135,12 @@ void check_registry(const Registry& registry, std::vector<CopyRequest>& requests
       for (const std::size_t k : automatic) refuse(out[k], e.what());
     }
   }
+  // The same ID of the same original: the same file, or the same geometry in another file.
   const auto same = [&](std::size_t k, const IssuedCopy& c) {
-    return pending(out[k]) && out[k].record.id == c.id &&
-           out[k].record.original_hash == c.original_hash;
+    const IssuedCopy& r = out[k].record;
+    return pending(out[k]) && r.id == c.id &&
+           (r.original_hash == c.original_hash ||
+            (!c.original_geometry.empty() && r.original_geometry == c.original_geometry));
   };
   std::vector<IssuedCopy> wanted;
   for (const std::size_t k : candidates) wanted.push_back(out[k].record);
@@ -143,11 +154,17 @@ void check_registry(const Registry& registry, std::vector<CopyRequest>& requests
                                      taken.buyer, taken.issued_at);
         continue;
       }
-      refuse(out[k], taken.row
-                         ? fmt::format("ID {} already issued from this original under this "
-                                       "key to '{}' on {} ({}): choose another ID",
-                                       taken.id, taken.buyer, taken.issued_at, taken.output_path)
-                         : fmt::format("ID {} is given twice for this original", taken.id));
+      const bool other_file = taken.original_hash != out[k].record.original_hash;
+      refuse(out[k],
+             taken.row
+                 ? fmt::format("ID {} already issued from this original{} under this key to '{}' "
+                               "on {} ({}): choose another ID",
+                               taken.id,
+                               other_file ? fmt::format(" (the same geometry, as {})",
+                                                        taken.original_path)
+                                          : "",
+                               taken.buyer, taken.issued_at, taken.output_path)
+                 : fmt::format("ID {} is given twice for this original", taken.id));
     }
   wanted.clear();
   std::vector<std::size_t> index;
@@ -256,6 +273,8 @@ IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::
                        const IssueSettings& settings) {
   IssuedCopy c;
   c.original_hash = content_hash(read_file(input));
+  const Mesh original = read_mesh(input, settings.read);
+  c.original_geometry = geometry_hash(original.V, original.F);
   c.original_path = normalized_path(input);
   c.buyer = buyer;
   c.id = id;

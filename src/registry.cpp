@@ -3,6 +3,9 @@
 #include <fmt/format.h>
 #include <sodium.h>
 
+#include <algorithm>
+#include <array>
+#include <cstring>
 #include <ctime>
 #include <filesystem>
 #include <set>
@@ -34,8 +37,11 @@ std::string now_utc() {
 // code's length (two copies with one ID and different bits would name two buyers by one ID).
 using Identity = std::tuple<std::string, std::string, std::uint64_t>;
 
+// The original by its geometry when known (copies recorded by schema 3 and later), else by
+// its file.
 Identity identity(const IssuedCopy& c) {
-  return {c.original_hash, c.key_fingerprint, c.id};
+  return {c.original_geometry.empty() ? "file " + c.original_hash : "shape " + c.original_geometry,
+          c.key_fingerprint, c.id};
 }
 
 bool is_postgres(const std::string& location) {
@@ -60,6 +66,75 @@ std::string content_hash(const std::string& bytes) {
   unsigned char digest[32];
   crypto_generichash(digest, sizeof digest, reinterpret_cast<const unsigned char*>(bytes.data()),
                      bytes.size(), nullptr, 0);
+  return hex(digest, sizeof digest);
+}
+
+std::string geometry_hash(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
+  if (sodium_init() < 0) throw Error("libsodium could not be initialized");
+  // The referenced positions, rounded to float32 (+0 for -0), as sortable triples.
+  using Point = std::array<float, 3>;
+  std::vector<std::uint8_t> used(static_cast<std::size_t>(V.rows()), 0);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c)
+      if (F(f, c) >= 0 && F(f, c) < V.rows()) used[F(f, c)] = 1;
+  std::vector<std::pair<Point, Eigen::Index>> points;
+  for (Eigen::Index i = 0; i < V.rows(); ++i)
+    if (used[i]) {
+      Point p{};
+      for (int a = 0; a < 3; ++a) p[a] = static_cast<float>(V(i, a)) + 0.0f;  // -0 + 0 = +0
+      points.emplace_back(p, i);
+    }
+  std::sort(points.begin(), points.end());
+  std::vector<std::int64_t> rank(static_cast<std::size_t>(V.rows()), -1);
+  std::vector<Point> unique;
+  for (const auto& [p, i] : points) {
+    if (unique.empty() || unique.back() != p) unique.push_back(p);
+    rank[i] = static_cast<std::int64_t>(unique.size()) - 1;
+  }
+  std::vector<std::array<std::uint32_t, 3>> faces;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    std::array<std::uint32_t, 3> t{};
+    bool valid = true;
+    for (int c = 0; c < 3; ++c) {
+      valid = valid && F(f, c) >= 0 && F(f, c) < V.rows();
+      t[c] = valid ? static_cast<std::uint32_t>(rank[F(f, c)]) : 0;
+    }
+    if (!valid || t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) continue;
+    std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
+    faces.push_back(t);
+  }
+  std::sort(faces.begin(), faces.end());
+  faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
+  // Hashed as: the personalization, the counts, then little-endian floats and indices.
+  crypto_generichash_state state;
+  crypto_generichash_init(&state, nullptr, 0, 32);
+  const auto put = [&](const void* data, std::size_t size) {
+    crypto_generichash_update(&state, static_cast<const unsigned char*>(data), size);
+  };
+  const auto put_u64 = [&](std::uint64_t v) {
+    unsigned char b[8];
+    for (int k = 0; k < 8; ++k) b[k] = static_cast<unsigned char>(v >> (8 * k));
+    put(b, 8);
+  };
+  const auto put_u32 = [&](std::uint32_t v) {
+    unsigned char b[4];
+    for (int k = 0; k < 4; ++k) b[k] = static_cast<unsigned char>(v >> (8 * k));
+    put(b, 4);
+  };
+  static constexpr char kPersonal[] = "meshmark geometry 1";
+  put(kPersonal, sizeof kPersonal - 1);
+  put_u64(unique.size());
+  for (const Point& p : unique)
+    for (const float x : p) {
+      std::uint32_t bits = 0;
+      std::memcpy(&bits, &x, 4);
+      put_u32(bits);
+    }
+  put_u64(faces.size());
+  for (const auto& t : faces)
+    for (const std::uint32_t i : t) put_u32(i);
+  unsigned char digest[32];
+  crypto_generichash_final(&state, digest, sizeof digest);
   return hex(digest, sizeof digest);
 }
 

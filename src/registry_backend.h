@@ -21,7 +21,8 @@ class RegistryBackend {
   /// when body returns, rolls back and rethrows when it throws.
   virtual void transaction(const std::function<void()>& body) = 0;
   /// The first recorded copy with c's identity (original, key, id: whatever its bits and ID
-  /// length), if any.
+  /// length), if any; the original matched by its file's hash or, when c has one, its
+  /// geometry.
   virtual bool find(const IssuedCopy& c, IssuedCopy& recorded) = 0;
   /// Inserts c (inside transaction()); returns its row.
   virtual std::int64_t insert(const IssuedCopy& c) = 0;
@@ -39,7 +40,7 @@ std::unique_ptr<RegistryBackend> open_postgres_registry(const std::string& uri);
 inline constexpr const char* kRegistryColumns =
     "original_hash, original_path, buyer, id, id_bits, bits, variant, strength, "
     "strength_spread, bin_offset, key_fingerprint, mark_format, issued_at, output_path, "
-    "output_hash, method";
+    "output_hash, method, original_geometry";
 
 /// The statements that create schema version 1's table and index, in SQLite's or
 /// PostgreSQL's types.
@@ -77,5 +78,12 @@ inline std::string registry_schema_v1(bool postgres) {
 /// copies were all marked by the QP framework).
 inline constexpr const char* kRegistryMigrationV2 =
     "ALTER TABLE copies ADD COLUMN method TEXT NOT NULL DEFAULT 'qp'";
+
+/// The statements that take version 2 to version 3: the original's geometry (geometry_hash;
+/// '' for the copies recorded before, known by their file alone), and the index trace and the
+/// duplicate-ID guard look it up by.
+inline constexpr const char* kRegistryMigrationV3 =
+    "ALTER TABLE copies ADD COLUMN original_geometry TEXT NOT NULL DEFAULT '';\n"
+    "CREATE INDEX copies_by_geometry ON copies (original_geometry, key_fingerprint, id);";
 
 }  // namespace meshmark::detail

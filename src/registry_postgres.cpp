@@ -51,6 +51,7 @@ class Result {
     c.issued_at = text(row, 13);
     c.output_path = text(row, 14);
     c.output_hash = text(row, 15);
+    c.original_geometry = text(row, 17);
     return c;
   }
 
@@ -94,6 +95,10 @@ class PostgresRegistry final : public RegistryBackend {
           run(kRegistryMigrationV2);
           run("UPDATE meshmark_schema SET version = 2");
         }
+        if (schema_version() == 2) {
+          run(kRegistryMigrationV3);
+          run("UPDATE meshmark_schema SET version = 3");
+        }
       });
     } catch (...) {
       PQfinish(conn_);
@@ -120,8 +125,10 @@ class PostgresRegistry final : public RegistryBackend {
   }
 
   bool find(const IssuedCopy& c, IssuedCopy& recorded) override {
-    const std::vector<std::string> p = {c.original_hash, c.key_fingerprint, std::to_string(c.id)};
-    const Result r = run(fmt::format("SELECT row, {} FROM copies WHERE original_hash = $1 AND "
+    const std::vector<std::string> p = {c.original_hash, c.key_fingerprint, std::to_string(c.id),
+                                        c.original_geometry};
+    const Result r = run(fmt::format("SELECT row, {} FROM copies WHERE (original_hash = $1 OR "
+                                     "($4 <> '' AND original_geometry = $4)) AND "
                                      "key_fingerprint = $2 AND id = $3 ORDER BY row LIMIT 1",
                                      kRegistryColumns),
                          p);
@@ -147,9 +154,11 @@ class PostgresRegistry final : public RegistryBackend {
                                         c.issued_at,
                                         c.output_path,
                                         c.output_hash,
-                                        c.method};
+                                        c.method,
+                                        c.original_geometry};
     const Result r = run(fmt::format("INSERT INTO copies ({}) VALUES ($1, $2, $3, $4, $5, $6, "
-                                     "$7, $8, $9, $10, $11, $12, $13, $14, $15, $16) RETURNING row",
+                                     "$7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17) "
+                                     "RETURNING row",
                                      kRegistryColumns),
                          p);
     return std::strtoll(PQgetvalue(r.get(), 0, 0), nullptr, 10);
@@ -162,7 +171,15 @@ class PostgresRegistry final : public RegistryBackend {
       p.push_back(value);
       where += fmt::format(" AND {} = ${}", column, p.size());
     };
-    if (query.original_hash) add("original_hash", *query.original_hash);
+    if (query.original_hash && query.original_geometry) {
+      p.push_back(*query.original_hash), p.push_back(*query.original_geometry);
+      where += fmt::format(" AND (original_hash = ${} OR original_geometry = ${})", p.size() - 1,
+                           p.size());
+    } else if (query.original_hash) {
+      add("original_hash", *query.original_hash);
+    } else if (query.original_geometry) {
+      add("original_geometry", *query.original_geometry);
+    }
     if (query.buyer) add("buyer", *query.buyer);
     if (query.key_fingerprint) add("key_fingerprint", *query.key_fingerprint);
     if (query.id) add("id", std::to_string(*query.id));

@@ -57,6 +57,7 @@ class Statement {
     c.issued_at = text(13);
     c.output_path = text(14);
     c.output_hash = text(15);
+    c.original_geometry = text(17);
     return c;
   }
 
@@ -100,6 +101,10 @@ class SqliteRegistry final : public RegistryBackend {
           exec(kRegistryMigrationV2);
           exec("PRAGMA user_version = 2");
         }
+        if (schema_version() == 2) {
+          exec(kRegistryMigrationV3);
+          exec("PRAGMA user_version = 3");
+        }
       });
     } catch (...) {
       sqlite3_close(db_);
@@ -129,10 +134,12 @@ class SqliteRegistry final : public RegistryBackend {
 
   bool find(const IssuedCopy& c, IssuedCopy& recorded) override {
     Statement q(db_, path_,
-                fmt::format("SELECT row, {} FROM copies WHERE original_hash = ?1 AND "
-                            "key_fingerprint = ?2 AND id = ?3 ORDER BY row LIMIT 1",
+                fmt::format("SELECT row, {} FROM copies WHERE (original_hash = ?1 OR "
+                            "(?4 <> '' AND original_geometry = ?4)) AND key_fingerprint = ?2 "
+                            "AND id = ?3 ORDER BY row LIMIT 1",
                             kRegistryColumns));
     q.bind(1, c.original_hash);
+    q.bind(4, c.original_geometry);
     q.bind(2, c.key_fingerprint);
     q.bind(3, static_cast<std::int64_t>(c.id));
     if (sqlite3_step(q.get()) != SQLITE_ROW) return false;
@@ -145,7 +152,7 @@ class SqliteRegistry final : public RegistryBackend {
       insert_ = std::make_unique<Statement>(
           db_, path_,
           fmt::format("INSERT INTO copies ({}) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, "
-                      "?11, ?12, ?13, ?14, ?15, ?16)",
+                      "?11, ?12, ?13, ?14, ?15, ?16, ?17)",
                       kRegistryColumns));
     Statement& s = *insert_;
     sqlite3_reset(s.get());
@@ -165,13 +172,19 @@ class SqliteRegistry final : public RegistryBackend {
     s.bind(14, c.output_path);
     s.bind(15, c.output_hash);
     s.bind(16, c.method);
+    s.bind(17, c.original_geometry);
     if (sqlite3_step(s.get()) != SQLITE_DONE) fail(db_, path_, "cannot record a copy");
     return sqlite3_last_insert_rowid(db_);
   }
 
   std::vector<IssuedCopy> list(const RegistryQuery& query) override {
     std::string where = "1";
-    if (query.original_hash) where += " AND original_hash = ?1";
+    if (query.original_hash && query.original_geometry)
+      where += " AND (original_hash = ?1 OR original_geometry = ?5)";
+    else if (query.original_hash)
+      where += " AND original_hash = ?1";
+    else if (query.original_geometry)
+      where += " AND original_geometry = ?5";
     if (query.buyer) where += " AND buyer = ?2";
     if (query.key_fingerprint) where += " AND key_fingerprint = ?3";
     if (query.id) where += " AND id = ?4";
@@ -182,6 +195,7 @@ class SqliteRegistry final : public RegistryBackend {
     if (query.buyer) q.bind(2, *query.buyer);
     if (query.key_fingerprint) q.bind(3, *query.key_fingerprint);
     if (query.id) q.bind(4, static_cast<std::int64_t>(*query.id));
+    if (query.original_geometry) q.bind(5, *query.original_geometry);
     std::vector<IssuedCopy> out;
     int rc = 0;
     while ((rc = sqlite3_step(q.get())) == SQLITE_ROW) out.push_back(q.copy());

@@ -394,8 +394,9 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
 
 TraceResult trace_issued(const Mesh& leaked, const Mesh& original, const std::string& original_hash,
                          const std::string& registry, const Key& key, const TraceOptions& options) {
-  RegistryQuery q;
+  RegistryQuery q;  // the copies of this file, and of its geometry in any other file
   q.original_hash = original_hash;
+  q.original_geometry = geometry_hash(original.V, original.F);
   q.key_fingerprint = key_fingerprint(key);
   const std::vector<IssuedCopy> candidates = read_registry(registry, q);
   TraceResult r = trace(leaked, original, candidates, key, options);

@@ -118,7 +118,11 @@ class IssuedCodewords {
 
  private:
   using Group = std::tuple<std::string, int, int>;
-  static Group group(const IssuedCopy& c) { return {c.original_hash, c.bits, c.id_bits}; }
+  // The original by its geometry when known, else by its file.
+  static Group group(const IssuedCopy& c) {
+    return {c.original_geometry.empty() ? "file " + c.original_hash : "shape " + c.original_geometry,
+            c.bits, c.id_bits};
+  }
   IdCode code(const IssuedCopy& c) const {
     IdCodeOptions o;
     o.bits = c.bits;
@@ -130,8 +134,9 @@ class IssuedCodewords {
     auto it = groups_.find(g);
     if (it != groups_.end()) return it->second;
     it = groups_.emplace(g, std::vector<std::pair<IssuedCopy, Payload>>{}).first;
-    RegistryQuery q;
+    RegistryQuery q;  // the copies of this original's file, or of its geometry in another
     q.original_hash = c.original_hash;
+    if (!c.original_geometry.empty()) q.original_geometry = c.original_geometry;
     q.key_fingerprint = fingerprint_;
     const IdCode id_code = code(c);
     for (const IssuedCopy& r : registry_.list(q))

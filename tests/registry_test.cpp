@@ -4,6 +4,8 @@
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
 #include <sqlite3.h>
 
 #include <unistd.h>
@@ -36,6 +38,7 @@ IssuedCopy copy_of(std::uint64_t id, const std::string& buyer) {
   c.key_fingerprint = std::string(32, 'f');
   c.output_path = "/shop/out/" + std::to_string(id) + ".ply";
   c.output_hash = std::string(64, 'b');
+  c.original_geometry = std::string(64, 'd');
   return c;
 }
 
@@ -70,6 +73,7 @@ TEST(Registry, RecordsAndListsEveryField) {
   EXPECT_EQ(got.mark_format, kMarkFormatVersion);
   EXPECT_EQ(got.output_path, want.output_path);
   EXPECT_EQ(got.output_hash, want.output_hash);
+  EXPECT_EQ(got.original_geometry, want.original_geometry);
   RegistryQuery q;
   q.buyer = "Bo";
   ASSERT_EQ(again.list(q).size(), 1u);
@@ -111,6 +115,11 @@ TEST(Registry, AnIdIsIssuedOncePerOriginalAndKeyAndBatchesAreAllOrNothing) {
   IssuedCopy other_key = copy_of(1, "k"), other_original = copy_of(1, "o");
   other_key.key_fingerprint = std::string(32, 'e');
   other_original.original_hash = std::string(64, 'c');
+  other_original.original_geometry = std::string(64, 'e');
+  // Another file of the same geometry is the same original: its ID 1 is taken.
+  IssuedCopy same_shape = copy_of(1, "s");
+  same_shape.original_hash = std::string(64, 'c');
+  EXPECT_THROW(r.record({same_shape}), InvalidArgumentError);
   r.record({other_key, other_original});
   EXPECT_EQ(r.list().size(), 3u);
 }
@@ -221,11 +230,12 @@ TEST(Registry, ASchemaOneStoreIsMigratedAndItsCopiesReadAsQp) {
   ASSERT_EQ(sqlite3_exec(db, v1, nullptr, nullptr, nullptr), SQLITE_OK);
   sqlite3_close(db);
   Registry r(path);
-  EXPECT_EQ(r.schema_version(), 2);
+  EXPECT_EQ(r.schema_version(), kRegistrySchemaVersion);  // through every migration
   std::vector<IssuedCopy> all = r.list();
   ASSERT_EQ(all.size(), 1u);
   EXPECT_EQ(all[0].buyer, "Ann");
   EXPECT_EQ(all[0].method, "qp");
+  EXPECT_EQ(all[0].original_geometry, "");  // known by its file alone
   IssuedCopy cho = copy_of(8, "Bo");
   cho.method = "cho-variance";
   r.record({cho});
@@ -246,6 +256,99 @@ TEST(Registry, KeyFingerprintsAndHashes) {
   // BLAKE2b-256 of "abc", as Python's hashlib.blake2b(b"abc", digest_size=32) computes it.
   EXPECT_EQ(content_hash("abc"),
             "bddd813c634239723171ef3fee98579b94964e3bb1cb3e427262c8c068d52319");
+}
+
+// geometry_hash: the same for the same shape through every writer the project has (OBJ, PLY,
+// binary STL, GLB with float32 positions), and whatever the order of vertices and faces, the
+// corner a face starts at, an unreferenced vertex or a duplicated position; another for a
+// vertex moved by 1e-4 of the diagonal, a face turned over or a face left out.
+TEST(Registry, GeometryHashIsTheShapeAloneWhateverTheFile) {
+  const std::string spot = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const Mesh m = read_mesh(spot);
+  const std::string h = geometry_hash(m.V, m.F);
+  EXPECT_EQ(h.size(), 64u);
+  const std::string dir = test::scratch_dir() + "/geometry-hash";
+  std::filesystem::create_directories(dir);
+  for (const char* ext : {"obj", "ply", "stl", "glb", "off"}) {
+    const std::string path = dir + "/spot." + ext;
+    write_mesh(path, m);
+    const Mesh back = read_mesh(path);
+    EXPECT_EQ(geometry_hash(back.V, back.F), h) << ext;
+  }
+  // Reordered: vertices reversed, faces reversed, every face started at its second corner, an
+  // unreferenced vertex appended, and vertex 0's position duplicated for the first face.
+  const Eigen::Index n = m.V.rows();
+  Eigen::MatrixX3d V(n + 2, 3);
+  for (Eigen::Index i = 0; i < n; ++i) V.row(n - 1 - i) = m.V.row(i);
+  V.row(n) << 1e9, 1e9, 1e9;
+  V.row(n + 1) = m.V.row(0);
+  Eigen::MatrixX3i F(m.F.rows(), 3);
+  for (Eigen::Index f = 0; f < m.F.rows(); ++f) {
+    const Eigen::Index g = m.F.rows() - 1 - f;
+    for (int c = 0; c < 3; ++c) F(g, c) = static_cast<int>(n - 1 - m.F(f, (c + 1) % 3));
+  }
+  for (int c = 0; c < 3; ++c)
+    if (F(0, c) == n - 1) F(0, c) = static_cast<int>(n + 1);  // vertex 0 by its duplicate
+  EXPECT_EQ(geometry_hash(V, F), h);
+  Eigen::MatrixX3d moved = m.V;
+  const double diagonal = (m.V.colwise().maxCoeff() - m.V.colwise().minCoeff()).norm();
+  moved(10, 0) += 1e-4 * diagonal;
+  EXPECT_NE(geometry_hash(moved, m.F), h);
+  Eigen::MatrixX3i flipped = m.F;
+  std::swap(flipped(5, 1), flipped(5, 2));
+  EXPECT_NE(geometry_hash(m.V, flipped), h);
+  EXPECT_NE(geometry_hash(m.V, m.F.topRows(m.F.rows() - 1)), h);
+}
+
+// The review's reproduction: ID 1042 issued from O.obj to b-1042, then the same geometry as
+// O.glb (and as O.obj with one comment line added) asked for ID 1042 for mallory. Both are
+// refused, naming b-1042 and the same geometry, with nothing written; and trace with O.glb as
+// the original finds b-1042's row and names b-1042.
+TEST(Registry, TheSameIdIsNeverIssuedTwiceForOneGeometry) {
+  const std::string spot = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir() + "/one-id-per-geometry";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string o = dir + "/O.obj", glb = dir + "/O.glb", commented = dir + "/O2.obj";
+  std::filesystem::copy_file(spot, o);
+  write_mesh(glb, read_mesh(o));
+  {
+    std::ifstream in(o, std::ios::binary);
+    std::ofstream out(commented, std::ios::binary);
+    out << "# re-saved\n" << in.rdbuf();
+  }
+  const std::string db = dir + "/reg.db", key = dir + "/k.key";
+  ASSERT_EQ(test::run_cli("keygen " + key).code, 0);
+  const std::string keyed = " --key-file " + key + " --registry " + db;
+  test::CliRun r = test::run_cli("embed " + o + " " + dir + "/b.ply --id 1042 --buyer b-1042" + keyed);
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const std::string& other : {glb, commented}) {
+    SCOPED_TRACE(other);
+    r = test::run_cli("embed " + other + " " + dir + "/mallory.glb --id 1042 --buyer mallory" +
+                      keyed);
+    EXPECT_EQ(r.code, 1) << r.out;
+    EXPECT_NE(r.out.find("b-1042"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("the same geometry"), std::string::npos) << r.out;
+    EXPECT_FALSE(std::filesystem::exists(dir + "/mallory.glb"));
+  }
+  EXPECT_EQ(read_registry(db).size(), 1u);
+  // id:auto from the GLB avoids b-1042's ID and codeword.
+  r = test::run_cli("embed " + glb + " " + dir + "/c.glb --id auto --buyer carol" + keyed);
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::vector<IssuedCopy> rows = read_registry(db);
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_NE(rows[1].id, 1042u);
+  EXPECT_EQ(rows[0].original_geometry, rows[1].original_geometry);
+  EXPECT_NE(rows[0].original_hash, rows[1].original_hash);
+  // Traced with the GLB as the original, b-1042's copy is found and named.
+  r = test::run_cli("trace " + dir + "/b.ply --original " + glb + keyed + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["candidates"], 2);
+  ASSERT_EQ(j["named"].size(), 1u) << r.out;
+  EXPECT_EQ(j["named"][0]["buyer"], "b-1042");
 }
 
 TEST(Registry, CommandLineIssuesRecordsAndSurvivesAKilledBatch) {

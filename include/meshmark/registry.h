@@ -9,7 +9,9 @@
 /// whole batch in one transaction: all of it or nothing. The schema carries a version
 /// (SQLite's user_version); an older registry is migrated when opened, a newer one refused.
 /// An ID is recorded at most once per original and key: two buyers with the same ID could not
-/// be told apart, so record() refuses the whole batch if any of its IDs is taken.
+/// be told apart, so record() refuses the whole batch if any of its IDs is taken. An original
+/// is known by its file's bytes and by its geometry (geometry_hash): the same shape saved in
+/// another format, or with other bytes, is the same original.
 
 #include <cstdint>
 #include <memory>
@@ -17,12 +19,14 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "meshmark/key.h"
 
 namespace meshmark {
 
 /// The schema version this build writes and reads.
-inline constexpr int kRegistrySchemaVersion = 2;  ///< 2 adds the method
+inline constexpr int kRegistrySchemaVersion = 3;  ///< 2 adds the method, 3 the geometry
 
 /// One issued copy.
 struct IssuedCopy {
@@ -45,11 +49,17 @@ struct IssuedCopy {
   /// The embedding method (method_name: "qp", "cho-mean", "cho-variance"); copies recorded
   /// by schema version 1 read "qp".
   std::string method = "qp";
+  /// geometry_hash of the original as read; "" for copies recorded by schema versions 1 and 2
+  /// (known by original_hash alone).
+  std::string original_geometry;
 };
 
-/// What list() selects (every given field must match).
+/// What list() selects (every given field must match; original_hash and original_geometry,
+/// when both are given, select the copies matching either: an original known by its bytes or
+/// by its shape).
 struct RegistryQuery {
-  std::optional<std::string> original_hash;    ///< copies of this original
+  std::optional<std::string> original_hash;    ///< copies of this original's file
+  std::optional<std::string> original_geometry;  ///< copies of an original of this geometry
   std::optional<std::string> buyer;            ///< copies issued to this buyer
   std::optional<std::string> key_fingerprint;  ///< copies issued under this key
   std::optional<std::uint64_t> id;             ///< copies carrying this ID
@@ -65,6 +75,14 @@ std::string normalized_path(const std::string& path);
 
 /// BLAKE2b-256 of bytes, in hexadecimal (64 characters).
 std::string content_hash(const std::string& bytes);
+
+/// A hash of a mesh's geometry alone, the same whatever the file format, vertex order, face
+/// order, the corner a face starts at, unreferenced vertices and duplicated positions: the
+/// referenced positions rounded to float32 (-0 as +0), merged when equal and sorted; the faces
+/// renumbered, each turned to start at its smallest index (orientation kept), those with two
+/// equal corners dropped, sorted and made unique; BLAKE2b-256 of that (docs/format.md section
+/// 7), in hexadecimal.
+std::string geometry_hash(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F);
 
 /// Whether `recorded` (a registry row) is the copy `wanted` describes, issued already: the same
 /// original, key, code, ID, buyer and embedding settings, and the same output path (wanted's

@@ -138,8 +138,9 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
                   const TraceOptions& options = {});
 
 /// Traces leaked against the copies a registry (an SQLite file or a postgresql:// URI, which
-/// must exist) recorded of the original whose file content hash is original_hash, under key.
-/// When none was, the message says how many copies of other originals were issued under
+/// must exist) recorded under key of the original: of the file whose content hash is
+/// original_hash, and of any file of the same geometry (geometry_hash of original, registry.h;
+/// the same shape saved in another format). When none was, the message says how many copies of other originals were issued under
 /// that key (the original given is then likely not the file the copies were made from).
 /// \throw IOError when the registry does not exist or cannot be read; as trace() otherwise.
 TraceResult trace_issued(const Mesh& leaked, const Mesh& original, const std::string& original_hash,

@@ -104,8 +104,25 @@ def main():
             if (ref_bits[bin_of[j]] ^ white[j]) != word[j] or b["value"] != word[j]:
                 fail(f"{what}: bit {j} reads {b['value']}, the codeword holds {word[j]}")
         embedded += 1
+    # The geometry hash of section 7.1: the page's, the reference's and what meshmark records.
+    page = (checkout / "docs" / "format.md").read_text(encoding="utf-8")
+    m = re.search(r"<!-- geometry-vector -->`([0-9a-f]{64})`<!-- /geometry-vector -->", page)
+    if not m:
+        fail("docs/format.md: the geometry hash vector is missing")
+    V, F = ref.read_obj(str(mesh))
+    if ref.geometry_hash(V, F) != m.group(1):
+        fail(f"geometry hash of {mesh.name}: page {m.group(1)}, reference {ref.geometry_hash(V, F)}")
+    db = scratch / "geometry.db"
+    if db.exists():
+        db.unlink()
+    cli(meshmark, "embed", str(mesh), str(scratch / "geometry.ply"), "--id", "5", "--key-file",
+        str(key_file), "--registry", str(db), "--json")
+    recorded = cli(meshmark, "registry", "list", str(db), "--json")[0]["original_geometry"]
+    if recorded != m.group(1):
+        fail(f"geometry hash of {mesh.name}: page {m.group(1)}, meshmark recorded {recorded}")
     print(f"check_vectors: {len(rows)} codewords and 2 fingerprints as the page states; "
-          f"{embedded} embedded into {mesh.name} and read back as the reference reads them")
+          f"{embedded} embedded into {mesh.name} and read back as the reference reads them; "
+          f"its geometry hash as the page, the reference and the registry give it")
 
 
 if __name__ == "__main__":

@@ -232,6 +232,32 @@ def read_obj(path):
     return V, F
 
 
+# ---- the registry's geometry hash (section 7.1) ---------------------------------------------
+def geometry_hash(V, F):
+    import struct
+    f32 = lambda x: struct.unpack("<f", struct.pack("<f", x))[0] + 0.0  # round, -0 -> +0
+    used = sorted({i for t in F for i in t})
+    pos = {i: tuple(f32(c) for c in V[i]) for i in used}
+    unique = sorted(set(pos.values()))
+    rank = {p: k for k, p in enumerate(unique)}
+    faces = set()
+    for t in F:
+        r = [rank[pos[i]] for i in t]
+        if len(set(r)) < 3:
+            continue
+        k = r.index(min(r))
+        faces.add(tuple(r[k:] + r[:k]))
+    h = hashlib.blake2b(digest_size=32)
+    h.update(b"meshmark geometry 1")
+    h.update(struct.pack("<Q", len(unique)))
+    for p in unique:
+        h.update(struct.pack("<3f", *p))
+    h.update(struct.pack("<Q", len(faces)))
+    for t in sorted(faces):
+        h.update(struct.pack("<3I", *t))
+    return h.hexdigest()
+
+
 def sub(a, b): return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 def dot(a, b): return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 def cross(a, b): return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
