@@ -71,6 +71,8 @@ int run(const EmbedArgs& a) {
   settings.strength_spread = a.strength_spread;
   settings.registry = a.registry;
   settings.allow_public_key = a.public_key;
+  if (a.keys.file) settings.kept_files.emplace_back("the key file", *a.keys.file);
+  if (!a.batch.empty()) settings.kept_files.emplace_back("the manifest", a.batch);
   if (!a.batch.empty()) {
     if (!a.input.empty())
       throw InvalidArgumentError("--batch takes its inputs and outputs from the manifest");

@@ -42,9 +42,28 @@ bool pending(const CopyOutcome& outcome) {
   return outcome.status == CopyStatus::Written && outcome.message.empty();
 }
 
+// Whether a and b name one file: the same canonical path (links resolved), or, both existing,
+// the same inode (a hard link).
+bool same_file(const std::string& a, const std::string& b) {
+  if (file_identity(a) == file_identity(b)) return true;
+  std::error_code ec;
+  return fs::equivalent(a, b, ec);
+}
+
 // Before anything is embedded: no two copies write the same file, and no copy writes a file
-// any copy reads. Every copy involved is refused.
-void refuse_clashes(const std::vector<CopyRequest>& requests, std::vector<CopyOutcome>& out) {
+// any copy reads, the registry or a kept file. Every copy involved is refused.
+void refuse_clashes(const std::vector<CopyRequest>& requests, const IssueSettings& settings,
+                    std::vector<CopyOutcome>& out) {
+  std::vector<std::pair<std::string, std::string>> kept = settings.kept_files;
+  if (!settings.registry.empty() && settings.registry.find("://") == std::string::npos)
+    kept.emplace_back("the registry", settings.registry);
+  for (std::size_t k = 0; k < requests.size(); ++k) {
+    if (!pending(out[k])) continue;
+    for (const auto& [what, path] : kept)
+      if (!path.empty() && pending(out[k]) && same_file(requests[k].output, path))
+        refuse(out[k], fmt::format("{}: refusing to overwrite {} ({})", requests[k].output, what,
+                                   path));
+  }
   const auto where = [&](std::size_t k) {
     return requests[k].line ? fmt::format("line {}", requests[k].line)
                             : fmt::format("copy {}", k + 1);
@@ -55,7 +74,7 @@ void refuse_clashes(const std::vector<CopyRequest>& requests, std::vector<CopyOu
     if (!pending(out[k])) continue;
     const std::string output = file_identity(requests[k].output);
     const std::string input = file_identity(requests[k].input);
-    if (output == input) {
+    if (same_file(requests[k].output, requests[k].input)) {
       refuse(out[k], fmt::format("{}: refusing to overwrite the input file", requests[k].output));
       continue;
     }
@@ -347,7 +366,7 @@ IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings&
     co.id_bits = settings.id_bits;
     code.emplace(co);
   }
-  refuse_clashes(requests, out);
+  refuse_clashes(requests, settings, out);
   std::optional<Registry> registry;
   if (!settings.registry.empty()) {
     registry.emplace(settings.registry);

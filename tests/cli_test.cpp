@@ -11,6 +11,7 @@
 #include <fstream>
 
 #include "meshmark/io.h"
+#include "meshmark/registry.h"
 #include "test_data.h"
 
 using namespace meshmark;
@@ -199,6 +200,52 @@ TEST(Cli, BatchAndRegistryTalkJson) {
   EXPECT_EQ(rows[0]["id"], j["copies"][1]["id"]);
   EXPECT_EQ(rows[0]["buyer"], "buyer b");
   EXPECT_EQ(run("registry list " + db + " --json --format csv").code, 1);
+}
+
+// Nothing a command needs is overwritten (the review's reproductions): an output that is the
+// registry, the key file (by name or through a symbolic or a hard link) or the manifest is
+// refused before anything is written, exit 1 for one copy and 4 for a batch line, and every
+// such file keeps its bytes.
+TEST(Cli, EmbedNeverWritesOverItsRegistryKeyFileOrManifest) {
+  const std::string spot = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir() + "/cli-kept-files";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string key = dir + "/shop.key", db = dir + "/existing.obj";
+  ASSERT_EQ(run("keygen " + key).code, 0);
+  std::filesystem::create_symlink(key, dir + "/key-link.ply");
+  std::filesystem::create_hard_link(key, dir + "/key-hard.ply");
+  ASSERT_EQ(run("embed " + spot + " " + dir + "/first.ply --id 1 --key-file " + key +
+                " --registry " + db).code,
+            0);
+  const auto bytes = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  const std::string key_bytes = bytes(key);
+  for (const std::string& out : {db, key, dir + "/key-link.ply", dir + "/key-hard.ply"}) {
+    SCOPED_TRACE(out);
+    const CliRun r = run("embed " + spot + " " + out + " --id 2 --key-file " + key +
+                         " --registry " + db);
+    EXPECT_EQ(r.code, 1) << r.out;
+    EXPECT_NE(r.out.find("refusing to overwrite"), std::string::npos) << r.out;
+  }
+  const std::string manifest = dir + "/m.txt";
+  {
+    std::ofstream m(manifest);
+    m << spot << " " << db << " id:3 buyer three\n";
+    m << spot << " " << manifest << " id:4 buyer four\n";
+  }
+  const std::string manifest_bytes = bytes(manifest);
+  const CliRun b = run("embed --batch " + manifest + " --key-file " + key + " --registry " + db);
+  EXPECT_EQ(b.code, 4) << b.out;
+  EXPECT_NE(b.out.find("refusing to overwrite the registry"), std::string::npos) << b.out;
+  EXPECT_NE(b.out.find("refusing to overwrite the manifest"), std::string::npos) << b.out;
+  EXPECT_EQ(bytes(key), key_bytes);
+  EXPECT_EQ(bytes(manifest), manifest_bytes);
+  EXPECT_EQ(read_registry(db).size(), 1u);
+  EXPECT_EQ(bytes(db).substr(0, 16), std::string("SQLite format 3\0", 16));
 }
 
 TEST(Cli, OptionValuesThatAreNotFiniteAreRefusedAndNamedSo) {

@@ -6,7 +6,8 @@
 /// --batch`) go through the same rules:
 ///
 /// - Before anything is embedded: no two copies write the same file and no copy writes a file
-///   any copy reads; an ID already issued from the same original under the same key, an ID
+///   any copy reads, the registry or a kept file (IssueSettings::kept_files: the key file, the
+///   manifest), a path naming it through a link included; an ID already issued from the same original under the same key, an ID
 ///   given twice, or an ID whose codeword is closer than kIssuedSpacing bits to one already
 ///   issued is refused (a buyer must never get a copy that could be taken for another's). A
 ///   copy asking for `id:auto` gets the smallest ID that passes these rules (free_ids()).
@@ -23,6 +24,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "meshmark/calibrate.h"
@@ -55,6 +57,9 @@ struct IssueSettings {
   std::string registry;  ///< record coded copies there (SQLite file or postgresql:// URI); "" none
   bool resume = true;    ///< skip copies an earlier run issued and recorded, their files intact
   int threads = 0;       ///< copies embedded at once; 0: one per hardware thread
+  /// Files no copy may write, besides the inputs and the registry: the key's file and the
+  /// manifest, each refused by what it is ("the key file"); paths, as given.
+  std::vector<std::pair<std::string, std::string>> kept_files;  ///< (what it is, path)
   /// Called as copies are made (progress.h): phase "issuing", copies done of those to make,
   /// the output just made.
   ProgressCallback progress;

@@ -87,6 +87,7 @@ void init_issue(py::module_& m) {
         s.registry = registry;
         s.key = resolve_key(key, key_file);
         s.bits = bits;
+        if (!key_file.is_none()) s.kept_files.emplace_back("the key file", to_path(key_file));
         s.id_bits = id_bits;
         s.strength_spread = strength_spread;
         if (!options.is_none()) s.embedding = options.cast<EmbedOptions>();
