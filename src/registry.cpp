@@ -154,10 +154,11 @@ struct Registry::Impl {
   std::unique_ptr<detail::RegistryBackend> store;
 };
 
-Registry::Registry(const std::string& location) : impl_(std::make_unique<Impl>()) {
+Registry::Registry(const std::string& location, bool read_only)
+    : impl_(std::make_unique<Impl>()) {
   impl_->location = location;
   impl_->store = is_postgres(location) ? detail::open_postgres_registry(location)
-                                       : detail::open_sqlite_registry(location);
+                                       : detail::open_sqlite_registry(location, read_only);
 }
 
 Registry::~Registry() = default;
@@ -213,7 +214,7 @@ std::vector<IssuedCopy> Registry::list(const RegistryQuery& query) const {
 std::vector<IssuedCopy> read_registry(const std::string& where, const RegistryQuery& query) {
   if (where.find("://") == std::string::npos && !std::filesystem::exists(where))
     throw IOError(fmt::format("{}: no such registry", where));
-  return Registry(where).list(query);
+  return Registry(where, true).list(query);
 }
 
 }  // namespace meshmark

@@ -30,8 +30,9 @@ class RegistryBackend {
   virtual std::vector<IssuedCopy> list(const RegistryQuery& query) = 0;
 };
 
-/// Opens (creating its schema) the SQLite registry file at path.
-std::unique_ptr<RegistryBackend> open_sqlite_registry(const std::string& path);
+/// Opens (creating its schema) the SQLite registry file at path; read_only: an existing one,
+/// without changing it (an older schema read as it is, inserts refused).
+std::unique_ptr<RegistryBackend> open_sqlite_registry(const std::string& path, bool read_only);
 
 /// Connects to the PostgreSQL registry at uri (postgresql://...), creating its schema.
 std::unique_ptr<RegistryBackend> open_postgres_registry(const std::string& uri);

@@ -5,6 +5,9 @@
 #include <fmt/format.h>
 #include <sqlite3.h>
 
+#include <cctype>
+#include <cstring>
+
 #include "meshmark/error.h"
 #include "registry_backend.h"
 
@@ -65,15 +68,42 @@ class Statement {
   sqlite3_stmt* s_ = nullptr;
 };
 
+// A file: URI for path (percent-encoding what a URI must not hold as it is).
+std::string file_uri(const std::string& path, const char* query) {
+  std::string uri = "file:";
+  for (const unsigned char c : path) {
+    if (std::isalnum(c) || std::strchr("/-_.~", c))
+      uri += static_cast<char>(c);
+    else
+      uri += fmt::format("%{:02X}", c);
+  }
+  return uri + "?" + query;
+}
+
 class SqliteRegistry final : public RegistryBackend {
  public:
-  explicit SqliteRegistry(const std::string& path) : path_(path) {
-    if (sqlite3_open_v2(path.c_str(), &db_,
-                        SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
-                        nullptr) != SQLITE_OK) {
+  SqliteRegistry(const std::string& path, bool read_only) : path_(path), read_only_(read_only) {
+    const int opened =
+        read_only ? sqlite3_open_v2(file_uri(path, "mode=ro").c_str(), &db_,
+                                    SQLITE_OPEN_READONLY | SQLITE_OPEN_URI | SQLITE_OPEN_FULLMUTEX,
+                                    nullptr)
+                  : sqlite3_open_v2(path.c_str(), &db_,
+                                    SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
+                                    nullptr);
+    if (opened != SQLITE_OK) {
       const std::string message = db_ ? sqlite3_errmsg(db_) : "out of memory";
       sqlite3_close(db_);
       throw IOError(fmt::format("{}: cannot open the registry: {}", path, message));
+    }
+    if (read_only) {
+      try {
+        sqlite3_busy_timeout(db_, 30000);
+        open_read_only();
+      } catch (...) {
+        sqlite3_close(db_);
+        throw;
+      }
+      return;
     }
     try {
       sqlite3_busy_timeout(db_, 30000);
@@ -116,6 +146,28 @@ class SqliteRegistry final : public RegistryBackend {
     sqlite3_close(db_);
   }
 
+  // Read-only: the schema as it is. Columns an older version lacks read as its migration
+  // would fill them.
+  void open_read_only() {
+    const int version = schema_version();
+    if (version == 0)
+      throw IOError(fmt::format("{}: not a meshmark registry (an empty file, or another "
+                                "SQLite database)",
+                                path_));
+    if (version > kRegistrySchemaVersion)
+      throw IOError(fmt::format(
+          "{}: the registry has schema version {}, newer than this meshmark's {}: use a newer "
+          "meshmark",
+          path_, version, kRegistrySchemaVersion));
+    std::string columns = kRegistryColumns;
+    const auto replace = [&](const std::string& column, const std::string& as) {
+      columns.replace(columns.find(column), column.size(), as + " AS " + column);
+    };
+    if (version < 3) replace("original_geometry", "''");
+    if (version < 2) replace("method", "'qp'");
+    columns_ = columns;
+  }
+
   int schema_version() override {
     Statement s(db_, path_, "PRAGMA user_version");
     return sqlite3_step(s.get()) == SQLITE_ROW ? sqlite3_column_int(s.get(), 0) : 0;
@@ -137,7 +189,7 @@ class SqliteRegistry final : public RegistryBackend {
                 fmt::format("SELECT row, {} FROM copies WHERE (original_hash = ?1 OR "
                             "(?4 <> '' AND original_geometry = ?4)) AND key_fingerprint = ?2 "
                             "AND id = ?3 ORDER BY row LIMIT 1",
-                            kRegistryColumns));
+                            columns_));
     q.bind(1, c.original_hash);
     q.bind(4, c.original_geometry);
     q.bind(2, c.key_fingerprint);
@@ -148,6 +200,7 @@ class SqliteRegistry final : public RegistryBackend {
   }
 
   std::int64_t insert(const IssuedCopy& c) override {
+    if (read_only_) throw IOError(fmt::format("{}: the registry is open read-only", path_));
     if (!insert_)
       insert_ = std::make_unique<Statement>(
           db_, path_,
@@ -190,7 +243,7 @@ class SqliteRegistry final : public RegistryBackend {
     if (query.id) where += " AND id = ?4";
     Statement q(
         db_, path_,
-        fmt::format("SELECT row, {} FROM copies WHERE {} ORDER BY row", kRegistryColumns, where));
+        fmt::format("SELECT row, {} FROM copies WHERE {} ORDER BY row", columns_, where));
     if (query.original_hash) q.bind(1, *query.original_hash);
     if (query.buyer) q.bind(2, *query.buyer);
     if (query.key_fingerprint) q.bind(3, *query.key_fingerprint);
@@ -214,14 +267,16 @@ class SqliteRegistry final : public RegistryBackend {
   }
 
   std::string path_;
+  bool read_only_ = false;
+  std::string columns_ = kRegistryColumns;  // what SELECT lists (read-only: the schema's)
   sqlite3* db_ = nullptr;
   std::unique_ptr<Statement> insert_;
 };
 
 }  // namespace
 
-std::unique_ptr<RegistryBackend> open_sqlite_registry(const std::string& path) {
-  return std::make_unique<SqliteRegistry>(path);
+std::unique_ptr<RegistryBackend> open_sqlite_registry(const std::string& path, bool read_only) {
+  return std::make_unique<SqliteRegistry>(path, read_only);
 }
 
 }  // namespace meshmark::detail

@@ -351,6 +351,69 @@ TEST(Registry, TheSameIdIsNeverIssuedTwiceForOneGeometry) {
   EXPECT_EQ(j["named"][0]["buyer"], "b-1042");
 }
 
+// Reading never changes a registry (the review: trace switched a DELETE-journal registry to
+// WAL, changing the hash its report records, and could not read a read-only one): list,
+// export and trace leave its bytes as they were, on a registry in DELETE journal mode, on a
+// read-only file, and on a schema-2 registry (read as it is, not migrated).
+TEST(Registry, ReadingLeavesItsBytesAsTheyWere) {
+  const std::string spot = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir() + "/read-only";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string db = dir + "/reg.db", key = dir + "/k.key";
+  ASSERT_EQ(test::run_cli("keygen " + key).code, 0);
+  ASSERT_EQ(test::run_cli("embed " + spot + " " + dir + "/c.ply --id 7 --buyer ann --key-file " +
+                          key + " --registry " + db).code,
+            0);
+  {  // the journal mode a registry copied or written by another tool may have
+    sqlite3* h = nullptr;
+    ASSERT_EQ(sqlite3_open(db.c_str(), &h), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(h, "PRAGMA journal_mode = DELETE", nullptr, nullptr, nullptr), SQLITE_OK);
+    sqlite3_close(h);
+  }
+  const auto bytes = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  const std::string before = bytes(db);
+  const std::string reads[] = {"registry list " + db, "registry export " + db,
+                               "registry show " + db + " --id 7",
+                               "trace " + dir + "/c.ply --original " + spot + " --registry " + db +
+                                   " --key-file " + key};
+  for (const std::string& command : reads) {
+    const test::CliRun r = test::run_cli(command);
+    EXPECT_EQ(r.code, 0) << command << "\n" << r.out;
+    EXPECT_EQ(bytes(db), before) << command;
+  }
+  EXPECT_FALSE(std::filesystem::exists(db + "-wal"));
+  // Read-only: the file, and then the folder too.
+  std::filesystem::permissions(db, std::filesystem::perms::owner_read);
+  EXPECT_EQ(read_registry(db).size(), 1u);
+  const test::CliRun ro = test::run_cli(reads[3]);
+  EXPECT_EQ(ro.code, 0) << ro.out;
+  std::filesystem::permissions(db, std::filesystem::perms::owner_read |
+                                       std::filesystem::perms::owner_write);
+  // A schema-2 registry is read as it is: its rows have no geometry, its version stays 2.
+  {
+    sqlite3* h = nullptr;
+    ASSERT_EQ(sqlite3_open(db.c_str(), &h), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(h,
+                           "DROP INDEX copies_by_geometry; ALTER TABLE copies DROP COLUMN "
+                           "original_geometry; PRAGMA user_version = 2",
+                           nullptr, nullptr, nullptr),
+              SQLITE_OK)
+        << sqlite3_errmsg(h);
+    sqlite3_close(h);
+  }
+  const std::string v2 = bytes(db);
+  const std::vector<IssuedCopy> rows = read_registry(db);
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0].buyer, "ann");
+  EXPECT_EQ(rows[0].original_geometry, "");
+  EXPECT_EQ(bytes(db), v2);
+}
+
 TEST(Registry, CommandLineIssuesRecordsAndSurvivesAKilledBatch) {
   const std::string spot = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");

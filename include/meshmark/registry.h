@@ -97,7 +97,11 @@ class Registry {
   /// Opens the SQLite registry at path, creating it (and its schema) if it does not exist.
   /// \throw IOError when it cannot be opened or created, is not a registry, or was written by
   ///        a newer schema.
-  explicit Registry(const std::string& path);
+  explicit Registry(const std::string& path) : Registry(path, false) {}
+  /// read_only: opens an existing SQLite registry without changing its bytes (SQLite's
+  /// mode=ro: no journal switch, no migration; an older schema is read as it is); record() then
+  /// fails. \throw IOError also when it does not exist.
+  Registry(const std::string& path, bool read_only);
   ~Registry();
   Registry(const Registry&) = delete;
   Registry& operator=(const Registry&) = delete;
@@ -124,7 +128,8 @@ class Registry {
 };
 
 /// The copies of an existing registry (an SQLite file or a postgresql:// URI) that match
-/// query. A registry is only read here: one that does not exist is not created.
+/// query. A registry is only read here, opened read-only: one that does not exist is not
+/// created, and an SQLite file keeps its bytes (a read-only file can be read).
 /// \throw IOError when it does not exist, cannot be opened or is not a registry.
 std::vector<IssuedCopy> read_registry(const std::string& where, const RegistryQuery& query = {});
 
