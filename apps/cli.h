@@ -31,6 +31,7 @@ enum Exit : int {
   kNotEmbedded = 4,  ///< embedding infeasible, not converged, or the mesh has no histogram
   kBitErrors = 5,    ///< extract --expect found bit errors or erasures
   kNoId = 6,         ///< extract --id-bits found no valid ID; detect did not detect
+  kNotVerified = 7,  ///< registry verify: a row was edited or has no MAC, or the file is unsound
   kInternal = 70,    ///< a bug
 };
 

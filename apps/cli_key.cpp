@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <cstdlib>
 #include <memory>
 #include <nlohmann/json.hpp>
 
@@ -14,16 +15,30 @@ namespace meshmark::cli {
 
 void add_key_options(CLI::App& app, KeyArgs& args) {
   app.add_option("--key", args.passphrase,
-                 "secret passphrase: keyed layout of the bits (visible to other users of this "
-                 "machine in the process list; prefer --key-file)");
+                 "secret passphrase (visible to other users of this machine in the process "
+                 "list: prefer --key-file, or the environment variable MESHMARK_KEY, read when "
+                 "neither option is given)");
   app.add_option("--key-file", args.file, "secret key file (its bytes, hashed)")->excludes("--key");
   app.add_option("--id-bits", args.id_bits, "length of a coded ID in bits (1..32)")
       ->check(CLI::Range(1, 32));
 }
 
 std::optional<Key> resolve_key(const KeyArgs& args) {
-  if (args.passphrase) return key_from_passphrase(*args.passphrase);  // refuses an empty one
-  if (args.file) return key_from_file(*args.file);                    // ReadError: exit 2
+  if (args.passphrase) {
+    fmt::print(stderr,
+               "meshmark: warning: a passphrase given with --key is visible to every user of "
+               "this machine (the process list, the shell's history): set MESHMARK_KEY "
+               "instead, or use --key-file\n");
+    return key_from_passphrase(*args.passphrase);  // refuses an empty one
+  }
+  if (args.file) {
+    const Key key = key_from_file(*args.file);  // ReadError: exit 2
+    if (const std::string w = key_file_exposure(*args.file); !w.empty())
+      fmt::print(stderr, "meshmark: warning: {}\n", printable(w));
+    return key;
+  }
+  // The documented way to give a passphrase: the environment, never the command line.
+  if (const char* env = std::getenv("MESHMARK_KEY"); env && *env) return key_from_passphrase(env);
   return std::nullopt;
 }
 

@@ -41,7 +41,8 @@ nlohmann::json to_json(const IssuedCopy& c) {
           {"issued_at", c.issued_at},
           {"output_path", c.output_path},
           {"output_hash", c.output_hash},
-          {"method", c.method}};
+          {"method", c.method},
+          {"mac", c.mac}};
 }
 
 // A CSV field: quoted when it holds a comma, a quote or a line break.
@@ -81,12 +82,13 @@ int run_list(const RegistryArgs& a) {
     fmt::print(
         "row,original_hash,original_path,buyer,id,id_bits,bits,variant,strength,"
         "strength_spread,bin_offset,key_fingerprint,mark_format,issued_at,output_path,"
-        "output_hash,method,original_geometry\n");
+        "output_hash,method,original_geometry,mac\n");
     for (const IssuedCopy& c : copies)
-      fmt::print("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.row, c.original_hash,
-                 csv(c.original_path), csv(c.buyer), c.id, c.id_bits, c.bits, c.variant, c.strength,
-                 c.strength_spread, c.bin_offset, c.key_fingerprint, c.mark_format, c.issued_at,
-                 csv(c.output_path), c.output_hash, c.method, c.original_geometry);
+      fmt::print("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.row,
+                 c.original_hash, csv(c.original_path), csv(c.buyer), c.id, c.id_bits, c.bits,
+                 c.variant, c.strength, c.strength_spread, c.bin_offset, c.key_fingerprint,
+                 c.mark_format, c.issued_at, csv(c.output_path), c.output_hash, c.method,
+                 c.original_geometry, c.mac);
   } else {
     // The columns say what they hold: the variant (Cho's methods: method/variant), the key
     // fingerprint's first 8 hex digits, the copy's path.
@@ -101,6 +103,55 @@ int run_list(const RegistryArgs& a) {
     fmt::print("{} cop{}\n", copies.size(), copies.size() == 1 ? "y" : "ies");
   }
   return kOk;
+}
+
+struct VerifyArgs {
+  std::string db;
+  KeyArgs keys;
+  bool json = false;
+};
+
+int run_verify(const VerifyArgs& a) {
+  const std::optional<Key> key = resolve_key(a.keys);
+  RegistryCheck check;
+  try {
+    check = verify_registry(a.db, id_key(key));
+  } catch (const IOError& e) {
+    throw InputFailure(e.what());
+  }
+  const auto row_json = [](const IssuedCopy& c) {
+    return nlohmann::json{{"row", c.row}, {"id", c.id}, {"buyer", c.buyer}};
+  };
+  if (a.json) {
+    nlohmann::json edited = nlohmann::json::array(), bare = nlohmann::json::array();
+    for (const IssuedCopy& c : check.edited) edited.push_back(row_json(c));
+    for (const IssuedCopy& c : check.unauthenticated) bare.push_back(row_json(c));
+    fmt::print("{}\n", nlohmann::json{{"registry", registry_display_name(a.db)},
+                                      {"ok", check.ok()},
+                                      {"integrity", check.integrity},
+                                      {"rows", check.rows},
+                                      {"authentic", check.authentic},
+                                      {"edited", edited},
+                                      {"unauthenticated", bare},
+                                      {"other_key", check.other_key}}
+                           .dump(2));
+  } else {
+    fmt::print("{}: {}\n", printable(registry_display_name(a.db)),
+               check.ok() ? "verified" : "NOT verified");
+    fmt::print("  file             {}\n", check.integrity == "ok"
+                                              ? std::string("sound (SQLite integrity check)")
+                                              : "DAMAGED: " + printable(check.integrity));
+    fmt::print("  rows             {} ({} under this key, {} under other keys)\n", check.rows,
+               check.rows - check.other_key, check.other_key);
+    fmt::print("  authentic        {}\n", check.authentic);
+    for (const IssuedCopy& c : check.edited)
+      fmt::print("  EDITED           row {}: ID {}, '{}': fails its authentication code\n", c.row,
+                 c.id, printable(c.buyer));
+    for (const IssuedCopy& c : check.unauthenticated)
+      fmt::print("  unauthenticated  row {}: ID {}, '{}': carries no authentication code\n", c.row,
+                 c.id, printable(c.buyer));
+  }
+  return check.ok() ? kOk : kNotVerified;
 }
 
 }  // namespace
@@ -127,6 +178,15 @@ void register_registry(CLI::App& app, int& exit_code) {
   add("list", "List the issued copies", "table");
   add("show", "Every field of the matching copies (give --id or --buyer)", "json");
   add("export", "The matching copies as CSV (or --format jsonl)", "csv");
+  auto verify = std::make_shared<VerifyArgs>();
+  CLI::App* cmd = sub->add_subcommand(
+      "verify",
+      "Check the file and every row's authentication code under the key (exit 7 when "
+      "a row was edited or carries none)");
+  cmd->add_option("DB", verify->db, "the registry file or postgresql:// URI")->required();
+  add_key_options(*cmd, verify->keys);
+  cmd->add_flag("--json", verify->json, "print a JSON report");
+  cmd->callback([verify, &exit_code] { exit_code = run_verify(*verify); });
 }
 
 }  // namespace meshmark::cli

@@ -7,9 +7,9 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "progress.h"
 #include "meshmark/error.h"
 #include "meshmark/trace_files.h"
+#include "progress.h"
 
 namespace meshmark::cli {
 
@@ -38,7 +38,8 @@ std::string shell_quote(const std::string& word) {
 }
 
 // The command that reproduces the report: cd to this directory, then the arguments as run,
-// quoted; a passphrase given with --key is replaced by "$MESHMARK_KEY" (never written).
+// quoted; a passphrase given with --key is replaced by "$MESHMARK_KEY" and a registry URL's
+// password by *** (never written).
 std::string reproducing_command(const std::vector<std::string>& argv, bool& redacted) {
   std::error_code ec;
   std::string cmd = "cd " + shell_quote(std::filesystem::current_path(ec).string()) + " &&";
@@ -49,6 +50,8 @@ std::string reproducing_command(const std::vector<std::string>& argv, bool& reda
       cmd += "\"$MESHMARK_KEY\"", redacted = true;
     } else if (argv[i].starts_with("--key=")) {
       cmd += "--key=\"$MESHMARK_KEY\"", redacted = true;
+    } else if (const std::string shown = registry_display_name(argv[i]); shown != argv[i]) {
+      cmd += shell_quote(shown), redacted = true;  // a registry URL's password
     } else {
       cmd += shell_quote(argv[i]);
     }
@@ -76,7 +79,8 @@ int run(const TraceArgs& a) {
   request.command = reproducing_command(a.argv, redacted);
   if (redacted)
     request.command_note =
-        "The passphrase given with --key is not written: set MESHMARK_KEY to it.";
+        "Secrets are not written: set MESHMARK_KEY to the passphrase given with --key, and "
+        "give a registry's password in PGPASSFILE or PGPASSWORD.";
   Progress progress(Progress::Bar, "");
   request.options.progress = terminal_progress(progress, a.json);
   TraceFilesResult found;
@@ -88,14 +92,21 @@ int run(const TraceArgs& a) {
     throw InputFailure(e.what());  // the meshes and the registry are input here
   }
   progress.finish();
-  for (const std::string& w : found.warnings) fmt::print(stderr, "warning: {}\n", printable(w));
   const TraceOptions& options = request.options;
   const TraceResult& r = found.trace;
+  std::vector<std::string> warnings = found.warnings;
+  warnings.insert(warnings.end(), r.warnings.begin(), r.warnings.end());
+  for (const std::string& w : warnings) fmt::print(stderr, "warning: {}\n", printable(w));
+  auto is_named = [&](const CandidateScore& s) {
+    for (const CandidateScore& n : r.named)
+      if (n.copy.row == s.copy.row) return true;
+    return false;
+  };
   auto score = [](const CandidateScore& s) {
-    return nlohmann::json{{"buyer", s.copy.buyer},     {"id", s.copy.id},
-                          {"matches", s.matches},      {"bits", s.compared},
-                          {"p_value", s.p_value},      {"corrected_p", s.corrected_p},
-                          {"copy", s.copy.output_path}};
+    return nlohmann::json{
+        {"buyer", s.copy.buyer},      {"id", s.copy.id},      {"matches", s.matches},
+        {"bits", s.compared},         {"p_value", s.p_value}, {"corrected_p", s.corrected_p},
+        {"copy", s.copy.output_path}, {"row", s.copy.row},    {"row_auth", enum_name(s.auth)}};
   };
   if (a.json) {
     nlohmann::json named = nlohmann::json::array(), top = nlohmann::json::array();
@@ -121,7 +132,9 @@ int run(const TraceArgs& a) {
                         {"measured_fraction", r.measured_fraction},
                         {"attenuation", r.attenuation},
                         {"processing", r.processing},
-                        {"bit_evidence", evidence}};
+                        {"bit_evidence", evidence},
+                        {"warnings", warnings},
+                        {"identical_row", r.identical_row}};
     if (!a.report.empty()) j["report"] = a.report;
     if (!a.pdf.empty()) j["pdf"] = a.pdf;
     fmt::print("{}\n", j.dump(2));
@@ -139,7 +152,7 @@ int run(const TraceArgs& a) {
       fmt::print("  {:<16} ID {} '{}': {} of {} bits, p = {:.3g}, corrected {:.3g}{}\n",
                  i == 0 ? "best" : (i == 1 ? "runner-up" : ""), s.copy.id, printable(s.copy.buyer),
                  s.matches, s.compared, s.p_value, s.corrected_p,
-                 s.corrected_p < options.threshold ? "  NAMED" : "");
+                 is_named(s) ? "  NAMED" : (s.auth == RowAuth::Edited ? "  EDITED ROW" : ""));
     }
     if (!a.report.empty()) fmt::print("  report           {}\n", printable(a.report));
     if (!a.pdf.empty()) fmt::print("  pdf              {}\n", printable(a.pdf));

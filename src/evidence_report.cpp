@@ -51,7 +51,8 @@ Mesh cluster_once(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, int g,
       c[a] = std::clamp<std::int64_t>(static_cast<std::int64_t>((V(i, a) - lo(a)) / cell), 0, g);
     const std::int64_t key = c[0] + (g + 1) * (c[1] + (g + 1) * c[2]);
     const auto [it, fresh] = index.emplace(key, static_cast<int>(sum.size()));
-    if (fresh) sum.emplace_back(Eigen::Vector3d::Zero()), count.push_back(0), value_sum.push_back(0);
+    if (fresh)
+      sum.emplace_back(Eigen::Vector3d::Zero()), count.push_back(0), value_sum.push_back(0);
     of[i] = it->second;
     sum[it->second] += V.row(i).transpose();
     if (values) value_sum[it->second] += (*values)[i];
@@ -90,6 +91,7 @@ th{background:#f2f2f2}td.num{text-align:right;font-variant-numeric:tabular-nums}
 pre{background:#f6f6f6;border:1px solid #ccc;padding:8px;white-space:pre-wrap;word-break:break-all}
 figure{display:inline-block;margin:0 12px 8px 0;vertical-align:top}figcaption{font-size:12px;color:#555}
 svg{background:#fff}
+.warnings{background:#fff4d6;border:1px solid #c98a00;padding:6px 12px;border-radius:4px;font-size:14px}
 @media print{body{margin:0;max-width:none}svg{max-width:100%;height:auto}
 figure{width:32%!important;margin:0 1% 8px 0}figure svg{width:100%}h2{break-after:avoid}
 figure,table{break-inside:avoid}}
@@ -255,9 +257,10 @@ std::string distance_classes() {
   std::string s;
   for (int k = 0; k < kDistanceShades; ++k) {
     const auto [r, g, b] = distance_colour((k + 0.5) / kDistanceShades);
-    s += fmt::format(".d{0}{{fill:#{1:02x}{2:02x}{3:02x};stroke:#{1:02x}{2:02x}{3:02x};"
-                     "stroke-width:.4}}\n",
-                     k, r, g, b);
+    s += fmt::format(
+        ".d{0}{{fill:#{1:02x}{2:02x}{3:02x};stroke:#{1:02x}{2:02x}{3:02x};"
+        "stroke-width:.4}}\n",
+        k, r, g, b);
   }
   return s;
 }
@@ -278,9 +281,10 @@ std::string distance_bar(double top_percent, int width) {
           "<line x1='{0:.1f}' y1='16' x2='{0:.1f}' y2='20' stroke='#222'/><text x='{0:.1f}' "
           "y='32' text-anchor='middle'>{1:g}</text>\n",
           ml + pw * t / top_percent, t);
-  return s + fmt::format("<text x='{}' y='44' text-anchor='middle'>distance of the leak to the "
-                         "original's surface, % of the diagonal</text>\n</svg>\n",
-                         ml + pw / 2);
+  return s + fmt::format(
+                 "<text x='{}' y='44' text-anchor='middle'>distance of the leak to the "
+                 "original's surface, % of the diagonal</text>\n</svg>\n",
+                 ml + pw / 2);
 }
 
 // ---------------------------------------------------------------- plots
@@ -406,8 +410,8 @@ std::string bit_plot(const std::vector<BitEvidence>& bits) {
   }
   const std::size_t every = bits.size() <= 16 ? 1 : bits.size() <= 64 ? 8 : 16;
   for (std::size_t j = 0; j < bits.size(); j += every)
-    s += fmt::format("<text x='{:.1f}' y='{}' text-anchor='middle'>{}</text>\n", X(j),
-                     mt + ph + 14, j);
+    s += fmt::format("<text x='{:.1f}' y='{}' text-anchor='middle'>{}</text>\n", X(j), mt + ph + 14,
+                     j);
   s += fmt::format("<text x='{}' y='{}' text-anchor='middle'>payload bit</text>\n", ml + pw / 2,
                    H - 8);
   return s + "</svg>\n";
@@ -591,21 +595,22 @@ std::string distance_map(const Mesh& original, const Mesh& moved, const AxisView
   const double largest = sorted.empty() ? 0 : sorted.back();
   const double median = sorted.empty() ? 0 : sorted[sorted.size() / 2];
   Eigen::VectorXd drawn_distance;
-  const Mesh l = cluster_with_values(moved.V, moved.F, options.max_triangles, &distance,
-                                     &drawn_distance);
+  const Mesh l =
+      cluster_with_values(moved.V, moved.F, options.max_triangles, &distance, &drawn_distance);
   const double top = std::max(largest, 1e-9);
   const auto by_distance = [&](std::size_t f, int) {
-    const double d = (drawn_distance[l.F(f, 0)] + drawn_distance[l.F(f, 1)] +
-                      drawn_distance[l.F(f, 2)]) / 3;
-    return fmt::format("d{}", std::clamp(static_cast<int>(d / top * kDistanceShades), 0,
-                                         kDistanceShades - 1));
+    const double d =
+        (drawn_distance[l.F(f, 0)] + drawn_distance[l.F(f, 1)] + drawn_distance[l.F(f, 2)]) / 3;
+    return fmt::format(
+        "d{}", std::clamp(static_cast<int>(d / top * kDistanceShades), 0, kDistanceShades - 1));
   };
   h += "<figure>" + mesh_view(nullptr, l, view.R, options.view_size, diagonal, by_distance) +
        "<br>" + distance_bar(top, options.view_size) +
-       fmt::format("<figcaption class='distance-map'>the leak alone, {}; coloured by the "
-                   "distance of its vertices to the original's surface: median {:.3g} %, "
-                   "largest {:.3g} % of the diagonal, over its {} vertices</figcaption></figure>\n",
-                   view.caption, median, largest, rows.size());
+       fmt::format(
+           "<figcaption class='distance-map'>the leak alone, {}; coloured by the "
+           "distance of its vertices to the original's surface: median {:.3g} %, "
+           "largest {:.3g} % of the diagonal, over its {} vertices</figcaption></figure>\n",
+           view.caption, median, largest, rows.size());
   return h;
 }
 
@@ -626,14 +631,19 @@ std::string evidence_report_html(const Mesh& leaked, const Mesh& original,
   const bool named = r.status == TraceStatus::Named;
   std::string h = "<!DOCTYPE html>\n<html lang='en'>\n<head>\n<meta charset='utf-8'>\n";
   h += "<title>meshmark trace evidence</title>\n<style>" + std::string(kStyle) + shade_classes() +
-       distance_classes() +
-       fmt::format("figure{{width:{}px}}\n", options.view_size) + "</style>\n</head>\n<body>\n<h1>Trace evidence</h1>\n";
+       distance_classes() + fmt::format("figure{{width:{}px}}\n", options.view_size) +
+       "</style>\n</head>\n<body>\n<h1>Trace evidence</h1>\n";
   // Outcome: the verdict in a sentence, then the program's own summary.
   h += fmt::format("<div class='status {}'><p class='verdict'>{}</p><b>{}</b>: {}</div>\n",
                    named ? "named" : "none",
                    xml_escape(verdict_sentence(r, context.threshold, context.redact)),
                    trace_status_name(r.status),
                    xml_escape(context.redact ? "(redacted: see the tables)" : r.message));
+  if (!r.warnings.empty()) {
+    h += "<div class='warnings'><b>Warnings</b><ul>";
+    for (const std::string& w : r.warnings) h += "<li>" + xml_escape(w) + "</li>";
+    h += "</ul></div>\n";
+  }
   h += named_rows(r, context.redact);
   h += "<h2>Candidates</h2>\n" + candidate_rows(r, context.threshold, context.redact);
   h += score_plot(r, context.threshold, context.redact);

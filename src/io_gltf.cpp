@@ -287,9 +287,23 @@ struct Reader {
       const auto it = options.resources->find(uri);
       if (it != options.resources->end()) return it->second;
     }
-    const std::filesystem::path path = std::filesystem::path(name).parent_path() / p;
+    // Resolved with every symbolic link followed, the file must still lie below the folder:
+    // a link planted beside an asset (buf.bin -> /etc/passwd) is not read into its copies.
+    const std::filesystem::path folder = std::filesystem::path(name).parent_path();
+    const std::filesystem::path path = folder / p;
+    std::error_code ec, found;
+    const std::filesystem::path base =
+        std::filesystem::canonical(folder.empty() ? "." : folder, ec);
+    const std::filesystem::path target = std::filesystem::canonical(path, found);
+    if (!ec && !found) {
+      const std::filesystem::path below = target.lexically_relative(base);
+      if (below.empty() || *below.begin() == "..")
+        fail(fmt::format("{}: uri '{}' leads out of the file's folder through a symbolic link",
+                         where, uri));
+    }
     try {
-      return read_file(path.string(), std::size_t{1} << 32, "glTF buffer");
+      return read_file(found ? path.string() : target.string(), std::size_t{1} << 32,
+                       "glTF buffer");
     } catch (const IOError& e) {
       fail(fmt::format("{} (uri '{}'): {}", where, uri, e.what()));
     }

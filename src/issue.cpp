@@ -61,8 +61,8 @@ void refuse_clashes(const std::vector<CopyRequest>& requests, const IssueSetting
     if (!pending(out[k])) continue;
     for (const auto& [what, path] : kept)
       if (!path.empty() && pending(out[k]) && same_file(requests[k].output, path))
-        refuse(out[k], fmt::format("{}: refusing to overwrite {} ({})", requests[k].output, what,
-                                   path));
+        refuse(out[k],
+               fmt::format("{}: refusing to overwrite {} ({})", requests[k].output, what, path));
   }
   const auto where = [&](std::size_t k) {
     return requests[k].line ? fmt::format("line {}", requests[k].line)
@@ -117,7 +117,7 @@ bool resumable(const IssuedCopy& taken, IssuedCopy wanted, const std::string& ou
 void check_registry(const Registry& registry, std::vector<CopyRequest>& requests,
                     const IssueSettings& settings, std::vector<CopyOutcome>& out) {
   std::vector<std::size_t> candidates, automatic;
-  std::vector<IssuedCopy> given, chosen;  // the copies with an ID, those asking for one
+  std::vector<IssuedCopy> given, chosen;        // the copies with an ID, those asking for one
   std::map<std::string, IssuedCopy> originals;  // each input read and hashed once
   for (std::size_t k = 0; k < requests.size(); ++k) {
     if (!pending(out[k])) continue;
@@ -179,9 +179,9 @@ void check_registry(const Registry& registry, std::vector<CopyRequest>& requests
                  ? fmt::format("ID {} already issued from this original{} under this key to '{}' "
                                "on {} ({}): choose another ID",
                                taken.id,
-                               other_file ? fmt::format(" (the same geometry, as {})",
-                                                        taken.original_path)
-                                          : "",
+                               other_file
+                                   ? fmt::format(" (the same geometry, as {})", taken.original_path)
+                                   : "",
                                taken.buyer, taken.issued_at, taken.output_path)
                  : fmt::format("ID {} is given twice for this original", taken.id));
     }
@@ -309,13 +309,13 @@ IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::
 }
 
 void record_copies(Registry& registry, std::vector<IssuedCopy> copies,
-                   const std::vector<std::string>& outputs) {
+                   const std::vector<std::string>& outputs, const Key& key) {
   try {
     for (std::size_t k = 0; k < copies.size(); ++k) {
       copies[k].output_path = normalized_path(outputs[k]);
       copies[k].output_hash = content_hash(read_file(outputs[k]));
     }
-    registry.record(std::move(copies));
+    registry.record(std::move(copies), key);
   } catch (...) {
     for (const std::string& out : outputs) std::remove(out.c_str());
     throw;
@@ -427,7 +427,7 @@ IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings&
       if (out[k].status == CopyStatus::Written)
         done.push_back(out[k].record), outputs.push_back(requests[k].output);
     try {
-      if (!done.empty()) record_copies(*registry, done, outputs);
+      if (!done.empty()) record_copies(*registry, done, outputs, id_key(settings.key));
     } catch (const std::exception& e) {
       for (CopyOutcome& c : out)
         if (c.status == CopyStatus::Written)

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <sodium.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <array>
@@ -87,6 +88,17 @@ Key key_from_file(const std::string& path) {
   if (bytes.empty()) throw InvalidInputError(path, 0, "the key file is empty");
   return hash_under_domain("meshmark/key-file/v1",
                            reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size());
+}
+
+std::string key_file_exposure(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return {};
+  if ((st.st_mode & (S_IRGRP | S_IROTH)) == 0) return {};
+  return fmt::format(
+      "{}: the key file can be read by {} (mode {:04o}): whoever reads it can forge any buyer's "
+      "mark; chmod 600 it",
+      path, (st.st_mode & S_IROTH) ? "every user of this machine" : "its group",
+      st.st_mode & 07777);
 }
 
 Key generate_key_file(const std::string& path) {

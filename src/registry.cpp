@@ -8,6 +8,7 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
+#include <regex>
 #include <set>
 #include <tuple>
 
@@ -138,6 +139,50 @@ std::string geometry_hash(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) 
   return hex(digest, sizeof digest);
 }
 
+std::string row_mac(const Key& key, const IssuedCopy& c) {
+  const Key k = derive_key(key, "registry row");
+  crypto_generichash_state state;
+  crypto_generichash_init(&state, k.bytes.data(), k.bytes.size(), 32);
+  // Each field as text (integers in decimal, reals as %.17g), after its length in 4 bytes,
+  // little-endian: no two rows encode alike.
+  const auto put = [&](const std::string& field) {
+    unsigned char size[4];
+    for (int b = 0; b < 4; ++b) size[b] = static_cast<unsigned char>(field.size() >> (8 * b));
+    crypto_generichash_update(&state, size, 4);
+    crypto_generichash_update(&state, reinterpret_cast<const unsigned char*>(field.data()),
+                              field.size());
+  };
+  const auto real = [](double x) { return fmt::format("{:.17g}", x); };
+  put("meshmark registry row 1");
+  for (const std::string& field :
+       {c.original_hash, c.original_path, c.buyer, std::to_string(c.id), std::to_string(c.id_bits),
+        std::to_string(c.bits), c.variant, real(c.strength), real(c.strength_spread),
+        real(c.bin_offset), c.key_fingerprint, std::to_string(c.mark_format), c.issued_at,
+        c.output_path, c.output_hash, c.method, c.original_geometry})
+    put(field);
+  unsigned char digest[32];
+  crypto_generichash_final(&state, digest, sizeof digest);
+  return hex(digest, sizeof digest);
+}
+
+RowAuth check_row(const Key& key, const IssuedCopy& c) {
+  if (c.key_fingerprint != key_fingerprint(key)) return RowAuth::OtherKey;
+  if (c.mac.empty()) return RowAuth::Unauthenticated;
+  const std::string expected = row_mac(key, c);
+  return expected.size() == c.mac.size() &&
+                 sodium_memcmp(expected.data(), c.mac.data(), expected.size()) == 0
+             ? RowAuth::Authentic
+             : RowAuth::Edited;
+}
+
+std::string registry_display_name(const std::string& where) {
+  if (!is_postgres(where)) return where;
+  static const std::regex user_password("(://[^:/@?#]*):[^@/?#]*@");
+  static const std::regex parameter("([?&]password=)[^&#]*", std::regex::icase);
+  return std::regex_replace(std::regex_replace(where, user_password, "$1:***@"), parameter,
+                            "$1***");
+}
+
 bool same_copy(const IssuedCopy& recorded, const IssuedCopy& wanted) {
   return recorded.original_hash == wanted.original_hash &&
          recorded.key_fingerprint == wanted.key_fingerprint && recorded.id == wanted.id &&
@@ -154,9 +199,8 @@ struct Registry::Impl {
   std::unique_ptr<detail::RegistryBackend> store;
 };
 
-Registry::Registry(const std::string& location, bool read_only)
-    : impl_(std::make_unique<Impl>()) {
-  impl_->location = location;
+Registry::Registry(const std::string& location, bool read_only) : impl_(std::make_unique<Impl>()) {
+  impl_->location = registry_display_name(location);  // for messages: no password
   impl_->store = is_postgres(location) ? detail::open_postgres_registry(location)
                                        : detail::open_sqlite_registry(location, read_only);
 }
@@ -207,6 +251,25 @@ std::vector<IssuedCopy> Registry::record(std::vector<IssuedCopy> copies) {
   return copies;
 }
 
+std::vector<IssuedCopy> Registry::record(std::vector<IssuedCopy> copies, const Key& key) {
+  const std::string fingerprint = key_fingerprint(key);
+  const std::string stamp = now_utc();
+  for (IssuedCopy& c : copies) {
+    if (c.key_fingerprint != fingerprint)
+      throw InvalidArgumentError(fmt::format(
+          "{}: the copy for '{}' names key {}, not the key it is recorded with ({}); nothing "
+          "recorded",
+          registry_display_name(impl_->location), c.buyer, c.key_fingerprint, fingerprint));
+    if (c.issued_at.empty()) c.issued_at = stamp;
+    c.mac = row_mac(key, c);
+  }
+  return record(std::move(copies));
+}
+
+std::string Registry::integrity_check() const {
+  return impl_->store->integrity_check();
+}
+
 std::vector<IssuedCopy> Registry::list(const RegistryQuery& query) const {
   return impl_->store->list(query);
 }
@@ -215,6 +278,32 @@ std::vector<IssuedCopy> read_registry(const std::string& where, const RegistryQu
   if (where.find("://") == std::string::npos && !std::filesystem::exists(where))
     throw IOError(fmt::format("{}: no such registry", where));
   return Registry(where, true).list(query);
+}
+
+RegistryCheck verify_registry(const std::string& where, const Key& key) {
+  if (where.find("://") == std::string::npos && !std::filesystem::exists(where))
+    throw IOError(fmt::format("{}: no such registry", where));
+  const Registry registry(where, true);
+  RegistryCheck check;
+  check.integrity = registry.integrity_check();
+  for (const IssuedCopy& c : registry.list()) {
+    ++check.rows;
+    switch (check_row(key, c)) {
+      case RowAuth::Authentic:
+        ++check.authentic;
+        break;
+      case RowAuth::Edited:
+        check.edited.push_back(c);
+        break;
+      case RowAuth::Unauthenticated:
+        check.unauthenticated.push_back(c);
+        break;
+      case RowAuth::OtherKey:
+        ++check.other_key;
+        break;
+    }
+  }
+  return check;
 }
 
 }  // namespace meshmark

@@ -28,6 +28,8 @@ class RegistryBackend {
   virtual std::int64_t insert(const IssuedCopy& c) = 0;
   /// The copies matching query, by row.
   virtual std::vector<IssuedCopy> list(const RegistryQuery& query) = 0;
+  /// The store's own integrity check: "ok", or its findings one per line.
+  virtual std::string integrity_check() { return "ok"; }
 };
 
 /// Opens (creating its schema) the SQLite registry file at path; read_only: an existing one,
@@ -41,7 +43,7 @@ std::unique_ptr<RegistryBackend> open_postgres_registry(const std::string& uri);
 inline constexpr const char* kRegistryColumns =
     "original_hash, original_path, buyer, id, id_bits, bits, variant, strength, "
     "strength_spread, bin_offset, key_fingerprint, mark_format, issued_at, output_path, "
-    "output_hash, method, original_geometry";
+    "output_hash, method, original_geometry, mac";
 
 /// The statements that create schema version 1's table and index, in SQLite's or
 /// PostgreSQL's types.
@@ -86,5 +88,10 @@ inline constexpr const char* kRegistryMigrationV2 =
 inline constexpr const char* kRegistryMigrationV3 =
     "ALTER TABLE copies ADD COLUMN original_geometry TEXT NOT NULL DEFAULT '';\n"
     "CREATE INDEX copies_by_geometry ON copies (original_geometry, key_fingerprint, id);";
+
+/// The statement that takes version 3 to version 4: each row's MAC (row_mac; '' for the
+/// copies recorded before, which carry none).
+inline constexpr const char* kRegistryMigrationV4 =
+    "ALTER TABLE copies ADD COLUMN mac TEXT NOT NULL DEFAULT ''";
 
 }  // namespace meshmark::detail

@@ -16,9 +16,8 @@ namespace meshmark::detail {
 
 namespace {
 
-// The URI without its password, for messages.
 std::string redacted(const std::string& uri) {
-  return std::regex_replace(uri, std::regex("(://[^:/@]*):[^@]*@"), "$1:***@");
+  return registry_display_name(uri);
 }
 
 // A result, cleared on scope exit.
@@ -52,6 +51,7 @@ class Result {
     c.output_path = text(row, 14);
     c.output_hash = text(row, 15);
     c.original_geometry = text(row, 17);
+    c.mac = text(row, 18);
     return c;
   }
 
@@ -98,6 +98,10 @@ class PostgresRegistry final : public RegistryBackend {
         if (schema_version() == 2) {
           run(kRegistryMigrationV3);
           run("UPDATE meshmark_schema SET version = 3");
+        }
+        if (schema_version() == 3) {
+          run(kRegistryMigrationV4);
+          run("UPDATE meshmark_schema SET version = 4");
         }
       });
     } catch (...) {
@@ -155,9 +159,10 @@ class PostgresRegistry final : public RegistryBackend {
                                         c.output_path,
                                         c.output_hash,
                                         c.method,
-                                        c.original_geometry};
+                                        c.original_geometry,
+                                        c.mac};
     const Result r = run(fmt::format("INSERT INTO copies ({}) VALUES ($1, $2, $3, $4, $5, $6, "
-                                     "$7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17) "
+                                     "$7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18) "
                                      "RETURNING row",
                                      kRegistryColumns),
                          p);

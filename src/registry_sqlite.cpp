@@ -61,6 +61,7 @@ class Statement {
     c.output_path = text(14);
     c.output_hash = text(15);
     c.original_geometry = text(17);
+    c.mac = text(18);
     return c;
   }
 
@@ -84,12 +85,13 @@ class SqliteRegistry final : public RegistryBackend {
  public:
   SqliteRegistry(const std::string& path, bool read_only) : path_(path), read_only_(read_only) {
     const int opened =
-        read_only ? sqlite3_open_v2(file_uri(path, "mode=ro").c_str(), &db_,
-                                    SQLITE_OPEN_READONLY | SQLITE_OPEN_URI | SQLITE_OPEN_FULLMUTEX,
-                                    nullptr)
-                  : sqlite3_open_v2(path.c_str(), &db_,
-                                    SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
-                                    nullptr);
+        read_only
+            ? sqlite3_open_v2(file_uri(path, "mode=ro").c_str(), &db_,
+                              SQLITE_OPEN_READONLY | SQLITE_OPEN_URI | SQLITE_OPEN_FULLMUTEX,
+                              nullptr)
+            : sqlite3_open_v2(path.c_str(), &db_,
+                              SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
+                              nullptr);
     if (opened != SQLITE_OK) {
       const std::string message = db_ ? sqlite3_errmsg(db_) : "out of memory";
       sqlite3_close(db_);
@@ -135,6 +137,10 @@ class SqliteRegistry final : public RegistryBackend {
           exec(kRegistryMigrationV3);
           exec("PRAGMA user_version = 3");
         }
+        if (schema_version() == 3) {
+          exec(kRegistryMigrationV4);
+          exec("PRAGMA user_version = 4");
+        }
       });
     } catch (...) {
       sqlite3_close(db_);
@@ -151,9 +157,10 @@ class SqliteRegistry final : public RegistryBackend {
   void open_read_only() {
     const int version = schema_version();
     if (version == 0)
-      throw IOError(fmt::format("{}: not a meshmark registry (an empty file, or another "
-                                "SQLite database)",
-                                path_));
+      throw IOError(
+          fmt::format("{}: not a meshmark registry (an empty file, or another "
+                      "SQLite database)",
+                      path_));
     if (version > kRegistrySchemaVersion)
       throw IOError(fmt::format(
           "{}: the registry has schema version {}, newer than this meshmark's {}: use a newer "
@@ -163,6 +170,7 @@ class SqliteRegistry final : public RegistryBackend {
     const auto replace = [&](const std::string& column, const std::string& as) {
       columns.replace(columns.find(column), column.size(), as + " AS " + column);
     };
+    if (version < 4) replace("mac", "''");
     if (version < 3) replace("original_geometry", "''");
     if (version < 2) replace("method", "'qp'");
     columns_ = columns;
@@ -205,7 +213,7 @@ class SqliteRegistry final : public RegistryBackend {
       insert_ = std::make_unique<Statement>(
           db_, path_,
           fmt::format("INSERT INTO copies ({}) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, "
-                      "?11, ?12, ?13, ?14, ?15, ?16, ?17)",
+                      "?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18)",
                       kRegistryColumns));
     Statement& s = *insert_;
     sqlite3_reset(s.get());
@@ -226,8 +234,19 @@ class SqliteRegistry final : public RegistryBackend {
     s.bind(15, c.output_hash);
     s.bind(16, c.method);
     s.bind(17, c.original_geometry);
+    s.bind(18, c.mac);
     if (sqlite3_step(s.get()) != SQLITE_DONE) fail(db_, path_, "cannot record a copy");
     return sqlite3_last_insert_rowid(db_);
+  }
+
+  std::string integrity_check() override {
+    Statement q(db_, path_, "PRAGMA integrity_check");
+    std::string found;
+    int rc = 0;
+    while ((rc = sqlite3_step(q.get())) == SQLITE_ROW)
+      found += (found.empty() ? "" : "\n") + q.text(0);
+    if (rc != SQLITE_DONE) return found + (found.empty() ? "" : "\n") + sqlite3_errmsg(db_);
+    return found.empty() ? "ok" : found;
   }
 
   std::vector<IssuedCopy> list(const RegistryQuery& query) override {
@@ -241,9 +260,8 @@ class SqliteRegistry final : public RegistryBackend {
     if (query.buyer) where += " AND buyer = ?2";
     if (query.key_fingerprint) where += " AND key_fingerprint = ?3";
     if (query.id) where += " AND id = ?4";
-    Statement q(
-        db_, path_,
-        fmt::format("SELECT row, {} FROM copies WHERE {} ORDER BY row", columns_, where));
+    Statement q(db_, path_,
+                fmt::format("SELECT row, {} FROM copies WHERE {} ORDER BY row", columns_, where));
     if (query.original_hash) q.bind(1, *query.original_hash);
     if (query.buyer) q.bind(2, *query.buyer);
     if (query.key_fingerprint) q.bind(3, *query.key_fingerprint);

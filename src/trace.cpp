@@ -377,9 +377,42 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
   std::stable_sort(
       r.ranking.begin(), r.ranking.end(),
       [](const CandidateScore& a, const CandidateScore& b) { return a.p_value < b.p_value; });
-  for (const CandidateScore& s : r.ranking)
-    if (s.corrected_p < o.threshold) r.named.push_back(s);
+  // A row edited after it was recorded is never named (its buyer or its ID may be anyone's);
+  // a row without a MAC is, with a warning.
+  std::size_t edited = 0;
+  for (CandidateScore& s : r.ranking) {
+    s.auth = check_row(key, s.copy);
+    if (s.auth == RowAuth::Edited) {
+      ++edited;
+      if (s.corrected_p < o.threshold)
+        r.warnings.push_back(fmt::format(
+            "row {} (ID {}) reads as the leaker (p = {:.3g} after correction) but fails its "
+            "authentication code: it was changed after it was recorded, and is not named",
+            s.copy.row, s.copy.id, s.corrected_p));
+      continue;
+    }
+    if (s.corrected_p < o.threshold) {
+      r.named.push_back(s);
+      if (s.auth == RowAuth::Unauthenticated)
+        r.warnings.push_back(fmt::format(
+            "row {} (ID {}) carries no authentication code (recorded before registry schema "
+            "4, or without the key): its buyer and ID are as the registry says, unverified",
+            s.copy.row, s.copy.id));
+    }
+  }
+  if (edited > 0)
+    r.warnings.push_back(fmt::format(
+        "{} of the {} candidate rows fail their authentication code (meshmark registry verify "
+        "lists them)",
+        edited, r.ranking.size()));
   r.status = r.named.empty() ? TraceStatus::NoBuyer : TraceStatus::Named;
+  if (r.named.empty() && !r.warnings.empty() && r.ranking.front().corrected_p < o.threshold &&
+      r.ranking.front().auth == RowAuth::Edited) {
+    r.message =
+        "no buyer: the candidates that read as the leaker fail their authentication "
+        "code (see the warnings)";
+    return r;
+  }
   r.message =
       r.named.empty()
           ? fmt::format("no buyer: the best of {} candidates has p = {:.3g} after correction",
@@ -390,6 +423,30 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
                 r.named[0].copy.buyer, r.named[0].copy.id, r.named[0].corrected_p,
                 r.ranking.size());
   return r;
+}
+
+void compare_with_issued_files(TraceResult& r, const std::string& leaked_hash) {
+  const CandidateScore* same = nullptr;
+  for (const CandidateScore& s : r.ranking)
+    if (!s.copy.output_hash.empty() && s.copy.output_hash == leaked_hash) same = &s;
+  if (!same) return;
+  r.identical_row = same->copy.row;
+  bool named = false;
+  for (const CandidateScore& s : r.named) named = named || s.copy.row == same->copy.row;
+  if (named) {
+    r.message +=
+        fmt::format("; the leak is byte for byte the file issued in row {}", same->copy.row);
+  } else if (!r.named.empty()) {
+    r.warnings.push_back(fmt::format(
+        "the leak's bytes are those of the copy recorded in row {} (ID {}), not of a named "
+        "buyer's: the mark and the registry contradict each other, and nobody is named",
+        same->copy.row, same->copy.id));
+    r.named.clear();
+    r.status = TraceStatus::NoBuyer;
+    r.message =
+        "no buyer: the mark read and the leak's bytes name different rows (see the "
+        "warnings)";
+  }
 }
 
 TraceResult trace_issued(const Mesh& leaked, const Mesh& original, const std::string& original_hash,

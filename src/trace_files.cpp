@@ -51,6 +51,7 @@ TraceFilesResult trace_files(const TraceFilesRequest& request, const Key& key) {
   found.original_hash = content_hash(read_file(request.original));
   found.trace = trace_issued(found.leaked, found.original, found.original_hash, request.registry,
                              key, request.options);
+  compare_with_issued_files(found.trace, hash_of(request.leaked));
   if (!request.report.empty()) write_trace_report(request, found, key);
   if (!request.pdf.empty()) print_pdf(request.report, request.pdf);
   return found;
@@ -63,7 +64,7 @@ void write_trace_report(const TraceFilesRequest& request, const TraceFilesResult
   c.threshold = request.options.threshold;
   c.leaked = {request.leaked, hash_of(request.leaked)};
   c.original = {request.original, found.original_hash};
-  c.registry = {request.registry, hash_of(request.registry)};
+  c.registry = {registry_display_name(request.registry), hash_of(request.registry)};
   c.key_fingerprint = key_fingerprint(key);
   c.command = request.command;
   c.command_note = request.command_note;

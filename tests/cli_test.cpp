@@ -131,8 +131,7 @@ TEST(Cli, CompareReportsEveryMetricAndWritesAMap) {
   ASSERT_EQ(run("attack noise " + in + " " + dir + "/noisy.obj --strength 0.002 --seed 3").code, 0);
   const CliRun r = run("compare " + in + " " + dir + "/noisy.obj --json --map " + dir + "/map.ply");
   ASSERT_EQ(r.code, 0) << r.out;
-  for (const char* key :
-       {"rms_percent", "mrms_percent", "hausdorff_percent", "msdm", "msdm2"})
+  for (const char* key : {"rms_percent", "mrms_percent", "hausdorff_percent", "msdm", "msdm2"})
     EXPECT_NE(r.out.find(std::string("\"") + key + "\""), std::string::npos) << key;
   EXPECT_EQ(read_mesh(dir + "/map.ply").V.rows(), read_mesh(in).V.rows());
 }
@@ -183,8 +182,8 @@ TEST(Cli, BatchAndRegistryTalkJson) {
     manifest << spot << " " << dir << "/a.ply id:9 buyer c\n";  // a.ply twice: both refused
   }
   const std::string db = dir + "/shop.db";
-  const CliRun r = run("embed --batch " + dir + "/manifest.txt --public-key --registry " + db +
-                       " --json");
+  const CliRun r =
+      run("embed --batch " + dir + "/manifest.txt --public-key --registry " + db + " --json");
   EXPECT_EQ(r.code, 4) << r.out;
   const nlohmann::json j = nlohmann::json::parse(r.out);
   ASSERT_EQ(j["copies"].size(), 3u);
@@ -216,9 +215,10 @@ TEST(Cli, EmbedNeverWritesOverItsRegistryKeyFileOrManifest) {
   ASSERT_EQ(run("keygen " + key).code, 0);
   std::filesystem::create_symlink(key, dir + "/key-link.ply");
   std::filesystem::create_hard_link(key, dir + "/key-hard.ply");
-  ASSERT_EQ(run("embed " + spot + " " + dir + "/first.ply --id 1 --key-file " + key +
-                " --registry " + db).code,
-            0);
+  ASSERT_EQ(
+      run("embed " + spot + " " + dir + "/first.ply --id 1 --key-file " + key + " --registry " + db)
+          .code,
+      0);
   const auto bytes = [](const std::string& path) {
     std::ifstream in(path, std::ios::binary);
     return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -226,8 +226,8 @@ TEST(Cli, EmbedNeverWritesOverItsRegistryKeyFileOrManifest) {
   const std::string key_bytes = bytes(key);
   for (const std::string& out : {db, key, dir + "/key-link.ply", dir + "/key-hard.ply"}) {
     SCOPED_TRACE(out);
-    const CliRun r = run("embed " + spot + " " + out + " --id 2 --key-file " + key +
-                         " --registry " + db);
+    const CliRun r =
+        run("embed " + spot + " " + out + " --id 2 --key-file " + key + " --registry " + db);
     EXPECT_EQ(r.code, 1) << r.out;
     EXPECT_NE(r.out.find("refusing to overwrite"), std::string::npos) << r.out;
   }
@@ -246,6 +246,45 @@ TEST(Cli, EmbedNeverWritesOverItsRegistryKeyFileOrManifest) {
   EXPECT_EQ(bytes(manifest), manifest_bytes);
   EXPECT_EQ(read_registry(db).size(), 1u);
   EXPECT_EQ(bytes(db).substr(0, 16), std::string("SQLite format 3\0", 16));
+}
+
+// The review: a key file readable by others and --key on the command line were used without a
+// word. Both now warn; MESHMARK_KEY gives the passphrase's key with no warning.
+TEST(Cli, ExposedKeysWarnAndTheEnvironmentGivesThePassphrase) {
+  const std::string spot = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir() + "/key-warnings";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string copy = dir + "/c.ply";
+  test::CliRun r = test::run_cli("embed " + spot + " " + copy + " --id 9 --key 'open sesame'");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("visible to every user of this machine"), std::string::npos) << r.out;
+  // The same passphrase from the environment: no warning, and the same key (ID 9 read back).
+  r = test::run_command("MESHMARK_KEY='open sesame' " + std::string(MESHMARK_CLI) + " extract " +
+                        copy + " --coded --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(r.out.find("meshmark: warning"), std::string::npos) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["id"], 9);
+  // Another passphrase in the environment reads no ID (the key really came from it).
+  r = test::run_command("MESHMARK_KEY='closed' " + std::string(MESHMARK_CLI) + " extract " + copy +
+                        " --coded");
+  EXPECT_EQ(r.code, 6) << r.out;
+  // keygen's file (0600) is quiet; made readable by everyone, it warns, naming it and its mode.
+  const std::string key = dir + "/k.key";
+  ASSERT_EQ(test::run_cli("keygen " + key).code, 0);
+  r = test::run_cli("extract " + copy + " --coded --key-file " + key);
+  EXPECT_EQ(r.out.find("meshmark: warning"), std::string::npos) << r.out;
+  std::filesystem::permissions(key, std::filesystem::perms::others_read,
+                               std::filesystem::perm_options::add);
+  r = test::run_cli("extract " + copy + " --coded --key-file " + key);
+  EXPECT_NE(
+      r.out.find(key + ": the key file can be read by every user of this machine (mode 0604)"),
+      std::string::npos)
+      << r.out;
+  EXPECT_EQ(key_file_exposure(key).empty(), false);
+  std::filesystem::permissions(key, std::filesystem::perms::owner_read);
+  EXPECT_EQ(key_file_exposure(key), "");
 }
 
 TEST(Cli, OptionValuesThatAreNotFiniteAreRefusedAndNamedSo) {

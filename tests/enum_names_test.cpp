@@ -87,6 +87,7 @@ TEST(EnumNames, EveryTableNamesEveryValueOnceAndParsesBack) {
   check_table<TraceStatus>(4);
   check_table<SolverBackend>(2);
   check_table<AdmmXStep>(2);
+  check_table<RowAuth>(4);
 }
 
 // The names users type, as the README and the file formats give them.

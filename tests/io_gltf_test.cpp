@@ -475,6 +475,41 @@ TEST(Gltf, AnOutputNeverReplacesTheInputsBuffer) {
   EXPECT_EQ(slurp(out).substr(0, 3), "\xEF\xBB\xBF");
 }
 
+// The review's reproduction: a buffer linked out of the asset's folder (pw -> /etc/passwd) was
+// read and written into the marked copy's .bin. The same buffer moved out of the folder and
+// linked back is refused by name; linked from within the folder it is read.
+TEST(Gltf, ABufferLinkedOutOfItsFolderIsRefused) {
+  const std::string obj = spot_obj();
+  MESHMARK_REQUIRE(obj, "spot.obj");
+  if (!have("gltfpack")) GTEST_SKIP() << "skipped: gltfpack is not installed";
+  const Packed p = pack(obj, "-noq", "linked.gltf");  // buffer linked.bin
+  const std::filesystem::path dir(p.dir);
+  const Mesh direct = read_mesh(p.path);
+  // Inside the folder: a link to a file beside it is fine.
+  std::filesystem::create_directories(dir / "store");
+  std::filesystem::rename(dir / "linked.bin", dir / "store" / "real.bin");
+  std::filesystem::create_symlink("store/real.bin", dir / "linked.bin");
+  EXPECT_EQ(read_mesh(p.path).V, direct.V);
+  // Out of the folder: the asset sits in a subfolder, its buffer a link to the parent's file.
+  std::filesystem::create_directories(dir / "asset");
+  std::filesystem::copy_file(p.path, dir / "asset" / "linked.gltf");
+  std::filesystem::create_symlink("../store/real.bin", dir / "asset" / "linked.bin");
+  const std::string escaped = (dir / "asset" / "linked.gltf").string();
+  try {
+    (void)read_mesh(escaped);
+    ADD_FAILURE() << "a buffer outside the asset's folder was read";
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("leads out of the file's folder"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("linked.bin"), std::string::npos) << e.what();
+  }
+  const test::CliRun e = test::run_cli("embed '" + escaped + "' '" + p.dir +
+                                       "/asset/out.gltf' --payload deadbeefcafef00d --bits 64");
+  EXPECT_EQ(e.code, 2) << e.out;
+  EXPECT_FALSE(std::filesystem::exists(dir / "asset" / "out.gltf"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "asset" / "out.bin"));
+}
+
 TEST(Gltf, WeldToleranceMarksEveryStoredVertexByItsVertexDisplacement) {
   const std::string obj = spot_obj();
   MESHMARK_REQUIRE(obj, "spot.obj");

@@ -5,8 +5,8 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
-#include <nlohmann/json.hpp>
 #include <sqlite3.h>
+#include <nlohmann/json.hpp>
 
 #include <unistd.h>
 
@@ -14,6 +14,7 @@
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <set>
 #include <thread>
 
@@ -322,7 +323,8 @@ TEST(Registry, TheSameIdIsNeverIssuedTwiceForOneGeometry) {
   const std::string db = dir + "/reg.db", key = dir + "/k.key";
   ASSERT_EQ(test::run_cli("keygen " + key).code, 0);
   const std::string keyed = " --key-file " + key + " --registry " + db;
-  test::CliRun r = test::run_cli("embed " + o + " " + dir + "/b.ply --id 1042 --buyer b-1042" + keyed);
+  test::CliRun r =
+      test::run_cli("embed " + o + " " + dir + "/b.ply --id 1042 --buyer b-1042" + keyed);
   ASSERT_EQ(r.code, 0) << r.out;
   for (const std::string& other : {glb, commented}) {
     SCOPED_TRACE(other);
@@ -364,12 +366,14 @@ TEST(Registry, ReadingLeavesItsBytesAsTheyWere) {
   const std::string db = dir + "/reg.db", key = dir + "/k.key";
   ASSERT_EQ(test::run_cli("keygen " + key).code, 0);
   ASSERT_EQ(test::run_cli("embed " + spot + " " + dir + "/c.ply --id 7 --buyer ann --key-file " +
-                          key + " --registry " + db).code,
+                          key + " --registry " + db)
+                .code,
             0);
   {  // the journal mode a registry copied or written by another tool may have
     sqlite3* h = nullptr;
     ASSERT_EQ(sqlite3_open(db.c_str(), &h), SQLITE_OK);
-    ASSERT_EQ(sqlite3_exec(h, "PRAGMA journal_mode = DELETE", nullptr, nullptr, nullptr), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(h, "PRAGMA journal_mode = DELETE", nullptr, nullptr, nullptr),
+              SQLITE_OK);
     sqlite3_close(h);
   }
   const auto bytes = [](const std::string& path) {
@@ -377,10 +381,9 @@ TEST(Registry, ReadingLeavesItsBytesAsTheyWere) {
     return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   };
   const std::string before = bytes(db);
-  const std::string reads[] = {"registry list " + db, "registry export " + db,
-                               "registry show " + db + " --id 7",
-                               "trace " + dir + "/c.ply --original " + spot + " --registry " + db +
-                                   " --key-file " + key};
+  const std::string reads[] = {
+      "registry list " + db, "registry export " + db, "registry show " + db + " --id 7",
+      "trace " + dir + "/c.ply --original " + spot + " --registry " + db + " --key-file " + key};
   for (const std::string& command : reads) {
     const test::CliRun r = test::run_cli(command);
     EXPECT_EQ(r.code, 0) << command << "\n" << r.out;
@@ -392,8 +395,8 @@ TEST(Registry, ReadingLeavesItsBytesAsTheyWere) {
   EXPECT_EQ(read_registry(db).size(), 1u);
   const test::CliRun ro = test::run_cli(reads[3]);
   EXPECT_EQ(ro.code, 0) << ro.out;
-  std::filesystem::permissions(db, std::filesystem::perms::owner_read |
-                                       std::filesystem::perms::owner_write);
+  std::filesystem::permissions(
+      db, std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
   // A schema-2 registry is read as it is: its rows have no geometry, its version stays 2.
   {
     sqlite3* h = nullptr;
@@ -412,6 +415,177 @@ TEST(Registry, ReadingLeavesItsBytesAsTheyWere) {
   EXPECT_EQ(rows[0].buyer, "ann");
   EXPECT_EQ(rows[0].original_geometry, "");
   EXPECT_EQ(bytes(db), v2);
+}
+
+// Executes sql on the SQLite file at path, as someone editing a registry by hand would.
+void edit_registry(const std::string& path, const std::string& sql) {
+  sqlite3* h = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &h), SQLITE_OK);
+  char* message = nullptr;
+  EXPECT_EQ(sqlite3_exec(h, sql.c_str(), nullptr, nullptr, &message), SQLITE_OK)
+      << (message ? message : "") << "\n"
+      << sql;
+  sqlite3_free(message);
+  sqlite3_close(h);
+}
+
+TEST(Registry, RowMacsChangeWithEveryFieldAndTheKey) {
+  const Key k = key_from_passphrase("shop"), other = key_from_passphrase("other");
+  IssuedCopy c = copy_of(7, "Ann");
+  c.key_fingerprint = key_fingerprint(k);
+  c.issued_at = "2026-01-01T00:00:00Z";
+  c.mac = row_mac(k, c);
+  EXPECT_EQ(c.mac.size(), 64u);
+  EXPECT_EQ(check_row(k, c), RowAuth::Authentic);
+  EXPECT_EQ(check_row(other, c), RowAuth::OtherKey);
+  // Each field a forger could change, one at a time: the MAC no longer matches.
+  const std::vector<std::function<void(IssuedCopy&)>> edits = {
+      [](IssuedCopy& e) { e.id = 8; },
+      [](IssuedCopy& e) { e.buyer = "Bo"; },
+      [](IssuedCopy& e) { e.output_hash = std::string(64, 'c'); },
+      [](IssuedCopy& e) { e.original_hash = std::string(64, 'e'); },
+      [](IssuedCopy& e) { e.original_geometry = ""; },
+      [](IssuedCopy& e) { e.strength = 0.0310000001; },
+      [](IssuedCopy& e) { e.id_bits = 31; },
+      [](IssuedCopy& e) { e.issued_at = "2026-01-01T00:00:01Z"; },
+      [](IssuedCopy& e) { e.output_path += "x"; },
+      [](IssuedCopy& e) { e.method = "cho-mean"; },
+      [](IssuedCopy& e) { e.mac[0] = e.mac[0] == '0' ? '1' : '0'; },
+  };
+  for (std::size_t i = 0; i < edits.size(); ++i) {
+    IssuedCopy e = c;
+    edits[i](e);
+    EXPECT_EQ(check_row(k, e), RowAuth::Edited) << "edit " << i;
+  }
+  // Bytes moved between adjacent fields keep their concatenation: the lengths tell them apart.
+  IssuedCopy split = c;  // "Ann" + "/shop/out/7.ply" as "An" + "n/shop/out/7.ply"
+  split.buyer = "An", split.output_path = "n" + c.output_path;
+  IssuedCopy joined = c;
+  joined.buyer = "Ann/shop", joined.output_path = c.output_path.substr(5);
+  EXPECT_NE(row_mac(k, split), c.mac);
+  EXPECT_NE(row_mac(k, joined), c.mac);
+  c.mac.clear();
+  EXPECT_EQ(check_row(k, c), RowAuth::Unauthenticated);
+  // record() with the key fills the MAC; a copy of another key is refused.
+  const std::string db = test::scratch_dir() + "/mac.db";
+  std::filesystem::remove(db);
+  Registry r(db);
+  IssuedCopy fresh = copy_of(9, "Cy");
+  fresh.key_fingerprint = key_fingerprint(k);
+  EXPECT_THROW(r.record({fresh}, other), InvalidArgumentError);
+  const std::vector<IssuedCopy> done = r.record({fresh}, k);
+  EXPECT_EQ(check_row(k, Registry(db).list().at(0)), RowAuth::Authentic);
+  EXPECT_EQ(done.at(0).mac, Registry(db).list().at(0).mac);
+}
+
+// The reproduction of the review: two rows' IDs swapped with sqlite3 made trace name the other
+// buyer. Now verify finds both rows, trace names neither, and a damaged index page is found.
+TEST(Registry, AnEditedRowIsFoundByVerifyAndNeverNamed) {
+  const std::string spot = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir() + "/edited";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string db = dir + "/reg.db", key = dir + "/k.key";
+  ASSERT_EQ(test::run_cli("keygen " + key).code, 0);
+  for (const int id : {11, 40, 77}) {
+    const test::CliRun r = test::run_cli(
+        fmt::format("embed {} {}/c{}.ply --id {} --buyer b{} --key-file {} --registry {}", spot,
+                    dir, id, id, id, key, db));
+    ASSERT_EQ(r.code, 0) << r.out;
+  }
+  const auto bytes = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  const std::string verify = "registry verify " + db + " --key-file " + key + " --json";
+  const std::string before = bytes(db);
+  test::CliRun v = test::run_cli(verify);
+  EXPECT_EQ(v.code, 0) << v.out;
+  EXPECT_EQ(bytes(db), before);  // verify reads, never writes
+  nlohmann::json j = nlohmann::json::parse(v.out);
+  EXPECT_EQ(j["authentic"], 3);
+  EXPECT_TRUE(j["ok"].get<bool>());
+  // Under another key, nothing can be checked: three rows of another key, none authentic.
+  ASSERT_EQ(test::run_cli("keygen " + dir + "/other.key").code, 0);
+  v = test::run_cli("registry verify " + db + " --key-file " + dir + "/other.key --json");
+  j = nlohmann::json::parse(v.out);
+  EXPECT_EQ(j["other_key"], 3);
+  EXPECT_EQ(j["authentic"], 0);
+  // The forgery: b11's and b40's IDs swapped, so that b11's leak reads as "b40's ID".
+  edit_registry(db,
+                "UPDATE copies SET id = -1 WHERE id = 11; UPDATE copies SET id = 11 WHERE id = 40; "
+                "UPDATE copies SET id = 40 WHERE id = -1;");
+  v = test::run_cli(verify);
+  EXPECT_EQ(v.code, 7) << v.out;
+  j = nlohmann::json::parse(v.out);
+  EXPECT_FALSE(j["ok"].get<bool>());
+  EXPECT_EQ(j["authentic"], 1);
+  ASSERT_EQ(j["edited"].size(), 2u) << v.out;
+  std::set<std::string> edited;
+  for (const auto& row : j["edited"]) edited.insert(row["buyer"].get<std::string>());
+  EXPECT_EQ(edited, (std::set<std::string>{"b11", "b40"}));
+  // b11's copy leaks unprocessed: the mark reads ID 11, whose row now says b40. Nobody named.
+  const std::string trace =
+      "trace " + dir + "/c11.ply --original " + spot + " --registry " + db + " --key-file " + key;
+  test::CliRun t = test::run_cli(trace + " --json");
+  EXPECT_EQ(t.code, 6) << t.out;
+  const std::size_t brace = t.out.find('{');
+  ASSERT_NE(brace, std::string::npos) << t.out;
+  j = nlohmann::json::parse(t.out.substr(brace));
+  EXPECT_EQ(j["status"], "no-buyer");
+  EXPECT_TRUE(j["named"].empty());
+  std::string warnings = j["warnings"].dump();
+  EXPECT_NE(warnings.find("reads as the leaker"), std::string::npos) << warnings;
+  EXPECT_NE(warnings.find("ID 11"), std::string::npos) << warnings;
+  // b77's row is intact: its leak is still named, and is byte for byte its recorded file.
+  t = test::run_cli("trace " + dir + "/c77.ply --original " + spot + " --registry " + db +
+                    " --key-file " + key + " --json");
+  EXPECT_EQ(t.code, 0) << t.out;
+  j = nlohmann::json::parse(t.out.substr(t.out.find('{')));
+  ASSERT_EQ(j["named"].size(), 1u) << t.out;
+  EXPECT_EQ(j["named"][0]["buyer"], "b77");
+  EXPECT_EQ(j["named"][0]["row_auth"], "authentic");
+  EXPECT_EQ(j["identical_row"], 3);
+  // A row whose MAC is removed is named, with a warning that it is unverified.
+  edit_registry(db, "UPDATE copies SET mac = '' WHERE id = 77");
+  t = test::run_cli("trace " + dir + "/c77.ply --original " + spot + " --registry " + db +
+                    " --key-file " + key + " --json");
+  EXPECT_EQ(t.code, 0) << t.out;
+  j = nlohmann::json::parse(t.out.substr(t.out.find('{')));
+  EXPECT_EQ(j["named"][0]["row_auth"], "unauthenticated");
+  EXPECT_NE(j["warnings"].dump().find("no authentication code"), std::string::npos) << t.out;
+  v = test::run_cli(verify);
+  EXPECT_EQ(v.code, 7);
+  EXPECT_EQ(nlohmann::json::parse(v.out)["unauthenticated"].size(), 1u) << v.out;
+  // A damaged index page: list still reads the table, verify says the file is damaged.
+  int page_size = 0, root = 0;
+  {
+    sqlite3* h = nullptr;
+    ASSERT_EQ(sqlite3_open(db.c_str(), &h), SQLITE_OK);
+    sqlite3_stmt* s = nullptr;
+    sqlite3_prepare_v2(h, "SELECT rootpage FROM sqlite_master WHERE name = 'copies_by_buyer'", -1,
+                       &s, nullptr);
+    ASSERT_EQ(sqlite3_step(s), SQLITE_ROW);
+    root = sqlite3_column_int(s, 0);
+    sqlite3_finalize(s);
+    sqlite3_prepare_v2(h, "PRAGMA page_size", -1, &s, nullptr);
+    ASSERT_EQ(sqlite3_step(s), SQLITE_ROW);
+    page_size = sqlite3_column_int(s, 0);
+    sqlite3_finalize(s);
+    sqlite3_exec(h, "PRAGMA journal_mode = DELETE", nullptr, nullptr, nullptr);
+    sqlite3_close(h);
+  }
+  ASSERT_GT(root, 1);
+  {
+    std::fstream f(db, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(static_cast<std::streamoff>(root - 1) * page_size + 8);  // past the page header
+    const std::string junk(64, '\x5a');
+    f.write(junk.data(), static_cast<std::streamsize>(junk.size()));
+  }
+  v = test::run_cli("registry verify " + db + " --key-file " + key);
+  EXPECT_EQ(v.code, 7) << v.out;
+  EXPECT_NE(v.out.find("DAMAGED"), std::string::npos) << v.out;
 }
 
 TEST(Registry, CommandLineIssuesRecordsAndSurvivesAKilledBatch) {

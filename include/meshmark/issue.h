@@ -7,10 +7,11 @@
 ///
 /// - Before anything is embedded: no two copies write the same file and no copy writes a file
 ///   any copy reads, the registry or a kept file (IssueSettings::kept_files: the key file, the
-///   manifest), a path naming it through a link included; an ID already issued from the same original under the same key, an ID
-///   given twice, or an ID whose codeword is closer than kIssuedSpacing bits to one already
-///   issued is refused (a buyer must never get a copy that could be taken for another's). A
-///   copy asking for `id:auto` gets the smallest ID that passes these rules (free_ids()).
+///   manifest), a path naming it through a link included; an ID already issued from the same
+///   original under the same key, an ID given twice, or an ID whose codeword is closer than
+///   kIssuedSpacing bits to one already issued is refused (a buyer must never get a copy that could
+///   be taken for another's). A copy asking for `id:auto` gets the smallest ID that passes these
+///   rules (free_ids()).
 /// - Each distinct original is read and prepared once, then the copies are embedded on
 ///   IssueSettings::threads threads, each at the fixed strength or at the strongest within
 ///   fidelity limits (calibrate.h).
@@ -74,7 +75,7 @@ struct CopyRequest {
   std::string buyer;                ///< the buyer's label, recorded with a coded ID
   std::size_t line = 0;             ///< its manifest line (1-based), 0 when not from one
   std::string refusal;              ///< why the request is refused before it runs, or ""
-  bool auto_id = false;  ///< no id given: the registry picks it (id:auto, free_ids())
+  bool auto_id = false;             ///< no id given: the registry picks it (id:auto, free_ids())
 };
 
 /// What became of a copy.
@@ -149,8 +150,8 @@ void set_copy_id(CopyRequest& request, const std::string& text);
 /// `input`, `output`, `id` or `payload`, and `buyer`, in any order. Any other path holds one
 /// copy per line, `INPUT OUTPUT PAYLOAD` (hexadecimal) or `INPUT OUTPUT id:N BUYER...` (a coded
 /// ID, or `id:auto`, and the buyer's label); `#` starts a comment, and a line whose buyer label
-/// a `#` would cut is refused (such a label needs CSV); blank lines are skipped. A malformed line or
-/// record is a request with its refusal set, so that it is reported like any other failure.
+/// a `#` would cut is refused (such a label needs CSV); blank lines are skipped. A malformed line
+/// or record is a request with its refusal set, so that it is reported like any other failure.
 /// \throw IOError when the file cannot be read (at most 64 MiB); InvalidInputError for a CSV
 ///        header without the needed columns, or a CSV record whose quoting is broken.
 std::vector<CopyRequest> read_manifest(const std::string& path);
@@ -161,10 +162,11 @@ std::vector<CopyRequest> read_manifest(const std::string& path);
 IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::uint64_t id,
                        const IssueSettings& settings);
 
-/// Records copies written to outputs (their content hashes read back) in one transaction.
+/// Records copies written to outputs (their content hashes read back) in one transaction,
+/// each row authenticated under key (the key the copies were issued under; Registry::record).
 /// When that fails, the outputs are removed (no issued copy goes unrecorded) and the error is
 /// thrown again.
 void record_copies(Registry& registry, std::vector<IssuedCopy> copies,
-                   const std::vector<std::string>& outputs);
+                   const std::vector<std::string>& outputs, const Key& key);
 
 }  // namespace meshmark

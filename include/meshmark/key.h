@@ -41,6 +41,11 @@ Key key_from_passphrase(std::string_view passphrase);
 ///        device) or holds more than 1 MiB; InvalidInputError when it is empty.
 Key key_from_file(const std::string& path);
 
+/// A warning when the key file at path can be read by users other than its owner (its mode
+/// grants the group or others read access: anyone who reads it can forge any buyer's mark);
+/// "" when it cannot, or cannot be examined.
+std::string key_file_exposure(const std::string& path);
+
 /// Makes a new secret key file at path: 32 random bytes (libsodium's randombytes_buf), created
 /// with mode 0600 (readable by its owner only) and never over an existing file, written and
 /// flushed to disk before this returns. Returns the file's key (key_from_file(path)).

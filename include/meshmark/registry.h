@@ -21,12 +21,13 @@
 
 #include <Eigen/Core>
 
+#include "meshmark/enum_names.h"
 #include "meshmark/key.h"
 
 namespace meshmark {
 
 /// The schema version this build writes and reads.
-inline constexpr int kRegistrySchemaVersion = 3;  ///< 2 adds the method, 3 the geometry
+inline constexpr int kRegistrySchemaVersion = 4;  ///< 2 adds the method, 3 the geometry, 4 the MAC
 
 /// One issued copy.
 struct IssuedCopy {
@@ -52,17 +53,37 @@ struct IssuedCopy {
   /// geometry_hash of the original as read; "" for copies recorded by schema versions 1 and 2
   /// (known by original_hash alone).
   std::string original_geometry;
+  /// row_mac of this row under the key it was issued with (recorded by record() when given
+  /// the key); "" for copies recorded before schema version 4 or without the key.
+  std::string mac;
+};
+
+/// What the authentication code of a row says (check_row).
+enum class RowAuth {
+  Authentic,        ///< the MAC matches: the row is as it was recorded
+  Edited,           ///< the MAC does not match: a field was changed after it was recorded
+  Unauthenticated,  ///< the row has no MAC (recorded before schema 4 or without the key)
+  OtherKey,         ///< the row was issued under another key: this key cannot check it
+};
+
+template <>
+struct EnumTable<RowAuth> {
+  static constexpr const char* what = "row authentication";
+  static constexpr NamedValue<RowAuth> values[] = {{RowAuth::Authentic, "authentic"},
+                                                   {RowAuth::Edited, "edited"},
+                                                   {RowAuth::Unauthenticated, "unauthenticated"},
+                                                   {RowAuth::OtherKey, "other key"}};
 };
 
 /// What list() selects (every given field must match; original_hash and original_geometry,
 /// when both are given, select the copies matching either: an original known by its bytes or
 /// by its shape).
 struct RegistryQuery {
-  std::optional<std::string> original_hash;    ///< copies of this original's file
+  std::optional<std::string> original_hash;      ///< copies of this original's file
   std::optional<std::string> original_geometry;  ///< copies of an original of this geometry
-  std::optional<std::string> buyer;            ///< copies issued to this buyer
-  std::optional<std::string> key_fingerprint;  ///< copies issued under this key
-  std::optional<std::uint64_t> id;             ///< copies carrying this ID
+  std::optional<std::string> buyer;              ///< copies issued to this buyer
+  std::optional<std::string> key_fingerprint;    ///< copies issued under this key
+  std::optional<std::uint64_t> id;               ///< copies carrying this ID
 };
 
 /// A fingerprint of a key that reveals nothing of it: the first 16 bytes of
@@ -83,6 +104,21 @@ std::string content_hash(const std::string& bytes);
 /// equal corners dropped, sorted and made unique; BLAKE2b-256 of that (docs/format.md section
 /// 7), in hexadecimal.
 std::string geometry_hash(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F);
+
+/// The authentication code of a registry row: BLAKE2b-256 keyed with
+/// derive_key(key, "registry row") of every field but row and mac, in a fixed order and
+/// encoding (docs/format.md section 7.2), in hexadecimal. key is the key the copy was issued
+/// under (its fingerprint is the row's key_fingerprint). Whoever edits a row without the key
+/// (swaps two buyers' IDs, changes a buyer or a hash) cannot make its MAC match.
+std::string row_mac(const Key& key, const IssuedCopy& c);
+
+/// Checks a row's MAC against key (constant-time comparison).
+RowAuth check_row(const Key& key, const IssuedCopy& c);
+
+/// A registry location as it may be shown in output, reports and errors: a postgresql:// URI
+/// with its password (the user-info password, a password= parameter) replaced by "***"; an
+/// SQLite path as it is. Put the password in PGPASSFILE or PGPASSWORD instead.
+std::string registry_display_name(const std::string& where);
 
 /// Whether `recorded` (a registry row) is the copy `wanted` describes, issued already: the same
 /// original, key, code, ID, buyer and embedding settings, and the same output path (wanted's
@@ -115,12 +151,19 @@ class Registry {
   /// it was empty). \throw InvalidArgumentError listing the conflicts (nothing recorded);
   /// IOError when the database fails (nothing recorded).
   std::vector<IssuedCopy> record(std::vector<IssuedCopy> copies);
+  /// The same, each row authenticated: its mac is row_mac(key, row) with issued_at filled.
+  /// \throw InvalidArgumentError also when a copy's key_fingerprint is not key's.
+  std::vector<IssuedCopy> record(std::vector<IssuedCopy> copies, const Key& key);
 
   /// The copies that match query, in the order they were recorded.
   std::vector<IssuedCopy> list(const RegistryQuery& query = {}) const;
 
   /// The schema version of the open registry.
   int schema_version() const;
+
+  /// SQLite's integrity check of the file ("ok" when sound, else its findings, one per
+  /// line); "ok" for a PostgreSQL registry (the server keeps its own pages).
+  std::string integrity_check() const;
 
  private:
   struct Impl;
@@ -132,5 +175,21 @@ class Registry {
 /// created, and an SQLite file keeps its bytes (a read-only file can be read).
 /// \throw IOError when it does not exist, cannot be opened or is not a registry.
 std::vector<IssuedCopy> read_registry(const std::string& where, const RegistryQuery& query = {});
+
+/// What verify_registry found.
+struct RegistryCheck {
+  std::string integrity = "ok";             ///< integrity_check()
+  std::size_t rows = 0;                     ///< rows in the registry
+  std::size_t authentic = 0;                ///< rows under the key whose MAC matches
+  std::vector<IssuedCopy> edited;           ///< rows under the key whose MAC does not match
+  std::vector<IssuedCopy> unauthenticated;  ///< rows under the key with no MAC
+  std::size_t other_key = 0;                ///< rows of other keys (not checkable here)
+  /// Whether the file is sound and every row under the key is authentic.
+  bool ok() const { return integrity == "ok" && edited.empty() && unauthenticated.empty(); }
+};
+
+/// Checks an existing registry, opened read-only: SQLite's integrity check, and the MAC of
+/// every row issued under key (the key as trace takes it). \throw IOError as read_registry.
+RegistryCheck verify_registry(const std::string& where, const Key& key);
 
 }  // namespace meshmark

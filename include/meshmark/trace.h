@@ -71,6 +71,9 @@ struct CandidateScore {
   double p_value = 1;      ///< this candidate alone: the smallest exact p over the readings
                            ///< times their number
   double corrected_p = 1;  ///< min(1, p_value x candidates)
+  /// The row's authentication code under the trace's key (check_row): an Edited row is
+  /// scored and counted but never named.
+  RowAuth auth = RowAuth::Unauthenticated;
 };
 
 /// What trace concluded.
@@ -126,7 +129,13 @@ struct TraceResult {
   std::vector<CandidateScore> named;    ///< candidates below the threshold, best first
   std::vector<CandidateScore> ranking;  ///< every candidate, best first
   std::string message;                  ///< one line for a person
-  TraceTimings seconds;                 ///< where the time went
+  /// What weakens or qualifies the verdict, one sentence each: candidate rows whose MAC fails
+  /// (never named) or that carry none, a leak whose bytes are another row's file.
+  std::vector<std::string> warnings;
+  /// The row whose recorded output_hash the leak's bytes equal (compare_with_issued_files),
+  /// 0 when none does or it was not checked.
+  std::int64_t identical_row = 0;
+  TraceTimings seconds;  ///< where the time went
 };
 
 /// Traces leaked against the copies issued from original under key (candidates: every copy
@@ -137,12 +146,20 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
                   const std::vector<IssuedCopy>& candidates, const Key& key,
                   const TraceOptions& options = {});
 
+/// Checks a trace against the bytes of the leaked file (content_hash, registry.h): when they
+/// are those of a candidate's recorded copy (its output_hash), identical_row is that row, and
+/// the message says so when it is a named buyer's. When it is not a named buyer's while some
+/// buyer is named, the mark and the registry contradict each other: nobody is named and a
+/// warning says why.
+void compare_with_issued_files(TraceResult& r, const std::string& leaked_hash);
+
 /// Traces leaked against the copies a registry (an SQLite file or a postgresql:// URI, which
 /// must exist) recorded under key of the original: of the file whose content hash is
 /// original_hash, and of any file of the same geometry (geometry_hash of original, registry.h;
-/// the same shape saved in another format). When none was, the message says how many copies of other originals were issued under
-/// that key (the original given is then likely not the file the copies were made from).
-/// \throw IOError when the registry does not exist or cannot be read; as trace() otherwise.
+/// the same shape saved in another format). When none was, the message says how many copies of
+/// other originals were issued under that key (the original given is then likely not the file the
+/// copies were made from). \throw IOError when the registry does not exist or cannot be read; as
+/// trace() otherwise.
 TraceResult trace_issued(const Mesh& leaked, const Mesh& original, const std::string& original_hash,
                          const std::string& registry, const Key& key,
                          const TraceOptions& options = {});

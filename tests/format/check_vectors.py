@@ -117,12 +117,17 @@ def main():
         db.unlink()
     cli(meshmark, "embed", str(mesh), str(scratch / "geometry.ply"), "--id", "5", "--key-file",
         str(key_file), "--registry", str(db), "--json")
-    recorded = cli(meshmark, "registry", "list", str(db), "--json")[0]["original_geometry"]
+    row = cli(meshmark, "registry", "list", str(db), "--json")[0]
+    recorded = row["original_geometry"]
     if recorded != m.group(1):
         fail(f"geometry hash of {mesh.name}: page {m.group(1)}, meshmark recorded {recorded}")
+    # The row's MAC (section 7.2), recomputed from the page's encoding.
+    if ref.row_mac(keys["file"], row) != row["mac"]:
+        fail(f"row MAC: meshmark recorded {row['mac']}, reference {ref.row_mac(keys['file'], row)}")
     print(f"check_vectors: {len(rows)} codewords and 2 fingerprints as the page states; "
           f"{embedded} embedded into {mesh.name} and read back as the reference reads them; "
-          f"its geometry hash as the page, the reference and the registry give it")
+          f"its geometry hash as the page, the reference and the registry give it, and its "
+          f"row MAC as the reference computes it")
 
 
 if __name__ == "__main__":

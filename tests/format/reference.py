@@ -32,6 +32,18 @@ def fingerprint(key):
     return derive_key(key, "fingerprint")[:16].hex()
 
 
+def row_mac(key, row):
+    """The MAC of a registry row (a dict of its columns), section 7.2."""
+    fields = ["meshmark registry row 1"]
+    for name in ("original_hash", "original_path", "buyer", "id", "id_bits", "bits", "variant",
+                 "strength", "strength_spread", "bin_offset", "key_fingerprint", "mark_format",
+                 "issued_at", "output_path", "output_hash", "method", "original_geometry"):
+        v = row[name]
+        fields.append("%.17g" % v if isinstance(v, float) else str(v))
+    message = b"".join(struct.pack("<I", len(f.encode())) + f.encode() for f in fields)
+    return b2b(message, key=derive_key(key, "registry row")).hex()
+
+
 def keyed_hash_bits(key, domain, data, nbits):
     out_len = max((nbits + 7) // 8, 16)
     d = b2b(domain.encode() + b"\x00" + bytes(data), key=key, n=out_len)
