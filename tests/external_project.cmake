@@ -107,6 +107,8 @@ endif()
 step("build" ${CMAKE_COMMAND} --build ${consumer})
 check_loads_library("the consumer" ${consumer}/meshmark_consumer)
 file(WRITE ${consumer}/shop.key "a key the consumer and the installed CLI share")
+# A key file only its owner reads, as keygen writes it (the CLI warns about any other).
+file(CHMOD ${consumer}/shop.key PERMISSIONS OWNER_READ OWNER_WRITE)
 step("run" ${consumer}/meshmark_consumer ${MESH} ${consumer}/marked.off ${consumer}/shop.key
      ${consumer}/issued.ply)
 message(STATUS "${step_output}")
