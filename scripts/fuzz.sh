@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Builds the fuzzers (the mesh readers; hexadecimal payloads and the ID decoder: CMake targets
-# fuzz_read and fuzz_decode, libFuzzer with AddressSanitizer and UndefinedBehaviorSanitizer,
+# Builds the fuzzers (the mesh readers; hexadecimal payloads and the ID decoder; key files, batch
+# manifests, registries and glTF with external buffers: CMake targets fuzz_read, fuzz_decode and
+# fuzz_inputs, libFuzzer with AddressSanitizer and UndefinedBehaviorSanitizer,
 # clang from Debian) and runs each for a bounded time, seeded with real meshes.
 # Usage: scripts/fuzz.sh [SECONDS_PER_FORMAT] (default 20). Crashes land in fuzz/crashes/;
 # keep each as a regression in fuzz/regressions/ (tests read every file there).
@@ -17,7 +18,7 @@ export LSAN_OPTIONS="suppressions=$PWD/.ci/lsan-suppressions.txt${LSAN_OPTIONS:+
 CXX=clang++ cmake -S . -B "$out" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" \
   -DMESHMARK_BUILD_FUZZERS=ON -DMESHMARK_BUILD_TESTS=OFF -DMESHMARK_BUILD_BENCH=OFF \
   -DMESHMARK_BUILD_PYTHON=OFF >"$out/configure.log" || { cat "$out/configure.log" >&2; exit 1; }
-cmake --build "$out" --target fuzz_read fuzz_decode --parallel "$(nproc)"
+cmake --build "$out" --target fuzz_read fuzz_decode fuzz_inputs --parallel "$(nproc)"
 # Seeds: real meshes, each prefixed with the byte that selects its format.
 seeds="$out/seeds"
 rm -rf "$seeds" && mkdir -p "$seeds"
@@ -48,4 +49,22 @@ mkdir -p "$corpus"
 mkdir -p "$out/corpus-decode"
 "$out/fuzz_decode" -max_total_time="$seconds" -max_len=1024 -timeout=10 -rss_limit_mb=2048 \
   -artifact_prefix=fuzz/crashes/ -print_final_stats=1 "$out/corpus-decode" 2>&1 | tail -6
+# What users feed besides meshes, each seed prefixed with the byte that selects its kind: a key
+# file, manifests (text and CSV), a real registry, and a .gltf with its external buffer.
+inputs="$out/seeds-inputs"
+rm -rf "$inputs" && mkdir -p "$inputs"
+{ printf '\x00'; cat tests/format/example.key; } > "$inputs/key"
+printf '\x01data/meshes/spot.obj out/a.ply 7 ann\n# a comment\nspot.obj b.ply auto "Bo B"\n' > "$inputs/manifest.txt"
+printf '\x02input,output,id,buyer\nspot.obj,a.ply,7,"Ann, ""A"""\nspot.obj,b.ply,auto,Bo\n' > "$inputs/manifest.csv"
+if [ -x build/meshmark ]; then
+  rm -f "$out/seed.db" && build/meshmark embed data/meshes/spot.obj "$out/seed-copy.ply" --id 7 \
+    --key fuzz --registry "$out/seed.db" --buyer ann >/dev/null 2>&1 || true
+  [ -f "$out/seed.db" ] && { printf '\x03'; cat "$out/seed.db"; } > "$inputs/registry"
+fi
+if command -v gltfpack >/dev/null && gltfpack -i data/meshes/spot.obj -o "$out/buffer.gltf" -noq >/dev/null 2>&1; then
+  { printf '\x04'; cat "$out/buffer.gltf"; printf '\x00'; cat "$out/buffer.bin"; } > "$inputs/gltf"
+fi
+mkdir -p "$out/corpus-inputs"
+"$out/fuzz_inputs" -max_total_time="$seconds" -max_len=200000 -timeout=10 -rss_limit_mb=2048 \
+  -artifact_prefix=fuzz/crashes/ -print_final_stats=1 "$out/corpus-inputs" "$inputs" 2>&1 | tail -6
 echo "fuzz: no crash in ${seconds} s per target"

@@ -14,8 +14,8 @@ namespace meshmark::python {
 
 namespace {
 
-// One request from a dict with keys input, output, and id (int, or "auto": the registry picks it) or payload (hex str), and
-// optionally buyer.
+// One request from a dict with keys input, output, and id (int, or "auto": the registry picks it)
+// or payload (hex str), and optionally buyer.
 CopyRequest to_request(py::handle item, std::size_t k) {
   if (!py::isinstance<py::dict>(item))
     throw InvalidArgumentError(fmt::format("copies[{}] is not a dict", k));
@@ -33,7 +33,8 @@ CopyRequest to_request(py::handle item, std::size_t k) {
   CopyRequest r;
   r.input = to_path(d["input"]);
   r.output = to_path(d["output"]);
-  if (d.contains("id") && py::isinstance<py::str>(d["id"]) && py::str(d["id"]).cast<std::string>() == "auto")
+  if (d.contains("id") && py::isinstance<py::str>(d["id"]) &&
+      py::str(d["id"]).cast<std::string>() == "auto")
     r.auto_id = true;  // the registry picks it
   else if (d.contains("id"))
     r.id = to_id(d["id"], "id");
@@ -68,6 +69,8 @@ py::dict score_dict(const CandidateScore& s) {
   d["p_value"] = s.p_value;
   d["corrected_p"] = s.corrected_p;
   d["copy"] = s.copy.output_path;
+  d["row"] = s.copy.row;
+  d["row_auth"] = enum_name(s.auth);
   return d;
 }
 
@@ -122,8 +125,8 @@ void init_issue(py::module_& m) {
   m.def(
       "trace",
       [](py::handle leaked, py::handle original, const std::string& registry, py::handle key,
-         py::handle key_file, double threshold, bool register_leak, py::handle report, py::handle pdf,
-         const std::string& case_id, const std::string& analyst, bool redact) {
+         py::handle key_file, double threshold, bool register_leak, py::handle report,
+         py::handle pdf, const std::string& case_id, const std::string& analyst, bool redact) {
         const std::optional<Key> k = resolve_key(key, key_file);
         if (!k) throw InvalidArgumentError("trace needs the key the copies were issued under");
         TraceFilesRequest request;
@@ -154,21 +157,29 @@ void init_issue(py::module_& m) {
         out["named"] = named;
         out["ranking"] = ranking;
         out["registration"] = r.registration.message;
+        py::list warnings;
+        for (const std::string& w : found.warnings) warnings.append(w);
+        for (const std::string& w : r.warnings) warnings.append(w);
+        out["warnings"] = warnings;
+        out["identical_row"] = r.identical_row;
         out["report"] = request.report.empty() ? py::object(py::none()) : py::str(request.report);
         out["pdf"] = request.pdf.empty() ? py::object(py::none()) : py::str(request.pdf);
         return out;
       },
       py::arg("leaked"), py::arg("original"), py::arg("registry"), py::kw_only(),
       py::arg("key") = py::none(), py::arg("key_file") = py::none(), py::arg("threshold") = 1e-6,
-      py::arg("register") = true, py::arg("report") = py::none(), py::arg("pdf") = py::none(), py::arg("case") = "",
-      py::arg("analyst") = "", py::arg("redact") = false,
+      py::arg("register") = true, py::arg("report") = py::none(), py::arg("pdf") = py::none(),
+      py::arg("case") = "", py::arg("analyst") = "", py::arg("redact") = false,
       "Names the buyers whose copies the leaked mesh file came from, as the CLI's trace does: "
       "the copies the registry recorded of the original file under the key, each scored with "
       "an exact p-value, family-wise below threshold; with report (a path), writes the HTML "
       "evidence report there (with case and analyst; redact: no buyer labels, no folders), and "
       "with pdf (a path) the same as PDF, printed by headless Chromium. "
       "Returns a dict: status, message, candidates, named and ranking (dicts: buyer, id, "
-      "matches, bits, p_value, corrected_p, copy), registration, report, pdf.");
+      "matches, bits, p_value, corrected_p, copy, row, row_auth: authentic, edited (never "
+      "named), unauthenticated), registration, warnings (rows that fail their MAC or carry "
+      "none, a leak whose bytes are another row's copy), identical_row (the row whose "
+      "recorded file the leak's bytes are, 0 if none), report, pdf.");
 }
 
 }  // namespace meshmark::python

@@ -42,6 +42,9 @@ def test_trace_names_the_leaker_alone_as_the_cli_does(fandisk, tmp_path):
     assert found["status"] == "named", found
     assert [n["buyer"] for n in found["named"]] == ["buyer 21"]
     assert found["candidates"] == 4
+    # The row is as recorded (its MAC matches), and the leak is byte for byte its copy.
+    assert found["named"][0]["row_auth"] == "authentic" and found["warnings"] == []
+    assert found["identical_row"] == found["named"][0]["row"] > 0
     cli = run_cli("trace", leak, "--original", fandisk, "--registry", tmp_path / "shop.db",
                   "--key", KEY, "--json")
     assert [(n["buyer"], n["id"]) for n in cli["named"]] == \
