@@ -123,12 +123,18 @@ inline constexpr int kMaxBits = 4096;
 /// --key, --key-file, --id-bits.
 struct KeyArgs {
   std::optional<std::string> passphrase, file;  // given (even empty) or not
+  bool legacy_passphrase = false;               // the passphrase's key before schema 4
   int id_bits = 32;
 };
 void add_key_options(CLI::App& app, KeyArgs& args);
 
-/// The key of --key or --key-file, or none (a key file that cannot be read is bad input).
+/// The key of --key, --key-file or MESHMARK_KEY, or none (a key file that cannot be read is
+/// bad input).
 std::optional<Key> resolve_key(const KeyArgs& args);
+/// As resolve_key, but a passphrase stands for the key its copies in the registry were issued
+/// under (passphrase_key_in: the earlier derivation for copies issued before schema 4), with
+/// a note on stderr when that matters.
+std::optional<Key> resolve_key_in(const KeyArgs& args, const std::string& registry);
 
 /// The ID code for nb payload bits and --id-bits.
 IdCode id_code(const KeyArgs& args, int nb);

@@ -66,6 +66,10 @@ int run(const EmbedArgs& a) {
   settings.bits = a.bits;
   settings.read = read_options(a.in);
   settings.write = write_options(a.out);
+  if (a.keys.legacy_passphrase)
+    throw InvalidArgumentError(
+        "--legacy-passphrase reads copies issued before registry schema 4; new copies are "
+        "issued under the passphrase's Argon2id key");
   settings.key = resolve_key(a.keys);
   settings.id_bits = a.keys.id_bits;
   settings.strength_spread = a.strength_spread;
@@ -163,8 +167,7 @@ int run(const EmbedArgs& a) {
     fmt::print("{}\n", j.dump(2));
   } else {
     fmt::print("{}: {}\n", ok ? "embedded" : "NOT embedded", ok ? r.message : c.message);
-    if (coded)
-      fmt::print("  ID               {} ({} bits, coded)\n", id, a.keys.id_bits);
+    if (coded) fmt::print("  ID               {} ({} bits, coded)\n", id, a.keys.id_bits);
     fmt::print(
         "  payload          {} ({} bits, {}, {} {}, strength {}{})\n", payload_to_hex(payload),
         a.bits, key ? "keyed layout" : (coded ? "public whitening" : "canonical layout"),

@@ -42,7 +42,8 @@ nlohmann::json to_json(const IssuedCopy& c) {
           {"output_path", c.output_path},
           {"output_hash", c.output_hash},
           {"method", c.method},
-          {"mac", c.mac}};
+          {"mac", c.mac},
+          {"key_derivation", c.key_derivation}};
 }
 
 // A CSV field: quoted when it holds a comma, a quote or a line break.
@@ -82,13 +83,13 @@ int run_list(const RegistryArgs& a) {
     fmt::print(
         "row,original_hash,original_path,buyer,id,id_bits,bits,variant,strength,"
         "strength_spread,bin_offset,key_fingerprint,mark_format,issued_at,output_path,"
-        "output_hash,method,original_geometry,mac\n");
+        "output_hash,method,original_geometry,mac,key_derivation\n");
     for (const IssuedCopy& c : copies)
-      fmt::print("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.row,
+      fmt::print("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.row,
                  c.original_hash, csv(c.original_path), csv(c.buyer), c.id, c.id_bits, c.bits,
                  c.variant, c.strength, c.strength_spread, c.bin_offset, c.key_fingerprint,
                  c.mark_format, c.issued_at, csv(c.output_path), c.output_hash, c.method,
-                 c.original_geometry, c.mac);
+                 c.original_geometry, c.mac, csv(c.key_derivation));
   } else {
     // The columns say what they hold: the variant (Cho's methods: method/variant), the key
     // fingerprint's first 8 hex digits, the copy's path.
@@ -112,7 +113,7 @@ struct VerifyArgs {
 };
 
 int run_verify(const VerifyArgs& a) {
-  const std::optional<Key> key = resolve_key(a.keys);
+  const std::optional<Key> key = resolve_key_in(a.keys, a.db);
   RegistryCheck check;
   try {
     check = verify_registry(a.db, id_key(key));

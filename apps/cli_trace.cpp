@@ -60,7 +60,7 @@ std::string reproducing_command(const std::vector<std::string>& argv, bool& reda
 }
 
 int run(const TraceArgs& a) {
-  const std::optional<Key> key = resolve_key(a.keys);
+  const std::optional<Key> key = resolve_key_in(a.keys, a.registry);
   if (!key) throw InvalidArgumentError("trace needs the key the copies were issued under");
   TraceFilesRequest request;
   request.leaked = a.leaked;

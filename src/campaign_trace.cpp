@@ -47,7 +47,7 @@ TraceOutcome trace_outcome(const std::vector<std::uint64_t>& named,
 }
 
 Key campaign_key(const CampaignConfig& c) {
-  return key_from_passphrase(fmt::format("meshmark campaign key, seed {}", c.seed));
+  return key_from_passphrase_v1(fmt::format("meshmark campaign key, seed {}", c.seed));
 }
 
 std::uint64_t campaign_first_id(const CampaignConfig& c) {

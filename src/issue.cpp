@@ -304,6 +304,7 @@ IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::
   c.strength_spread = settings.strength_spread;
   c.bin_offset = settings.embedding.bin_offset;
   c.key_fingerprint = key_fingerprint(id_key(settings.key));
+  c.key_derivation = id_key(settings.key).derivation;
   c.method = method_name(settings.embedding.method);
   return c;
 }

@@ -75,9 +75,27 @@ class KeyStream {
 
 Key key_from_passphrase(std::string_view passphrase) {
   if (passphrase.empty()) throw InvalidArgumentError("the key passphrase is empty");
-  return hash_under_domain("meshmark/passphrase/v1",
-                           reinterpret_cast<const unsigned char*>(passphrase.data()),
-                           passphrase.size());
+  ensure_sodium();
+  // The salt: the first 16 bytes of BLAKE2b-256 of "meshmark/passphrase/v2/salt" || 0.
+  static_assert(crypto_pwhash_SALTBYTES == 16);
+  const Key salt = hash_under_domain("meshmark/passphrase/v2/salt",
+                                     reinterpret_cast<const unsigned char*>(""), 0);
+  constexpr unsigned long long kPasses = 3;
+  constexpr std::size_t kMemory = std::size_t{64} << 20;
+  Key key{.derivation = std::string(kPassphraseDerivation)};
+  if (crypto_pwhash(key.bytes.data(), key.bytes.size(), passphrase.data(), passphrase.size(),
+                    salt.bytes.data(), kPasses, kMemory, crypto_pwhash_ALG_ARGON2ID13) != 0)
+    throw Error("the passphrase's key could not be derived: Argon2id needs 64 MiB of memory");
+  return key;
+}
+
+Key key_from_passphrase_v1(std::string_view passphrase) {
+  if (passphrase.empty()) throw InvalidArgumentError("the key passphrase is empty");
+  Key key = hash_under_domain("meshmark/passphrase/v1",
+                              reinterpret_cast<const unsigned char*>(passphrase.data()),
+                              passphrase.size());
+  key.derivation = kPassphraseDerivationV1;
+  return key;
 }
 
 Key key_from_file(const std::string& path) {
@@ -86,8 +104,10 @@ Key key_from_file(const std::string& path) {
   constexpr std::size_t kMaxKeyFileBytes = std::size_t{1} << 20;
   const std::string bytes = read_file(path, kMaxKeyFileBytes, "key file");
   if (bytes.empty()) throw InvalidInputError(path, 0, "the key file is empty");
-  return hash_under_domain("meshmark/key-file/v1",
-                           reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size());
+  Key key = hash_under_domain("meshmark/key-file/v1",
+                              reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size());
+  key.derivation = kKeyFileDerivation;
+  return key;
 }
 
 std::string key_file_exposure(const std::string& path) {
@@ -125,7 +145,7 @@ Key generate_key_file(const std::string& path) {
 }
 
 const Key& public_key() {
-  static const Key key = key_from_passphrase("meshmark public whitening key");
+  static const Key key = key_from_passphrase_v1("meshmark public whitening key");
   return key;
 }
 

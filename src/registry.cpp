@@ -158,7 +158,7 @@ std::string row_mac(const Key& key, const IssuedCopy& c) {
        {c.original_hash, c.original_path, c.buyer, std::to_string(c.id), std::to_string(c.id_bits),
         std::to_string(c.bits), c.variant, real(c.strength), real(c.strength_spread),
         real(c.bin_offset), c.key_fingerprint, std::to_string(c.mark_format), c.issued_at,
-        c.output_path, c.output_hash, c.method, c.original_geometry})
+        c.output_path, c.output_hash, c.method, c.original_geometry, c.key_derivation})
     put(field);
   unsigned char digest[32];
   crypto_generichash_final(&state, digest, sizeof digest);
@@ -304,6 +304,34 @@ RegistryCheck verify_registry(const std::string& where, const Key& key) {
     }
   }
   return check;
+}
+
+PassphraseKey passphrase_key_in(const std::string& where, std::string_view passphrase) {
+  Key current = key_from_passphrase(passphrase), earlier = key_from_passphrase_v1(passphrase);
+  const std::string current_fp = key_fingerprint(current), earlier_fp = key_fingerprint(earlier);
+  PassphraseKey out;
+  for (const IssuedCopy& c : read_registry(where)) {
+    if (c.key_fingerprint == current_fp) ++out.copies;
+    if (c.key_fingerprint == earlier_fp) ++out.earlier_copies;
+  }
+  const std::string shown = registry_display_name(where);
+  if (out.copies == 0 && out.earlier_copies > 0) {
+    std::swap(out.copies, out.earlier_copies);
+    out.key = std::move(earlier);
+    out.note = fmt::format(
+        "{}: the {} copies issued under this passphrase were issued before registry schema 4, "
+        "under its earlier key (one BLAKE2b of the passphrase, fast to guess): they are read "
+        "with that key; issue new copies under a key file (meshmark keygen)",
+        shown, out.copies);
+    return out;
+  }
+  out.key = std::move(current);
+  if (out.earlier_copies > 0)
+    out.note = fmt::format(
+        "{}: {} copies were issued under this passphrase's earlier key (before registry schema "
+        "4) and are not candidates here: give --legacy-passphrase to read them",
+        shown, out.earlier_copies);
+  return out;
 }
 
 }  // namespace meshmark

@@ -43,7 +43,7 @@ std::unique_ptr<RegistryBackend> open_postgres_registry(const std::string& uri);
 inline constexpr const char* kRegistryColumns =
     "original_hash, original_path, buyer, id, id_bits, bits, variant, strength, "
     "strength_spread, bin_offset, key_fingerprint, mark_format, issued_at, output_path, "
-    "output_hash, method, original_geometry, mac";
+    "output_hash, method, original_geometry, mac, key_derivation";
 
 /// The statements that create schema version 1's table and index, in SQLite's or
 /// PostgreSQL's types.
@@ -89,9 +89,11 @@ inline constexpr const char* kRegistryMigrationV3 =
     "ALTER TABLE copies ADD COLUMN original_geometry TEXT NOT NULL DEFAULT '';\n"
     "CREATE INDEX copies_by_geometry ON copies (original_geometry, key_fingerprint, id);";
 
-/// The statement that takes version 3 to version 4: each row's MAC (row_mac; '' for the
-/// copies recorded before, which carry none).
+/// The statements that take version 3 to version 4: each row's MAC (row_mac; '' for the
+/// copies recorded before, which carry none) and how its key was derived (Key::derivation;
+/// '' for the copies recorded before: a key file, or a passphrase's key_from_passphrase_v1).
 inline constexpr const char* kRegistryMigrationV4 =
-    "ALTER TABLE copies ADD COLUMN mac TEXT NOT NULL DEFAULT ''";
+    "ALTER TABLE copies ADD COLUMN mac TEXT NOT NULL DEFAULT '';\n"
+    "ALTER TABLE copies ADD COLUMN key_derivation TEXT NOT NULL DEFAULT '';";
 
 }  // namespace meshmark::detail

@@ -52,6 +52,7 @@ class Result {
     c.output_hash = text(row, 15);
     c.original_geometry = text(row, 17);
     c.mac = text(row, 18);
+    c.key_derivation = text(row, 19);
     return c;
   }
 
@@ -160,9 +161,10 @@ class PostgresRegistry final : public RegistryBackend {
                                         c.output_hash,
                                         c.method,
                                         c.original_geometry,
-                                        c.mac};
+                                        c.mac,
+                                        c.key_derivation};
     const Result r = run(fmt::format("INSERT INTO copies ({}) VALUES ($1, $2, $3, $4, $5, $6, "
-                                     "$7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18) "
+                                     "$7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19) "
                                      "RETURNING row",
                                      kRegistryColumns),
                          p);

@@ -62,6 +62,7 @@ class Statement {
     c.output_hash = text(15);
     c.original_geometry = text(17);
     c.mac = text(18);
+    c.key_derivation = text(19);
     return c;
   }
 
@@ -170,7 +171,7 @@ class SqliteRegistry final : public RegistryBackend {
     const auto replace = [&](const std::string& column, const std::string& as) {
       columns.replace(columns.find(column), column.size(), as + " AS " + column);
     };
-    if (version < 4) replace("mac", "''");
+    if (version < 4) replace("mac", "''"), replace("key_derivation", "''");
     if (version < 3) replace("original_geometry", "''");
     if (version < 2) replace("method", "'qp'");
     columns_ = columns;
@@ -213,7 +214,7 @@ class SqliteRegistry final : public RegistryBackend {
       insert_ = std::make_unique<Statement>(
           db_, path_,
           fmt::format("INSERT INTO copies ({}) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, "
-                      "?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18)",
+                      "?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19)",
                       kRegistryColumns));
     Statement& s = *insert_;
     sqlite3_reset(s.get());
@@ -235,6 +236,7 @@ class SqliteRegistry final : public RegistryBackend {
     s.bind(16, c.method);
     s.bind(17, c.original_geometry);
     s.bind(18, c.mac);
+    s.bind(19, c.key_derivation);
     if (sqlite3_step(s.get()) != SQLITE_DONE) fail(db_, path_, "cannot record a copy");
     return sqlite3_last_insert_rowid(db_);
   }

@@ -11,6 +11,7 @@
 #include <fstream>
 
 #include "meshmark/io.h"
+#include "meshmark/issue.h"
 #include "meshmark/registry.h"
 #include "test_data.h"
 
@@ -285,6 +286,73 @@ TEST(Cli, ExposedKeysWarnAndTheEnvironmentGivesThePassphrase) {
   EXPECT_EQ(key_file_exposure(key).empty(), false);
   std::filesystem::permissions(key, std::filesystem::perms::owner_read);
   EXPECT_EQ(key_file_exposure(key), "");
+}
+
+// Copies issued under a passphrase before its key went through Argon2id (their key is
+// key_from_passphrase_v1's) still trace with the passphrase alone, saying so; extract reads
+// them with --legacy-passphrase; embed refuses that option; new copies record Argon2id.
+TEST(Cli, PassphraseCopiesIssuedBeforeArgon2idStillTrace) {
+  const std::string spot = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir() + "/legacy-passphrase";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string db = dir + "/shop.db", err = dir + "/stderr.txt";
+  // A command line in a subshell: its own "2>err" holds, or stderr joins the output.
+  const auto run_quiet = [](const std::string& command) {
+    return test::run_command("(" + command + ")");
+  };
+  IssueSettings s;
+  s.key = key_from_passphrase_v1("old shop");
+  s.registry = db;
+  std::vector<CopyRequest> requests(2);
+  for (int i = 0; i < 2; ++i) {
+    requests[i].input = spot;
+    requests[i].output = dir + "/c" + std::to_string(30 + i) + ".ply";
+    requests[i].id = 30 + i;
+    requests[i].buyer = "b" + std::to_string(30 + i);
+  }
+  ASSERT_EQ(issue_copies(requests, s).count(CopyStatus::Written), 2u);
+  for (const IssuedCopy& c : read_registry(db))
+    EXPECT_EQ(c.key_derivation, kPassphraseDerivationV1) << c.row;
+  const std::string cli = std::string(MESHMARK_CLI);
+  test::CliRun r =
+      run_quiet("MESHMARK_KEY='old shop' " + cli + " trace " + dir + "/c31.ply --original " + spot +
+                " --registry " + db + " --json 2>" + err);
+  ASSERT_EQ(r.code, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["named"].size(), 1u) << r.out;
+  EXPECT_EQ(j["named"][0]["id"], 31);
+  EXPECT_NE(read_file(err).find("were issued before registry schema 4"), std::string::npos)
+      << read_file(err);
+  // The Argon2id key of the same passphrase reads nothing in the copy; the earlier one does.
+  r = run_quiet("MESHMARK_KEY='old shop' " + cli + " extract " + dir + "/c30.ply --coded");
+  EXPECT_EQ(r.code, 6) << r.out;
+  r = run_quiet("MESHMARK_KEY='old shop' " + cli + " extract " + dir +
+                "/c30.ply --coded --legacy-passphrase --json 2>" + err);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["id"], 30);
+  r = run_quiet("MESHMARK_KEY='old shop' " + cli + " embed " + spot + " " + dir +
+                "/new.ply --id 32 --legacy-passphrase --registry " + db);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("new copies are issued under the passphrase's Argon2id key"),
+            std::string::npos)
+      << r.out;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/new.ply"));
+  // Issued now, the copy records the Argon2id derivation, and trace picks its key.
+  r = run_quiet("MESHMARK_KEY='old shop' " + cli + " embed " + spot + " " + dir +
+                "/new.ply --id 32 --registry " + db);
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::size_t argon = 0;
+  for (const IssuedCopy& c : read_registry(db)) argon += c.key_derivation == kPassphraseDerivation;
+  EXPECT_EQ(argon, 1u);
+  r = run_quiet("MESHMARK_KEY='old shop' " + cli + " trace " + dir + "/new.ply --original " + spot +
+                " --registry " + db + " --json 2>" + err);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["named"][0]["id"], 32);
+  EXPECT_NE(read_file(err).find("2 copies were issued under this passphrase's earlier key"),
+            std::string::npos)
+      << read_file(err);
 }
 
 TEST(Cli, OptionValuesThatAreNotFiniteAreRefusedAndNamedSo) {

@@ -63,7 +63,7 @@ TEST(Forensic, WrongKeysReadNoise) {
   double smallest_p = 1;
   const int keys = 100;
   for (int k = 0; k < keys; ++k) {
-    const Key wrong = key_from_passphrase("guess " + std::to_string(k));
+    const Key wrong = key_from_passphrase_v1("guess " + std::to_string(k));  // fast
     const BitLayout layout = BitLayout::keyed(wrong, 64);
     const std::vector<std::uint8_t> bits = layout.from_bins(x.bits);
     ber_sum += bit_error_rate(bits, sent);

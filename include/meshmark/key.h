@@ -2,9 +2,12 @@
 /// \file key.h
 /// Secret keys and the keyed layout of payload bits over histogram bins.
 ///
-/// A key is 32 bytes derived by BLAKE2b (libsodium's crypto_generichash) from a passphrase or
-/// from the bytes of a key file, each under its own domain string, so that a passphrase and a
-/// file with the same bytes give different keys. From a key and the payload length nb, a
+/// A key is 32 bytes: the BLAKE2b hash (libsodium's crypto_generichash) of a key file's bytes,
+/// or the Argon2id hash (crypto_pwhash, memory-hard: about 0.18 s and 64 MiB per guess) of a
+/// passphrase, so that a passphrase cannot be found by trying a dictionary against the key's
+/// published fingerprint at the speed of a plain hash. Passphrase copies issued before schema 4
+/// of the registry used one BLAKE2b (key_from_passphrase_v1); each issued copy records how its
+/// key was derived (Key::derivation). From a key and the payload length nb, a
 /// ChaCha20 keystream draws a permutation of the bits over the bins (bit j is carried by bin
 /// bin_of[j] + 1) and a whitening mask (bit j is written XOR whitening[j]). Without the key
 /// the bins read as a permuted, whitened word: noise. The canonical layout (identity, no
@@ -29,12 +32,39 @@ inline constexpr int kMarkFormatVersion = 2;
 /// A 256-bit secret key.
 struct Key {
   std::array<std::uint8_t, 32> bytes{};
-  bool operator==(const Key&) const = default;
+  /// How the key was made from what the user gave, recorded with each copy issued under it
+  /// (docs/format.md section 2.2): kKeyFileDerivation, kPassphraseDerivation,
+  /// kPassphraseDerivationV1, or "" for a key given as its bytes. Not part of the key: two
+  /// keys with the same bytes are equal.
+  std::string derivation;
+  bool operator==(const Key& other) const { return bytes == other.bytes; }
 };
 
-/// The key of a passphrase (BLAKE2b-256 under the domain "meshmark/passphrase/v1").
-/// \throw InvalidArgumentError for an empty passphrase.
+/// Key::derivation of key_from_file and generate_key_file.
+inline constexpr std::string_view kKeyFileDerivation = "key-file/blake2b";
+/// Key::derivation of key_from_passphrase: Argon2id (version 1.3), 3 passes over 64 MiB, the
+/// 16-byte salt in hexadecimal.
+inline constexpr std::string_view kPassphraseDerivation =
+    "passphrase/argon2id13/t=3/m=64MiB/salt=c9221906c490540cb058155a6f19d6ed";
+/// Key::derivation of key_from_passphrase_v1.
+inline constexpr std::string_view kPassphraseDerivationV1 = "passphrase/blake2b";
+
+/// The key of a passphrase: Argon2id (libsodium's crypto_pwhash, algorithm ARGON2ID13) of its
+/// bytes, 3 passes over 64 MiB of memory, with the salt of kPassphraseDerivation (the first 16
+/// bytes of BLAKE2b-256 under the domain "meshmark/passphrase/v2/salt"): about 0.18 s of one
+/// core per call, and per guess for whoever tries passphrases against a key's fingerprint.
+/// The salt is fixed, so that a passphrase gives its key on any machine with nothing stored:
+/// it keeps generic precomputed tables out, not a table made for meshmark; a key file made by
+/// generate_key_file (256 random bits) cannot be guessed at all.
+/// \throw InvalidArgumentError for an empty passphrase; Error when the 64 MiB cannot be had.
 Key key_from_passphrase(std::string_view passphrase);
+
+/// The key a passphrase gave before registry schema 4: BLAKE2b-256 under the domain
+/// "meshmark/passphrase/v1", fast to compute and so fast to guess. For reading and tracing the
+/// copies issued then (their rows record kPassphraseDerivationV1 or nothing), for the public
+/// key, and for keys that are not secret (a campaign's trial keys); never for new copies.
+/// \throw InvalidArgumentError for an empty passphrase.
+Key key_from_passphrase_v1(std::string_view passphrase);
 
 /// The key of a key file's bytes (BLAKE2b-256 under the domain "meshmark/key-file/v1").
 /// \throw IOError when the file cannot be read, is not a regular file (a directory, a FIFO, a

@@ -27,7 +27,8 @@
 namespace meshmark {
 
 /// The schema version this build writes and reads.
-inline constexpr int kRegistrySchemaVersion = 4;  ///< 2 adds the method, 3 the geometry, 4 the MAC
+inline constexpr int kRegistrySchemaVersion =
+    4;  ///< 2 the method, 3 the geometry, 4 MAC, derivation
 
 /// One issued copy.
 struct IssuedCopy {
@@ -56,6 +57,10 @@ struct IssuedCopy {
   /// row_mac of this row under the key it was issued with (recorded by record() when given
   /// the key); "" for copies recorded before schema version 4 or without the key.
   std::string mac;
+  /// How the key of the copy was derived (Key::derivation: a key file, a passphrase's
+  /// Argon2id or, before schema 4, BLAKE2b); "" for copies recorded before schema 4 or under
+  /// a key given as bytes.
+  std::string key_derivation;
 };
 
 /// What the authentication code of a row says (check_row).
@@ -191,5 +196,23 @@ struct RegistryCheck {
 /// Checks an existing registry, opened read-only: SQLite's integrity check, and the MAC of
 /// every row issued under key (the key as trace takes it). \throw IOError as read_registry.
 RegistryCheck verify_registry(const std::string& where, const Key& key);
+
+/// The key a passphrase stands for in a registry (passphrase_key_in).
+struct PassphraseKey {
+  Key key;                 ///< key_from_passphrase's key, or key_from_passphrase_v1's (see below)
+  std::size_t copies = 0;  ///< copies in the registry issued under key
+  std::size_t earlier_copies = 0;  ///< copies under the other derivation, not under key
+  /// What a user should know: that the earlier derivation was used, or that copies issued
+  /// under it are left out (trace them with key_from_passphrase_v1); "" otherwise.
+  std::string note;
+};
+
+/// The key a passphrase stands for among the copies of an existing registry: the Argon2id key
+/// of key_from_passphrase, unless the registry holds copies under the passphrase's earlier
+/// key (key_from_passphrase_v1, issued before registry schema 4) and none under the Argon2id
+/// one, in which case the earlier key: copies issued before still trace with their
+/// passphrase. The registry is opened read-only. \throw IOError as read_registry;
+/// InvalidArgumentError for an empty passphrase.
+PassphraseKey passphrase_key_in(const std::string& where, std::string_view passphrase);
 
 }  // namespace meshmark

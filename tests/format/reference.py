@@ -1,11 +1,13 @@
 """A second implementation of the meshmark mark (format 2), written from docs/format.md alone.
 
-It shares no code with the library: its hashes come from Python's hashlib (BLAKE2b) and the
-cryptography package (ChaCha20), its BCH code, Feistel network, mask, layout, carrier and
+It shares no code with the library: its hashes come from Python's hashlib (BLAKE2b), the
+argon2-cffi package (Argon2id, from the Argon2 reference implementation) and the cryptography
+package (ChaCha20), its BCH code, Feistel network, mask, layout, carrier and
 histogram from the page's sections 1 to 5. check_vectors.py compares what it computes with the
 page's test vectors and with what the meshmark command line writes and reads.
 """
 import hashlib, math, struct, sys
+from argon2.low_level import Type, hash_secret_raw
 from cryptography.hazmat.primitives.ciphers import Cipher, algorithms
 
 
@@ -14,6 +16,13 @@ def b2b(data, key=b"", n=32):
 
 
 def key_from_passphrase(p: bytes):
+    """Argon2id version 1.3, 3 passes over 64 MiB, one lane, a 32-byte key (section 2.2)."""
+    salt = b2b(b"meshmark/passphrase/v2/salt\x00")[:16]
+    return hash_secret_raw(p, salt, time_cost=3, memory_cost=64 * 1024, parallelism=1,
+                           hash_len=32, type=Type.ID, version=19)
+
+
+def key_from_passphrase_v1(p: bytes):
     return b2b(b"meshmark/passphrase/v1\x00" + p)
 
 
@@ -21,7 +30,7 @@ def key_from_file(path):
     return b2b(b"meshmark/key-file/v1\x00" + open(path, "rb").read())
 
 
-PUBLIC = key_from_passphrase(b"meshmark public whitening key")
+PUBLIC = key_from_passphrase_v1(b"meshmark public whitening key")
 
 
 def derive_key(key, purpose):
@@ -37,7 +46,8 @@ def row_mac(key, row):
     fields = ["meshmark registry row 1"]
     for name in ("original_hash", "original_path", "buyer", "id", "id_bits", "bits", "variant",
                  "strength", "strength_spread", "bin_offset", "key_fingerprint", "mark_format",
-                 "issued_at", "output_path", "output_hash", "method", "original_geometry"):
+                 "issued_at", "output_path", "output_hash", "method", "original_geometry",
+                 "key_derivation"):
         v = row[name]
         fields.append("%.17g" % v if isinstance(v, float) else str(v))
     message = b"".join(struct.pack("<I", len(f.encode())) + f.encode() for f in fields)
