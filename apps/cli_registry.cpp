@@ -43,7 +43,8 @@ nlohmann::json to_json(const IssuedCopy& c) {
           {"output_hash", c.output_hash},
           {"method", c.method},
           {"mac", c.mac},
-          {"key_derivation", c.key_derivation}};
+          {"key_derivation", c.key_derivation},
+          {"state", c.state}};
 }
 
 // A CSV field: quoted when it holds a comma, a quote or a line break.
@@ -83,13 +84,13 @@ int run_list(const RegistryArgs& a) {
     fmt::print(
         "row,original_hash,original_path,buyer,id,id_bits,bits,variant,strength,"
         "strength_spread,bin_offset,key_fingerprint,mark_format,issued_at,output_path,"
-        "output_hash,method,original_geometry,mac,key_derivation\n");
+        "output_hash,method,original_geometry,mac,key_derivation,state\n");
     for (const IssuedCopy& c : copies)
-      fmt::print("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.row,
+      fmt::print("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.row,
                  c.original_hash, csv(c.original_path), csv(c.buyer), c.id, c.id_bits, c.bits,
                  c.variant, c.strength, c.strength_spread, c.bin_offset, c.key_fingerprint,
                  c.mark_format, c.issued_at, csv(c.output_path), c.output_hash, c.method,
-                 c.original_geometry, c.mac, csv(c.key_derivation));
+                 c.original_geometry, c.mac, csv(c.key_derivation), c.state);
   } else {
     // The columns say what they hold: the variant (Cho's methods: method/variant), the key
     // fingerprint's first 8 hex digits, the copy's path.
@@ -127,6 +128,8 @@ int run_verify(const VerifyArgs& a) {
     nlohmann::json edited = nlohmann::json::array(), bare = nlohmann::json::array();
     for (const IssuedCopy& c : check.edited) edited.push_back(row_json(c));
     for (const IssuedCopy& c : check.unauthenticated) bare.push_back(row_json(c));
+    nlohmann::json reserved = nlohmann::json::array();
+    for (const IssuedCopy& c : check.reserved) reserved.push_back(row_json(c));
     fmt::print("{}\n", nlohmann::json{{"registry", registry_display_name(a.db)},
                                       {"ok", check.ok()},
                                       {"integrity", check.integrity},
@@ -134,7 +137,8 @@ int run_verify(const VerifyArgs& a) {
                                       {"authentic", check.authentic},
                                       {"edited", edited},
                                       {"unauthenticated", bare},
-                                      {"other_key", check.other_key}}
+                                      {"other_key", check.other_key},
+                                      {"reserved", reserved}}
                            .dump(2));
   } else {
     fmt::print("{}: {}\n", printable(registry_display_name(a.db)),
@@ -151,6 +155,9 @@ int run_verify(const VerifyArgs& a) {
     for (const IssuedCopy& c : check.unauthenticated)
       fmt::print("  unauthenticated  row {}: ID {}, '{}': carries no authentication code\n", c.row,
                  c.id, printable(c.buyer));
+    for (const IssuedCopy& c : check.reserved)
+      fmt::print("  reserved         row {}: ID {}, '{}': its issue did not complete (rerun it)\n",
+                 c.row, c.id, printable(c.buyer));
   }
   return check.ok() ? kOk : kNotVerified;
 }

@@ -101,6 +101,7 @@ void refuse_clashes(const std::vector<CopyRequest>& requests, const IssueSetting
 // whatever the search found for that copy.
 bool resumable(const IssuedCopy& taken, IssuedCopy wanted, const std::string& output,
                bool searched) {
+  if (taken.state != "issued") return false;
   wanted.output_path = normalized_path(output);
   if (searched) wanted.strength = taken.strength, wanted.bin_offset = taken.bin_offset;
   if (!same_copy(taken, wanted)) return false;
@@ -166,6 +167,28 @@ void check_registry(const Registry& registry, std::vector<CopyRequest>& requests
   for (const IssuedCopy& taken : registry.conflicts(wanted))
     for (const std::size_t k : candidates) {
       if (!same(k, taken)) continue;
+      if (taken.row && taken.state == "reserved") {
+        // An issue that reserved this row and did not complete it: this very copy (buyer,
+        // settings, output) is finished under the same row, whatever its file holds now.
+        IssuedCopy wanted = out[k].record;
+        wanted.output_path = normalized_path(requests[k].output);
+        wanted.strength = taken.strength, wanted.bin_offset = taken.bin_offset;
+        if (same_copy(taken, wanted)) {
+          out[k].record.row = taken.row;
+          out[k].record.issued_at = taken.issued_at;
+          out[k].warnings.push_back(fmt::format(
+              "{}: ID {} was reserved for '{}' on {} (row {}) by an issue that did not complete "
+              "it: this run writes the copy and completes the row",
+              requests[k].output, taken.id, taken.buyer, taken.issued_at, taken.row));
+          continue;
+        }
+        refuse(out[k],
+               fmt::format("ID {} is reserved for '{}' since {} (row {}, {}) by an issue "
+                           "that is running or was interrupted: rerun that issue to "
+                           "finish it, or choose another ID",
+                           taken.id, taken.buyer, taken.issued_at, taken.row, taken.output_path));
+        continue;
+      }
       if (taken.row && settings.resume &&
           resumable(taken, out[k].record, requests[k].output, settings.limits.has_value())) {
         out[k].status = CopyStatus::Skipped;
@@ -323,6 +346,90 @@ void record_copies(Registry& registry, std::vector<IssuedCopy> copies,
   }
 }
 
+namespace {
+
+// Reserves the rows of the copies about to be made (those without one: an interrupted
+// issue's rows are finished as they are), in one transaction; when that fails (another issue
+// took an ID meanwhile, the database failed), none of these copies is made.
+void reserve_rows(Registry& registry, const std::vector<CopyRequest>& requests,
+                  std::vector<std::size_t>& jobs, const IssueSettings& settings,
+                  std::vector<CopyOutcome>& out) {
+  std::vector<IssuedCopy> fresh;
+  std::vector<std::size_t> index;
+  for (const std::size_t k : jobs)
+    if (out[k].record.row == 0) {
+      out[k].record.output_path = normalized_path(requests[k].output);
+      fresh.push_back(out[k].record), index.push_back(k);
+    }
+  if (fresh.empty()) return;
+  try {
+    fresh = registry.reserve(std::move(fresh), id_key(settings.key));
+    for (std::size_t j = 0; j < index.size(); ++j) out[index[j]].record = fresh[j];
+  } catch (const std::exception& e) {
+    for (const std::size_t k : index) refuse(out[k], fmt::format("not reserved: {}", e.what()));
+    std::erase_if(jobs, [&](std::size_t k) { return !pending(out[k]); });
+  }
+}
+
+// Completes the rows of the copies written, in one transaction (all, or none and their files
+// removed), and releases the rows of the copies that were not.
+void complete_rows(Registry& registry, const std::vector<CopyRequest>& requests,
+                   const IssueSettings& settings, std::vector<CopyOutcome>& out) {
+  std::vector<IssuedCopy> done, dropped;
+  for (std::size_t k = 0; k < requests.size(); ++k)
+    if (out[k].record.row != 0 && out[k].status != CopyStatus::Written)
+      dropped.push_back(out[k].record);
+  try {
+    for (std::size_t k = 0; k < requests.size(); ++k) {
+      if (out[k].record.row == 0 || out[k].status != CopyStatus::Written) continue;
+      IssuedCopy c = out[k].record;
+      c.output_path = normalized_path(requests[k].output);
+      c.output_hash = content_hash(read_file(requests[k].output));
+      done.push_back(c);
+    }
+    if (!done.empty()) registry.complete(std::move(done), id_key(settings.key));
+  } catch (const std::exception& e) {
+    // A copy that another run of the same request completed meanwhile, its file as recorded,
+    // is kept; every other copy written is removed and its row given back.
+    std::map<std::string, std::string> completed;
+    try {
+      for (const IssuedCopy& c : registry.list())
+        if (c.state == "issued") completed[c.output_path] = c.output_hash;
+    } catch (const std::exception&) {
+      completed.clear();
+    }
+    for (std::size_t k = 0; k < requests.size(); ++k) {
+      CopyOutcome& c = out[k];
+      if (c.status != CopyStatus::Written || c.record.row == 0) continue;
+      const auto other = completed.find(normalized_path(requests[k].output));
+      std::string hash;
+      try {
+        hash = content_hash(read_file(requests[k].output));
+      } catch (const std::exception&) {
+        hash.clear();
+      }
+      if (other != completed.end() && !hash.empty() && other->second == hash) {
+        c.status = CopyStatus::Skipped;
+        c.message = "issued and recorded by another run of the same request: its file is intact";
+        continue;
+      }
+      std::remove(requests[k].output.c_str());
+      c.status = CopyStatus::NotRecorded;
+      c.message = fmt::format("not recorded, removed: {}", e.what());
+      dropped.push_back(c.record);
+    }
+  }
+  try {
+    registry.release(dropped);
+  } catch (const std::exception& e) {
+    for (CopyOutcome& c : out)
+      if (c.status != CopyStatus::Written && c.record.row != 0)
+        c.warnings.push_back(fmt::format("row {} stays reserved: {}", c.record.row, e.what()));
+  }
+}
+
+}  // namespace
+
 IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings& settings) {
   const auto start = std::chrono::steady_clock::now();
   if (settings.bits < 1)
@@ -406,6 +513,9 @@ IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings&
     else
       jobs.push_back(k);
   }
+  // The registry reserves every ID before its copy is written: an issue killed while writing
+  // leaves reserved rows (which a rerun completes), never a copy that no row names.
+  if (registry) reserve_rows(*registry, requests, jobs, settings, out);
   detail::ProgressCounter progress(settings.progress, "issuing", static_cast<long>(jobs.size()));
   result.threads = detail::parallel_for(jobs.size(), settings.threads, [&](std::size_t j) {
     const std::size_t k = jobs[j];
@@ -420,22 +530,7 @@ IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings&
     }
     progress.step(1, requests[k].output);
   });
-  // One transaction for every copy written: all recorded, or none and their files removed.
-  if (registry) {
-    std::vector<IssuedCopy> done;
-    std::vector<std::string> outputs;
-    for (std::size_t k = 0; k < requests.size(); ++k)
-      if (out[k].status == CopyStatus::Written)
-        done.push_back(out[k].record), outputs.push_back(requests[k].output);
-    try {
-      if (!done.empty()) record_copies(*registry, done, outputs, id_key(settings.key));
-    } catch (const std::exception& e) {
-      for (CopyOutcome& c : out)
-        if (c.status == CopyStatus::Written)
-          c.status = CopyStatus::NotRecorded,
-          c.message = fmt::format("not recorded, removed: {}", e.what());
-    }
-  }
+  if (registry) complete_rows(*registry, requests, settings, out);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

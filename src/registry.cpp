@@ -158,7 +158,7 @@ std::string row_mac(const Key& key, const IssuedCopy& c) {
        {c.original_hash, c.original_path, c.buyer, std::to_string(c.id), std::to_string(c.id_bits),
         std::to_string(c.bits), c.variant, real(c.strength), real(c.strength_spread),
         real(c.bin_offset), c.key_fingerprint, std::to_string(c.mark_format), c.issued_at,
-        c.output_path, c.output_hash, c.method, c.original_geometry, c.key_derivation})
+        c.output_path, c.output_hash, c.method, c.original_geometry, c.key_derivation, c.state})
     put(field);
   unsigned char digest[32];
   crypto_generichash_final(&state, digest, sizeof digest);
@@ -266,6 +266,35 @@ std::vector<IssuedCopy> Registry::record(std::vector<IssuedCopy> copies, const K
   return record(std::move(copies));
 }
 
+std::vector<IssuedCopy> Registry::reserve(std::vector<IssuedCopy> copies, const Key& key) {
+  for (IssuedCopy& c : copies) c.state = "reserved", c.output_hash.clear();
+  return record(std::move(copies), key);
+}
+
+std::vector<IssuedCopy> Registry::complete(std::vector<IssuedCopy> copies, const Key& key) {
+  const std::string stamp = now_utc();
+  for (IssuedCopy& c : copies) {
+    c.state = "issued", c.issued_at = stamp;
+    c.mac = row_mac(key, c);
+  }
+  impl_->store->transaction([&] {
+    for (const IssuedCopy& c : copies)
+      if (!impl_->store->complete(c))
+        throw IOError(fmt::format(
+            "{}: row {} ('{}', ID {}) is no longer reserved: another issue completed or removed "
+            "it; nothing completed",
+            registry_display_name(impl_->location), c.row, c.buyer, c.id));
+  });
+  return copies;
+}
+
+void Registry::release(const std::vector<IssuedCopy>& copies) {
+  impl_->store->transaction([&] {
+    for (const IssuedCopy& c : copies)
+      if (c.row) impl_->store->release(c.row);
+  });
+}
+
 std::string Registry::integrity_check() const {
   return impl_->store->integrity_check();
 }
@@ -288,7 +317,9 @@ RegistryCheck verify_registry(const std::string& where, const Key& key) {
   check.integrity = registry.integrity_check();
   for (const IssuedCopy& c : registry.list()) {
     ++check.rows;
-    switch (check_row(key, c)) {
+    const RowAuth auth = check_row(key, c);
+    if (auth != RowAuth::OtherKey && c.state == "reserved") check.reserved.push_back(c);
+    switch (auth) {
       case RowAuth::Authentic:
         ++check.authentic;
         break;

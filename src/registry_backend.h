@@ -26,6 +26,11 @@ class RegistryBackend {
   virtual bool find(const IssuedCopy& c, IssuedCopy& recorded) = 0;
   /// Inserts c (inside transaction()); returns its row.
   virtual std::int64_t insert(const IssuedCopy& c) = 0;
+  /// Rewrites the row c.row with c's fields (inside transaction()); false when no reserved row
+  /// has that number.
+  virtual bool complete(const IssuedCopy& c) = 0;
+  /// Deletes the row if it is reserved (inside transaction()).
+  virtual void release(std::int64_t row) = 0;
   /// The copies matching query, by row.
   virtual std::vector<IssuedCopy> list(const RegistryQuery& query) = 0;
   /// The store's own integrity check: "ok", or its findings one per line.
@@ -43,7 +48,7 @@ std::unique_ptr<RegistryBackend> open_postgres_registry(const std::string& uri);
 inline constexpr const char* kRegistryColumns =
     "original_hash, original_path, buyer, id, id_bits, bits, variant, strength, "
     "strength_spread, bin_offset, key_fingerprint, mark_format, issued_at, output_path, "
-    "output_hash, method, original_geometry, mac, key_derivation";
+    "output_hash, method, original_geometry, mac, key_derivation, state";
 
 /// The statements that create schema version 1's table and index, in SQLite's or
 /// PostgreSQL's types.
@@ -91,9 +96,11 @@ inline constexpr const char* kRegistryMigrationV3 =
 
 /// The statements that take version 3 to version 4: each row's MAC (row_mac; '' for the
 /// copies recorded before, which carry none) and how its key was derived (Key::derivation;
-/// '' for the copies recorded before: a key file, or a passphrase's key_from_passphrase_v1).
+/// '' for the copies recorded before: a key file, or a passphrase's key_from_passphrase_v1),
+/// and its state (IssuedCopy::state; the copies recorded before were all issued).
 inline constexpr const char* kRegistryMigrationV4 =
     "ALTER TABLE copies ADD COLUMN mac TEXT NOT NULL DEFAULT '';\n"
-    "ALTER TABLE copies ADD COLUMN key_derivation TEXT NOT NULL DEFAULT '';";
+    "ALTER TABLE copies ADD COLUMN key_derivation TEXT NOT NULL DEFAULT '';\n"
+    "ALTER TABLE copies ADD COLUMN state TEXT NOT NULL DEFAULT 'issued';";
 
 }  // namespace meshmark::detail

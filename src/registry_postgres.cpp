@@ -53,6 +53,7 @@ class Result {
     c.original_geometry = text(row, 17);
     c.mac = text(row, 18);
     c.key_derivation = text(row, 19);
+    c.state = text(row, 20);
     return c;
   }
 
@@ -162,12 +163,14 @@ class PostgresRegistry final : public RegistryBackend {
                                         c.method,
                                         c.original_geometry,
                                         c.mac,
-                                        c.key_derivation};
-    const Result r = run(fmt::format("INSERT INTO copies ({}) VALUES ($1, $2, $3, $4, $5, $6, "
-                                     "$7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19) "
-                                     "RETURNING row",
-                                     kRegistryColumns),
-                         p);
+                                        c.key_derivation,
+                                        c.state};
+    const Result r =
+        run(fmt::format("INSERT INTO copies ({}) VALUES ($1, $2, $3, $4, $5, $6, "
+                        "$7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19, $20) "
+                        "RETURNING row",
+                        kRegistryColumns),
+            p);
     return std::strtoll(PQgetvalue(r.get(), 0, 0), nullptr, 10);
   }
 
@@ -196,6 +199,19 @@ class PostgresRegistry final : public RegistryBackend {
     std::vector<IssuedCopy> out;
     for (int i = 0; i < r.rows(); ++i) out.push_back(r.copy(i));
     return out;
+  }
+
+  bool complete(const IssuedCopy& c) override {
+    const Result r =
+        run("UPDATE copies SET strength = $1, bin_offset = $2, issued_at = $3, output_path = $4, "
+            "output_hash = $5, mac = $6, state = $7 WHERE row = $8 AND state = 'reserved'",
+            {fmt::format("{}", c.strength), fmt::format("{}", c.bin_offset), c.issued_at,
+             c.output_path, c.output_hash, c.mac, c.state, std::to_string(c.row)});
+    return std::string(PQcmdTuples(r.get())) == "1";
+  }
+
+  void release(std::int64_t row) override {
+    run("DELETE FROM copies WHERE row = $1 AND state = 'reserved'", {std::to_string(row)});
   }
 
  private:

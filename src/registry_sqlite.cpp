@@ -63,6 +63,7 @@ class Statement {
     c.original_geometry = text(17);
     c.mac = text(18);
     c.key_derivation = text(19);
+    c.state = text(20);
     return c;
   }
 
@@ -171,7 +172,8 @@ class SqliteRegistry final : public RegistryBackend {
     const auto replace = [&](const std::string& column, const std::string& as) {
       columns.replace(columns.find(column), column.size(), as + " AS " + column);
     };
-    if (version < 4) replace("mac", "''"), replace("key_derivation", "''");
+    if (version < 4)
+      replace("mac", "''"), replace("key_derivation", "''"), replace("state", "'issued'");
     if (version < 3) replace("original_geometry", "''");
     if (version < 2) replace("method", "'qp'");
     columns_ = columns;
@@ -214,7 +216,7 @@ class SqliteRegistry final : public RegistryBackend {
       insert_ = std::make_unique<Statement>(
           db_, path_,
           fmt::format("INSERT INTO copies ({}) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, "
-                      "?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19)",
+                      "?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20)",
                       kRegistryColumns));
     Statement& s = *insert_;
     sqlite3_reset(s.get());
@@ -237,8 +239,34 @@ class SqliteRegistry final : public RegistryBackend {
     s.bind(17, c.original_geometry);
     s.bind(18, c.mac);
     s.bind(19, c.key_derivation);
+    s.bind(20, c.state);
     if (sqlite3_step(s.get()) != SQLITE_DONE) fail(db_, path_, "cannot record a copy");
     return sqlite3_last_insert_rowid(db_);
+  }
+
+  bool complete(const IssuedCopy& c) override {
+    if (read_only_) throw IOError(fmt::format("{}: the registry is open read-only", path_));
+    Statement s(db_, path_,
+                "UPDATE copies SET strength = ?1, bin_offset = ?2, issued_at = ?3, "
+                "output_path = ?4, output_hash = ?5, mac = ?6, state = ?7 "
+                "WHERE row = ?8 AND state = 'reserved'");
+    s.bind(1, c.strength);
+    s.bind(2, c.bin_offset);
+    s.bind(3, c.issued_at);
+    s.bind(4, c.output_path);
+    s.bind(5, c.output_hash);
+    s.bind(6, c.mac);
+    s.bind(7, c.state);
+    s.bind(8, c.row);
+    if (sqlite3_step(s.get()) != SQLITE_DONE) fail(db_, path_, "cannot complete a copy's row");
+    return sqlite3_changes(db_) == 1;
+  }
+
+  void release(std::int64_t row) override {
+    if (read_only_) throw IOError(fmt::format("{}: the registry is open read-only", path_));
+    Statement s(db_, path_, "DELETE FROM copies WHERE row = ?1 AND state = 'reserved'");
+    s.bind(1, row);
+    if (sqlite3_step(s.get()) != SQLITE_DONE) fail(db_, path_, "cannot release a reserved row");
   }
 
   std::string integrity_check() override {

@@ -398,6 +398,11 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
             "row {} (ID {}) carries no authentication code (recorded before registry schema "
             "4, or without the key): its buyer and ID are as the registry says, unverified",
             s.copy.row, s.copy.id));
+      if (s.copy.state == "reserved")
+        r.warnings.push_back(fmt::format(
+            "row {} (ID {}) is reserved, not completed: the issue of its copy was interrupted "
+            "(or is running) after the ID was reserved; check that the copy was delivered",
+            s.copy.row, s.copy.id));
     }
   }
   if (edited > 0)

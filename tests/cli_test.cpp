@@ -9,6 +9,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <set>
 
 #include "meshmark/io.h"
 #include "meshmark/issue.h"
@@ -353,6 +355,60 @@ TEST(Cli, PassphraseCopiesIssuedBeforeArgon2idStillTrace) {
   EXPECT_NE(read_file(err).find("2 copies were issued under this passphrase's earlier key"),
             std::string::npos)
       << read_file(err);
+}
+
+// embed --batch killed (SIGKILL) at several moments: every copy on disk has its row (reserved
+// or issued; an issued one with the hash of the file), and the batch run again issues every
+// copy once, completes every row and leaves no temporary file.
+TEST(Cli, AKilledBatchLeavesNoCopyWithoutARowAndItsRerunFinishesIt) {
+  const std::string mesh = test::cgal_mesh("refined_elephant.off");
+  MESHMARK_REQUIRE(mesh, "libcgal-demo's refined_elephant.off");
+  const std::string cli = std::string(MESHMARK_CLI);
+  constexpr int kCopies = 30;  // about 0.7 s in all on 2 threads
+  for (const char* delay : {"0.1", "0.3", "0.5"}) {
+    SCOPED_TRACE(std::string("killed after ") + delay + " s");
+    const std::string dir = test::scratch_dir() + "/killed-batch-" + delay;
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    const std::string db = dir + "/shop.db", key = dir + "/k.key", manifest = dir + "/m.txt";
+    ASSERT_EQ(test::run_cli("keygen " + key).code, 0);
+    {
+      std::ofstream m(manifest);
+      for (int n = 100; n < 100 + kCopies; ++n)
+        m << mesh << " " << dir << "/copy-" << n << ".ply id:" << n << " buyer-" << n << "\n";
+    }
+    const std::string batch =
+        cli + " embed --batch " + manifest + " --key-file " + key + " --registry " + db;
+    test::run_command("(" + batch + " >/dev/null 2>&1 & p=$!; sleep " + delay +
+                      "; kill -9 $p; wait $p) 2>/dev/null; true");
+    std::map<std::string, IssuedCopy> rows;
+    if (std::filesystem::exists(db))
+      for (const IssuedCopy& c : read_registry(db)) rows[c.output_path] = c;
+    for (int n = 100; n < 100 + kCopies; ++n) {
+      const std::string copy = dir + "/copy-" + std::to_string(n) + ".ply";
+      if (!std::filesystem::exists(copy)) continue;
+      const auto row = rows.find(normalized_path(copy));
+      ASSERT_NE(row, rows.end()) << copy << " was written and has no row";
+      EXPECT_EQ(row->second.id, static_cast<std::uint64_t>(n));
+      if (row->second.state == "issued")
+        EXPECT_EQ(row->second.output_hash, content_hash(read_file(copy))) << copy;
+    }
+    const test::CliRun again =
+        test::run_cli("embed --batch " + manifest + " --key-file " + key + " --registry " + db);
+    ASSERT_EQ(again.code, 0) << again.out;
+    const std::vector<IssuedCopy> after = read_registry(db);
+    ASSERT_EQ(after.size(), static_cast<std::size_t>(kCopies));
+    std::set<std::uint64_t> ids;
+    for (const IssuedCopy& c : after) {
+      ids.insert(c.id);
+      EXPECT_EQ(c.state, "issued") << c.row;
+      EXPECT_EQ(c.output_hash, content_hash(read_file(c.output_path))) << c.row;
+    }
+    EXPECT_EQ(ids.size(), static_cast<std::size_t>(kCopies));
+    for (const auto& entry : std::filesystem::directory_iterator(dir))
+      EXPECT_EQ(entry.path().filename().string().find(".meshmark-"), std::string::npos)
+          << entry.path() << " survived the rerun";
+  }
 }
 
 TEST(Cli, OptionValuesThatAreNotFiniteAreRefusedAndNamedSo) {

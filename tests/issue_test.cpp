@@ -6,6 +6,8 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <sodium.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <filesystem>
@@ -337,7 +339,8 @@ TEST(Issue, AutoIdCopiesCarryAndRecordTheirChosenId) {
   {
     std::ofstream m(dir + "/manifest.txt");
     m << original << " " << dir << "/a.ply id:7 buyer seven\n";
-    for (int k = 0; k < 3; ++k) m << original << " " << dir << "/auto-" << k << ".ply id:auto buyer " << k << "\n";
+    for (int k = 0; k < 3; ++k)
+      m << original << " " << dir << "/auto-" << k << ".ply id:auto buyer " << k << "\n";
   }
   const std::vector<CopyRequest> requests = read_manifest(dir + "/manifest.txt");
   ASSERT_EQ(requests.size(), 4u);
@@ -358,8 +361,8 @@ TEST(Issue, AutoIdCopiesCarryAndRecordTheirChosenId) {
     ASSERT_NE(row, rows.end());
     EXPECT_NE(row->id, 7u);
     EXPECT_TRUE(ids.insert(row->id).second);
-    EXPECT_NE(result.copies[k + 1].message.find(fmt::format("ID {},", row->id)),
-              std::string::npos) << result.copies[k + 1].message;
+    EXPECT_NE(result.copies[k + 1].message.find(fmt::format("ID {},", row->id)), std::string::npos)
+        << result.copies[k + 1].message;
     const Mesh copy = read_mesh(output);
     const IdReading read = read_id(copy.V, copy.F, ExtractOptions{}, code, settings.key);
     ASSERT_TRUE(read.id.valid) << read.id.message;
@@ -439,6 +442,67 @@ TEST(Parallel, EveryIndexOnceWithinTheBudgetAndNestedLoopsShareIt) {
   EXPECT_EQ(nested_chunks.load(), 4 * 2);
   EXPECT_GE(nested_threads.load(), 4);
   EXPECT_LE(nested_threads.load(), 4 * 2);
+}
+
+// An issue killed after reserving its IDs leaves rows in state "reserved" (and perhaps a
+// temporary file, or the copy itself): the ID cannot be taken by another request meanwhile,
+// and the same request run again writes the copy
+// and completes that row; a copy that cannot be written gives its reservation back.
+TEST(Issue, AnInterruptedIssueIsFinishedByItsRerunAndNobodyElseTakesItsId) {
+  const std::string spot = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir() + "/issue-interrupted";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string db = dir + "/shop.db", output = dir + "/copy-41.ply";
+  IssueSettings settings = shop_settings(db);
+  const Key key = *settings.key;
+  {
+    // What a run killed while writing leaves: the reserved row, and a temporary file of a
+    // process that no longer runs.
+    Registry registry(db);
+    IssuedCopy c = issued_copy(spot, "buyer 41", 41, settings);
+    c.output_path = normalized_path(output);
+    const std::vector<IssuedCopy> reserved = registry.reserve({c}, key);
+    ASSERT_EQ(reserved.size(), 1u);
+    EXPECT_EQ(reserved[0].state, "reserved");
+    EXPECT_EQ(check_row(key, reserved[0]), RowAuth::Authentic);
+  }
+  const pid_t gone = fork();
+  if (gone == 0) _exit(0);
+  ASSERT_GT(gone, 0);
+  waitpid(gone, nullptr, 0);
+  const std::string stale = fmt::format("{}/.copy-41.ply.meshmark-{}-abcdef", dir, gone);
+  std::ofstream(stale) << "half a copy";
+  // Another buyer asking for ID 41 meanwhile is refused, naming the reservation.
+  CopyRequest other{.input = spot, .output = dir + "/other.ply", .id = 41, .buyer = "mallory"};
+  IssueResult r = issue_copies({other}, settings);
+  ASSERT_EQ(r.copies.size(), 1u);
+  EXPECT_EQ(r.copies[0].status, CopyStatus::Refused);
+  EXPECT_NE(r.copies[0].message.find("is reserved for 'buyer 41'"), std::string::npos)
+      << r.copies[0].message;
+  EXPECT_FALSE(fs::exists(dir + "/other.ply"));
+  // The same request again: written, the reserved row completed (one row, authentic, with the
+  // hash of the file on disk), the stale temporary file gone.
+  CopyRequest same{.input = spot, .output = output, .id = 41, .buyer = "buyer 41"};
+  r = issue_copies({same}, settings);
+  ASSERT_EQ(r.copies[0].status, CopyStatus::Written) << r.copies[0].message;
+  bool warned = false;
+  for (const std::string& w : r.copies[0].warnings) warned |= w.find("was reserved") != w.npos;
+  EXPECT_TRUE(warned);
+  std::vector<IssuedCopy> rows = read_registry(db);
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0].state, "issued");
+  EXPECT_EQ(rows[0].id, 41u);
+  EXPECT_EQ(rows[0].output_hash, blake2b_hex(output)) << "the hash of the bytes";
+  EXPECT_EQ(check_row(key, rows[0]), RowAuth::Authentic);
+  EXPECT_FALSE(fs::exists(stale));
+  // A copy that cannot be written (its folder does not exist) leaves no row behind.
+  CopyRequest lost{.input = spot, .output = dir + "/no-such-dir/c.ply", .id = 77, .buyer = "b"};
+  r = issue_copies({lost}, settings);
+  EXPECT_EQ(r.copies[0].status, CopyStatus::WriteFailed) << r.copies[0].message;
+  rows = read_registry(db);
+  EXPECT_EQ(rows.size(), 1u);
 }
 
 }  // namespace

@@ -173,6 +173,22 @@ TEST(Trace, NamesTheLeakerAfterASimilarityAndChainsOfTwo) {
   }
 }
 
+// A row reserved and never completed (its issue was interrupted after the copy was written)
+// is still a candidate: its buyer is named, with a warning that says the row is reserved.
+TEST(Trace, AReservedRowIsNamedWithAWarning) {
+  MESHMARK_REQUIRE(test::closed_binary_ply(), "bunny00.off");
+  const Shop& s = shop();
+  std::vector<IssuedCopy> issued = s.issued;
+  for (IssuedCopy& c : issued)
+    if (c.id == s.leaker) c.state = "reserved";
+  const TraceResult r = trace(s.marked, s.original, issued, s.key);
+  ASSERT_EQ(r.named.size(), 1u) << r.message;
+  EXPECT_EQ(r.named[0].copy.id, s.leaker);
+  bool warned = false;
+  for (const std::string& w : r.warnings) warned |= w.find("is reserved, not completed") != w.npos;
+  EXPECT_TRUE(warned);
+}
+
 // The per-bit evidence of an unprocessed copy: every bit measured, read as the leaker's
 // codeword bit, and the measured shift nearer to that bit's expected shift.
 TEST(Trace, PerBitEvidenceOfAnUnprocessedCopyIsTheCodeword) {

@@ -61,6 +61,10 @@ struct IssuedCopy {
   /// Argon2id or, before schema 4, BLAKE2b); "" for copies recorded before schema 4 or under
   /// a key given as bytes.
   std::string key_derivation;
+  /// "issued": the copy was written and this row completed with its hash; "reserved": the
+  /// row was recorded before the copy was written (Registry::reserve) and the issue has not
+  /// completed it: it was interrupted (a rerun finishes it) or is still running.
+  std::string state = "issued";
 };
 
 /// What the authentication code of a row says (check_row).
@@ -160,6 +164,18 @@ class Registry {
   /// \throw InvalidArgumentError also when a copy's key_fingerprint is not key's.
   std::vector<IssuedCopy> record(std::vector<IssuedCopy> copies, const Key& key);
 
+  /// Reserves copies before they are written: records them as record(copies, key) does, with
+  /// the same refusals, in state "reserved" with no output hash, so that no other issue can
+  /// take their IDs and an issue killed while writing leaves rows, never a copy without one.
+  std::vector<IssuedCopy> reserve(std::vector<IssuedCopy> copies, const Key& key);
+  /// Completes reserved rows in one transaction: each copy's row (by IssuedCopy::row) takes its
+  /// strength, bin_offset, output_path and output_hash, state "issued", issued_at now and its
+  /// MAC anew. \throw IOError when a row is no longer reserved (nothing completed).
+  std::vector<IssuedCopy> complete(std::vector<IssuedCopy> copies, const Key& key);
+  /// Deletes the reserved rows of copies that were not written, in one transaction (rows that
+  /// are not reserved are left alone).
+  void release(const std::vector<IssuedCopy>& copies);
+
   /// The copies that match query, in the order they were recorded.
   std::vector<IssuedCopy> list(const RegistryQuery& query = {}) const;
 
@@ -189,6 +205,9 @@ struct RegistryCheck {
   std::vector<IssuedCopy> edited;           ///< rows under the key whose MAC does not match
   std::vector<IssuedCopy> unauthenticated;  ///< rows under the key with no MAC
   std::size_t other_key = 0;                ///< rows of other keys (not checkable here)
+  /// Rows under the key reserved and not completed (an interrupted or running issue); they
+  /// do not make the check fail.
+  std::vector<IssuedCopy> reserved;
   /// Whether the file is sound and every row under the key is authentic.
   bool ok() const { return integrity == "ok" && edited.empty() && unauthenticated.empty(); }
 };

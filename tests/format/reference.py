@@ -47,7 +47,7 @@ def row_mac(key, row):
     for name in ("original_hash", "original_path", "buyer", "id", "id_bits", "bits", "variant",
                  "strength", "strength_spread", "bin_offset", "key_fingerprint", "mark_format",
                  "issued_at", "output_path", "output_hash", "method", "original_geometry",
-                 "key_derivation"):
+                 "key_derivation", "state"):
         v = row[name]
         fields.append("%.17g" % v if isinstance(v, float) else str(v))
     message = b"".join(struct.pack("<I", len(f.encode())) + f.encode() for f in fields)
