@@ -104,6 +104,21 @@ int run_list(const RegistryArgs& a) {
           c.key_fingerprint.substr(0, 8), printable(c.output_path));
     fmt::print("{} cop{}\n", copies.size(), copies.size() == 1 ? "y" : "ies");
   }
+  // What was read is printed; a damaged file says so and does not exit 0.
+  std::string integrity;
+  try {
+    integrity = Registry(a.db, true).integrity_check();
+  } catch (const IOError& e) {
+    integrity = e.what();
+  }
+  if (integrity != "ok") {
+    fmt::print(stderr,
+               "meshmark: error: {}: the registry file is DAMAGED (SQLite integrity check: {}); "
+               "the rows above are what could be read: restore it from a backup "
+               "(meshmark registry verify checks it)\n",
+               printable(registry_display_name(a.db)), printable(integrity));
+    return kNotVerified;
+  }
   return kOk;
 }
 

@@ -586,6 +586,12 @@ TEST(Registry, AnEditedRowIsFoundByVerifyAndNeverNamed) {
   v = test::run_cli("registry verify " + db + " --key-file " + key);
   EXPECT_EQ(v.code, 7) << v.out;
   EXPECT_NE(v.out.find("DAMAGED"), std::string::npos) << v.out;
+  // Listing prints what it reads and says the file is damaged, exit 7 (it exited 0).
+  for (const char* command : {"list", "show", "export"}) {
+    v = test::run_cli(std::string("registry ") + command + " " + db);
+    EXPECT_EQ(v.code, 7) << command << "\n" << v.out;
+    EXPECT_NE(v.out.find("the registry file is DAMAGED"), std::string::npos) << v.out;
+  }
 }
 
 TEST(Registry, CommandLineIssuesRecordsAndSurvivesAKilledBatch) {
