@@ -116,7 +116,8 @@ void init_issue(py::module_& m) {
       "{input, output, id (a coded buyer ID, or 'auto': the registry picks the smallest ID "
       "spaced from every issued one) or payload (hex), buyer}; with a registry, IDs "
       "issued before, given twice or with codewords too close are refused and the copies "
-      "written are recorded in one transaction; coded IDs without a key are refused unless "
+      "reserved in one transaction before any is written, and the rows of those written "
+      "completed in another; coded IDs without a key are refused unless "
       "public_key=True (anyone can read, remove or forge them). options: an EmbedOptions "
       "(strength, variant, method); further keywords set its fields, as embed() takes them "
       "(variant='VRS', strength=0.05, ...). Returns one dict per copy: id, status, ok, "
@@ -127,7 +128,16 @@ void init_issue(py::module_& m) {
       [](py::handle leaked, py::handle original, const std::string& registry, py::handle key,
          py::handle key_file, double threshold, bool register_leak, py::handle report,
          py::handle pdf, const std::string& case_id, const std::string& analyst, bool redact) {
-        const std::optional<Key> k = resolve_key(key, key_file);
+        // A passphrase stands for the key its copies in the registry were issued under (the
+        // earlier derivation for copies issued before schema 4), as the CLI's trace.
+        std::optional<Key> k;
+        std::string key_note;
+        if (py::isinstance<py::str>(key) && key_file.is_none()) {
+          PassphraseKey found = passphrase_key_in(registry, key.cast<std::string>());
+          k = std::move(found.key), key_note = std::move(found.note);
+        } else {
+          k = resolve_key(key, key_file);
+        }
         if (!k) throw InvalidArgumentError("trace needs the key the copies were issued under");
         TraceFilesRequest request;
         request.leaked = to_path(leaked);
@@ -158,6 +168,7 @@ void init_issue(py::module_& m) {
         out["ranking"] = ranking;
         out["registration"] = r.registration.message;
         py::list warnings;
+        if (!key_note.empty()) warnings.append(key_note);
         for (const std::string& w : found.warnings) warnings.append(w);
         for (const std::string& w : r.warnings) warnings.append(w);
         out["warnings"] = warnings;

@@ -50,3 +50,14 @@ def test_an_issued_copy_records_the_argon2id_key_and_its_derivation(fandisk, tmp
     assert rows[5]["key_fingerprint"] == fingerprint(argon2id_key(PASSPHRASE))
     assert rows[6]["key_derivation"] == "passphrase/blake2b"
     assert rows[6]["key_fingerprint"] == fingerprint(blake2b_key(PASSPHRASE))
+
+
+def test_trace_with_a_passphrase_reads_copies_issued_under_its_earlier_key(fandisk, tmp_path):
+    db = tmp_path / "shop.db"
+    copy = tmp_path / "old.ply"
+    out = meshmark.issue([{"input": fandisk, "output": copy, "id": 9, "buyer": "old buyer"}],
+                         registry=str(db), key=meshmark.Key.from_passphrase_v1(PASSPHRASE))
+    assert out[0]["ok"], out
+    found = meshmark.trace(copy, fandisk, str(db), key=PASSPHRASE)
+    assert [n["id"] for n in found["named"]] == [9], found["message"]
+    assert any("issued before registry schema 4" in w for w in found["warnings"]), found
