@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -25,15 +27,33 @@ struct TraceArgs {
   std::vector<std::string> argv;  // the command line as run, for the report
 };
 
-// A word for a POSIX shell: as it is when every character is plain, else single-quoted (a
-// quote inside written '\'').
+// A word for a shell: as it is when every character is plain, else single-quoted (a quote
+// inside written '\''), or ANSI-C quoted when it holds a control byte.
 std::string shell_quote(const std::string& word) {
   const bool plain = !word.empty() && word.find_first_not_of(
                                           "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
                                           "0123456789_-+=/.,:@%") == std::string::npos;
   if (plain) return word;
-  std::string q = "'";
-  for (const char c : word) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  const bool control = std::any_of(word.begin(), word.end(), [](char c) {
+    return static_cast<unsigned char>(c) < 0x20 || c == 0x7f;
+  });
+  if (!control) {
+    std::string q = "'";
+    for (const char c : word) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return q + "'";
+  }
+  // A newline or another control byte: ANSI-C quoting ($'...', bash, zsh, ksh), every such
+  // byte as \xHH, so that the command stays one printable line and names the same file.
+  std::string q = "$'";
+  for (const char c : word) {
+    const auto u = static_cast<unsigned char>(c);
+    if (c == '\\' || c == '\'')
+      q += '\\', q += c;
+    else if (u < 0x20 || u == 0x7f)
+      q += fmt::format("\\x{:02x}", u);
+    else
+      q += c;
+  }
   return q + "'";
 }
 

@@ -15,8 +15,8 @@
 
 #include "meshmark/attack.h"
 #include "meshmark/embed.h"
-#include "meshmark/evidence_report.h"
 #include "meshmark/error.h"
+#include "meshmark/evidence_report.h"
 #include "meshmark/io.h"
 #include "meshmark/report_pdf.h"
 #include "meshmark/variant.h"
@@ -283,6 +283,23 @@ TEST(EvidenceReport, CommandLineWritesAReportWhoseCommandReproducesIt) {
   const std::string command = unescape(html.substr(a, b - a));
   ASSERT_EQ(std::system(("cd / && " + command + " > /dev/null").c_str()), 0) << command;
   EXPECT_EQ(read_text(report), html) << command;
+  // A folder whose name holds a newline: the command stays one line ($'...' quoting) and, run
+  // by bash, writes the same bytes (it named a file that does not exist, the newline printed
+  // as \x0a inside single quotes).
+  const std::string odd = dir + "/line\nbreak";
+  std::filesystem::create_directories(odd);
+  r = test::run_cli("trace " + dir + "/leak.obj" + " --original " + spot + " --registry " + db +
+                    " --key-file " + key + " --report \"" + odd + "/e.html\"");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string odd_html = read_text(odd + "/e.html");
+  const std::size_t c = odd_html.find("<pre>") + 5, d = odd_html.find("</pre>");
+  ASSERT_LT(c, d);
+  const std::string odd_command = unescape(odd_html.substr(c, d - c));
+  EXPECT_EQ(odd_command.find('\n'), std::string::npos) << odd_command;
+  std::filesystem::rename(odd + "/e.html", odd + "/e.html.first");
+  std::ofstream(dir + "/again.sh") << "cd / && " << odd_command << " > /dev/null\n";
+  ASSERT_EQ(std::system(("bash " + dir + "/again.sh").c_str()), 0) << odd_command;
+  EXPECT_EQ(read_text(odd + "/e.html"), odd_html) << odd_command;
   // No buyer, and no candidates (another key, a passphrase): reports too, exit 6; the
   // passphrase is never written into one.
   r = test::run_cli("trace " + spot + " --original " + spot + " --registry " + db + " --key-file " +
@@ -360,9 +377,9 @@ TEST(EvidenceReport, ThreePrincipalViewsAndADistanceMapThatAgreesWithBruteForce)
   for (Eigen::Index i = 0; i < moved.rows(); ++i) {
     double best = INFINITY;
     for (Eigen::Index f = 0; f < c.original.F.rows(); ++f)
-      best = std::min(best, point_triangle_distance(moved.row(i), V.row(c.original.F(f, 0)),
-                                                    V.row(c.original.F(f, 1)),
-                                                    V.row(c.original.F(f, 2))));
+      best = std::min(
+          best, point_triangle_distance(moved.row(i), V.row(c.original.F(f, 0)),
+                                        V.row(c.original.F(f, 1)), V.row(c.original.F(f, 2))));
     d.push_back(100 * best / diagonal);
   }
   std::sort(d.begin(), d.end());
@@ -370,7 +387,8 @@ TEST(EvidenceReport, ThreePrincipalViewsAndADistanceMapThatAgreesWithBruteForce)
   ASSERT_NE(map, std::string::npos);
   const std::string caption = html.substr(map, 400);
   constexpr double kPrinted = 5e-3;  // 3 significant digits
-  const double median = number_after(caption, "median "), largest = number_after(caption, "largest ");
+  const double median = number_after(caption, "median "),
+               largest = number_after(caption, "largest ");
   EXPECT_NEAR(median, d[d.size() / 2], kPrinted * d[d.size() / 2]) << caption;
   EXPECT_NEAR(largest, d.back(), kPrinted * d.back()) << caption;
   EXPECT_GT(d.back(), 0);  // the leak was simplified: it departs somewhere
@@ -484,8 +502,8 @@ TEST(EvidenceReport, PrintsAsAPdfThatPopplerReadsWithTheVerdict) {
   EXPECT_NE(flat.find("Where the leak departs from the original"), std::string::npos);
   const std::string verdict = verdict_sentence(c.result, c.context.threshold, c.context.redact);
   EXPECT_NE(flat.find(verdict.substr(0, 40)), std::string::npos) << verdict;
-  ASSERT_EQ(std::system(("pdftoppm -r 40 -png -f 1 -l 1 -singlefile " + pdf + " " + dir +
-                         "/page").c_str()),
+  ASSERT_EQ(std::system(
+                ("pdftoppm -r 40 -png -f 1 -l 1 -singlefile " + pdf + " " + dir + "/page").c_str()),
             0);
   const Picture p = read_png(dir + "/page.png");
   ASSERT_GT(p.width, 0);
