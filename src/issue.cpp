@@ -170,10 +170,10 @@ void check_registry(const Registry& registry, std::vector<CopyRequest>& requests
       if (taken.row && taken.state == "reserved") {
         // An issue that reserved this row and did not complete it: this very copy (buyer,
         // settings, output) is finished under the same row, whatever its file holds now.
-        IssuedCopy wanted = out[k].record;
-        wanted.output_path = normalized_path(requests[k].output);
-        wanted.strength = taken.strength, wanted.bin_offset = taken.bin_offset;
-        if (same_copy(taken, wanted)) {
+        IssuedCopy request = out[k].record;
+        request.output_path = normalized_path(requests[k].output);
+        request.strength = taken.strength, request.bin_offset = taken.bin_offset;
+        if (same_copy(taken, request)) {
           out[k].record.row = taken.row;
           out[k].record.issued_at = taken.issued_at;
           out[k].warnings.push_back(fmt::format(
@@ -330,20 +330,6 @@ IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::
   c.key_derivation = id_key(settings.key).derivation;
   c.method = method_name(settings.embedding.method);
   return c;
-}
-
-void record_copies(Registry& registry, std::vector<IssuedCopy> copies,
-                   const std::vector<std::string>& outputs, const Key& key) {
-  try {
-    for (std::size_t k = 0; k < copies.size(); ++k) {
-      copies[k].output_path = normalized_path(outputs[k]);
-      copies[k].output_hash = content_hash(read_file(outputs[k]));
-    }
-    registry.record(std::move(copies), key);
-  } catch (...) {
-    for (const std::string& out : outputs) std::remove(out.c_str());
-    throw;
-  }
 }
 
 namespace {

@@ -341,10 +341,11 @@ PassphraseKey passphrase_key_in(const std::string& where, std::string_view passp
   Key current = key_from_passphrase(passphrase), earlier = key_from_passphrase_v1(passphrase);
   const std::string current_fp = key_fingerprint(current), earlier_fp = key_fingerprint(earlier);
   PassphraseKey out;
-  for (const IssuedCopy& c : read_registry(where)) {
-    if (c.key_fingerprint == current_fp) ++out.copies;
-    if (c.key_fingerprint == earlier_fp) ++out.earlier_copies;
-  }
+  RegistryQuery query;
+  query.key_fingerprint = current_fp;
+  out.copies = read_registry(where, query).size();
+  query.key_fingerprint = earlier_fp;
+  out.earlier_copies = read_registry(where, query).size();
   const std::string shown = registry_display_name(where);
   if (out.copies == 0 && out.earlier_copies > 0) {
     std::swap(out.copies, out.earlier_copies);

@@ -162,11 +162,4 @@ std::vector<CopyRequest> read_manifest(const std::string& path);
 IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::uint64_t id,
                        const IssueSettings& settings);
 
-/// Records copies written to outputs (their content hashes read back) in one transaction,
-/// each row authenticated under key (the key the copies were issued under; Registry::record).
-/// When that fails, the outputs are removed (no issued copy goes unrecorded) and the error is
-/// thrown again.
-void record_copies(Registry& registry, std::vector<IssuedCopy> copies,
-                   const std::vector<std::string>& outputs, const Key& key);
-
 }  // namespace meshmark
