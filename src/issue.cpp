@@ -33,6 +33,12 @@ std::string file_identity(const std::string& path) {
   return ec ? absolute.lexically_normal().string() : canonical.lexically_normal().string();
 }
 
+// What an original is read and prepared once under: its path, or the address of the mesh given
+// in memory (two meshes in memory may share a name).
+std::string original_key(const CopyRequest& r) {
+  return r.mesh ? fmt::format("\x01mesh {}", static_cast<const void*>(r.mesh.get())) : r.input;
+}
+
 void refuse(CopyOutcome& outcome, std::string message) {
   outcome.status = CopyStatus::Refused;
   outcome.message = std::move(message);
@@ -73,13 +79,12 @@ void refuse_clashes(const std::vector<CopyRequest>& requests, const IssueSetting
   for (std::size_t k = 0; k < requests.size(); ++k) {
     if (!pending(out[k])) continue;
     const std::string output = file_identity(requests[k].output);
-    const std::string input = file_identity(requests[k].input);
-    if (same_file(requests[k].output, requests[k].input)) {
+    if (!requests[k].mesh && same_file(requests[k].output, requests[k].input)) {
       refuse(out[k], fmt::format("{}: refusing to overwrite the input file", requests[k].output));
       continue;
     }
     writers[output].push_back(k);
-    readers.emplace(input, k);
+    if (!requests[k].mesh) readers.emplace(file_identity(requests[k].input), k);
   }
   for (const auto& [file, ks] : writers) {
     if (ks.size() > 1) {
@@ -127,9 +132,12 @@ void check_registry(const Registry& registry, std::vector<CopyRequest>& requests
       continue;
     }
     try {
-      auto it = originals.find(requests[k].input);
+      const CopyRequest& r = requests[k];
+      auto it = originals.find(original_key(r));
       if (it == originals.end())
-        it = originals.emplace(requests[k].input, issued_copy(requests[k].input, "", 0, settings))
+        it = originals
+                 .emplace(original_key(r), r.mesh ? issued_copy(*r.mesh, r.input, "", 0, settings)
+                                                  : issued_copy(r.input, "", 0, settings))
                  .first;
       out[k].record = it->second;
       out[k].record.buyer = requests[k].buyer;
@@ -267,7 +275,7 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
     return;
   }
   std::error_code ec;
-  if (fs::equivalent(request.output, request.input, ec)) {
+  if (!request.mesh && fs::equivalent(request.output, request.input, ec)) {
     refuse(out, fmt::format("{}: refusing to overwrite the input file", request.output));
     return;
   }
@@ -313,11 +321,19 @@ std::size_t IssueResult::count(CopyStatus status) const {
 
 IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::uint64_t id,
                        const IssueSettings& settings) {
-  IssuedCopy c;
-  c.original_hash = content_hash(read_file(input));
-  const Mesh original = read_mesh(input, settings.read);
-  c.original_geometry = geometry_hash(original.V, original.F);
+  const std::string file_hash = content_hash(read_file(input));
+  IssuedCopy c = issued_copy(read_mesh(input, settings.read), input, buyer, id, settings);
+  c.original_hash = file_hash;
   c.original_path = normalized_path(input);
+  return c;
+}
+
+IssuedCopy issued_copy(const Mesh& original, const std::string& name, const std::string& buyer,
+                       std::uint64_t id, const IssueSettings& settings) {
+  IssuedCopy c;
+  c.original_geometry = geometry_hash(original.V, original.F);
+  c.original_hash = c.original_geometry;
+  c.original_path = name;
   c.buyer = buyer;
   c.id = id;
   c.id_bits = settings.id_bits;
@@ -472,10 +488,11 @@ IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings&
   std::map<std::string, std::shared_ptr<const Original>> originals;
   std::map<std::string, std::pair<CopyStatus, std::string>> failed;
   for (std::size_t k = 0; k < requests.size(); ++k) {
-    const std::string& input = requests[k].input;
+    const std::string input = original_key(requests[k]);
     if (!pending(out[k]) || originals.count(input) || failed.count(input)) continue;
     try {
-      Mesh mesh = read_mesh(input, settings.read);
+      Mesh mesh = requests[k].mesh ? *requests[k].mesh : read_mesh(requests[k].input, settings.read);
+      if (requests[k].mesh) validate_mesh(mesh.V, mesh.F, requests[k].input);
       PreparedEmbedder embedder(mesh.V, mesh.F, settings.embedding);
       originals[input] =
           std::make_shared<const Original>(Original{std::move(mesh), std::move(embedder)});
@@ -493,7 +510,7 @@ IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings&
   std::vector<std::size_t> jobs;
   for (std::size_t k = 0; k < requests.size(); ++k) {
     if (!pending(out[k])) continue;
-    const auto bad = failed.find(requests[k].input);
+    const auto bad = failed.find(original_key(requests[k]));
     if (bad != failed.end())
       out[k].status = bad->second.first, out[k].message = bad->second.second;
     else
@@ -507,7 +524,7 @@ IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings&
     const std::size_t k = jobs[j];
 
     try {
-      make_copy(requests[k], *originals.at(requests[k].input), settings, code ? &*code : nullptr,
+      make_copy(requests[k], *originals.at(original_key(requests[k])), settings, code ? &*code : nullptr,
                 out[k]);
     } catch (const InvalidArgumentError& e) {  // options this copy's embedding refuses
       refuse(out[k], e.what());

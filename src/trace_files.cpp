@@ -46,12 +46,23 @@ TraceFilesResult trace_files(const TraceFilesRequest& request, const Key& key) {
             fmt::format("{}: refusing to overwrite an input file with the report", output));
     }
   TraceFilesResult found;
-  found.leaked = read_noting(request.leaked, request.read, found.warnings);
-  found.original = read_noting(request.original, request.read, found.warnings);
-  found.original_hash = content_hash(read_file(request.original));
+  if (request.leaked_mesh) {
+    validate_mesh(request.leaked_mesh->V, request.leaked_mesh->F, "the leak");
+    found.leaked = *request.leaked_mesh;
+  } else {
+    found.leaked = read_noting(request.leaked, request.read, found.warnings);
+  }
+  if (request.original_mesh) {
+    validate_mesh(request.original_mesh->V, request.original_mesh->F, "the original");
+    found.original = *request.original_mesh;
+    found.original_hash = geometry_hash(found.original.V, found.original.F);
+  } else {
+    found.original = read_noting(request.original, request.read, found.warnings);
+    found.original_hash = content_hash(read_file(request.original));
+  }
   found.trace = trace_issued(found.leaked, found.original, found.original_hash, request.registry,
                              key, request.options);
-  compare_with_issued_files(found.trace, hash_of(request.leaked));
+  if (!request.leaked_mesh) compare_with_issued_files(found.trace, hash_of(request.leaked));
   if (!request.report.empty()) write_trace_report(request, found, key);
   if (!request.pdf.empty()) print_pdf(request.report, request.pdf);
   return found;
@@ -62,8 +73,8 @@ void write_trace_report(const TraceFilesRequest& request, const TraceFilesResult
   if (request.report.empty()) throw InvalidArgumentError("no path for the evidence report");
   EvidenceContext c;
   c.threshold = request.options.threshold;
-  c.leaked = {request.leaked, hash_of(request.leaked)};
-  c.original = {request.original, found.original_hash};
+  c.leaked = {request.leaked, request.leaked_mesh ? std::string() : hash_of(request.leaked)};
+  c.original = {request.original, request.original_mesh ? std::string() : found.original_hash};
   c.registry = {registry_display_name(request.registry), hash_of(request.registry)};
   c.key_fingerprint = key_fingerprint(key);
   c.command = request.command;

@@ -23,6 +23,7 @@
 ///   skipped when IssueSettings::resume is set (a batch run again after a kill).
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -68,7 +69,11 @@ struct IssueSettings {
 
 /// One copy to issue.
 struct CopyRequest {
-  std::string input;                ///< the original's path
+  std::string input;                ///< the original's path, or its name when `mesh` is set
+  /// The original in memory (Python's arrays, a caller's mesh): then it is not read from
+  /// `input`, which only names it in messages and as the registry's original_path, and the
+  /// registry's original_hash is its geometry_hash (there are no file bytes to hash).
+  std::shared_ptr<const Mesh> mesh;
   std::string output;               ///< where the copy goes (format from its extension)
   std::optional<std::uint64_t> id;  ///< a coded buyer ID, or none: a raw payload
   std::string payload_hex;          ///< the raw payload (hexadecimal), when there is no ID
@@ -161,5 +166,10 @@ std::vector<CopyRequest> read_manifest(const std::string& path);
 /// be read.
 IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::uint64_t id,
                        const IssueSettings& settings);
+
+/// The same for an original in memory named `name` (CopyRequest::mesh): its original_hash is
+/// its geometry_hash, its original_path the name as given.
+IssuedCopy issued_copy(const Mesh& original, const std::string& name, const std::string& buyer,
+                       std::uint64_t id, const IssueSettings& settings);
 
 }  // namespace meshmark

@@ -10,6 +10,7 @@
 ///                                     .registry = "shop.db", .report = "report.html"};
 ///     std::cout << trace_files(request, key).trace.message << "\n";  // and report.html
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,12 @@ namespace meshmark {
 struct TraceFilesRequest {
   std::string leaked;        ///< path of the leaked mesh (any format read_mesh reads)
   std::string original;      ///< path of the original the copies were issued from
+  /// The leak in memory, or none: then it is not read from `leaked`, which only names it in
+  /// the report, and its bytes are not compared with the recorded copies' hashes.
+  std::shared_ptr<const Mesh> leaked_mesh;
+  /// The original in memory, or none: then it is not read from `original`, which only names
+  /// it, and its copies are found by its geometry_hash (registry.h) alone.
+  std::shared_ptr<const Mesh> original_mesh;
   std::string registry;      ///< the registry: an SQLite file or a postgresql:// URI
   std::string report;        ///< where to write the HTML evidence report; "" for none
   std::string pdf;           ///< where to print the report as PDF (report_pdf.h); "" for none
@@ -41,7 +48,8 @@ struct TraceFilesResult {
   TraceResult trace;                  ///< the verdict, the scores and the registration
   Mesh leaked;                        ///< the leak as read
   Mesh original;                      ///< the original as read
-  std::string original_hash;          ///< content_hash of the original's file
+  /// content_hash of the original's file; its geometry_hash for an original in memory
+  std::string original_hash;
   std::vector<std::string> warnings;  ///< what the readers noticed, "path: note" each
 };
 

@@ -3,6 +3,9 @@
 
 #include <fmt/format.h>
 
+#include <map>
+#include <memory>
+
 #include "bindings.h"
 #include "meshmark/coding.h"
 #include "meshmark/error.h"
@@ -14,9 +17,31 @@ namespace meshmark::python {
 
 namespace {
 
-// One request from a dict with keys input, output, and id (int, or "auto": the registry picks it)
-// or payload (hex str), and optionally buyer.
-CopyRequest to_request(py::handle item, std::size_t k) {
+// Whether a value names a file (str, bytes, os.PathLike) rather than holding a mesh.
+bool is_path(py::handle value) {
+  return py::isinstance<py::str>(value) || py::isinstance<py::bytes>(value) ||
+         py::hasattr(value, "__fspath__");
+}
+
+// A mesh given in memory (a meshmark.Mesh or a (V, F) pair), converted once per Python object.
+using MeshCache = std::map<PyObject*, std::shared_ptr<const Mesh>>;
+std::shared_ptr<const Mesh> mesh_in_memory(py::handle value, const char* what, MeshCache& seen) {
+  auto it = seen.find(value.ptr());
+  if (it == seen.end())
+    it = seen.emplace(value.ptr(), std::make_shared<const Mesh>(to_mesh(value, what))).first;
+  return it->second;
+}
+
+// The name a mesh in memory goes by in messages, the registry and the report: the file it was
+// read from, if any.
+std::string memory_name(const Mesh& mesh) {
+  return mesh.source_path.empty() ? std::string("(in memory)") : mesh.source_path;
+}
+
+// One request from a dict with keys input (a path, or a mesh in memory: a meshmark.Mesh or a
+// (V, F) pair), output, and id (int, or "auto": the registry picks it) or payload (hex str), and
+// optionally buyer.
+CopyRequest to_request(py::handle item, std::size_t k, MeshCache& seen) {
   if (!py::isinstance<py::dict>(item))
     throw InvalidArgumentError(fmt::format("copies[{}] is not a dict", k));
   const py::dict d = py::reinterpret_borrow<py::dict>(item);
@@ -31,7 +56,13 @@ CopyRequest to_request(py::handle item, std::size_t k) {
   if (d.contains("id") == d.contains("payload"))
     throw InvalidArgumentError(fmt::format("copies[{}] needs one of 'id' or 'payload'", k));
   CopyRequest r;
-  r.input = to_path(d["input"]);
+  const py::object input = d["input"];
+  if (is_path(input)) {
+    r.input = to_path(input);
+  } else {
+    r.mesh = mesh_in_memory(input, fmt::format("copies[{}]['input']", k).c_str(), seen);
+    r.input = memory_name(*r.mesh);
+  }
   r.output = to_path(d["output"]);
   if (d.contains("id") && py::isinstance<py::str>(d["id"]) &&
       py::str(d["id"]).cast<std::string>() == "auto")
@@ -86,7 +117,8 @@ void init_issue(py::module_& m) {
         s.allow_public_key = public_key;
         std::vector<CopyRequest> requests;
         std::size_t k = 0;
-        for (py::handle item : copies) requests.push_back(to_request(item, k++));
+        MeshCache seen;
+        for (py::handle item : copies) requests.push_back(to_request(item, k++, seen));
         s.registry = registry;
         s.key = resolve_key(key, key_file);
         s.bits = bits;
@@ -113,7 +145,9 @@ void init_issue(py::module_& m) {
       py::arg("strength_spread") = 0.25, py::arg("options") = py::none(), py::arg("threads") = 0,
       py::arg("resume") = true, py::arg("public_key") = false,
       "Issues watermarked copies as the CLI's embed --batch does: copies is a list of dicts "
-      "{input, output, id (a coded buyer ID, or 'auto': the registry picks the smallest ID "
+      "{input (a path, or a meshmark.Mesh or (V, F) pair in memory: the registry then "
+      "knows the original by its geometry), output, id (a coded buyer ID, or 'auto': the "
+      "registry picks the smallest ID "
       "spaced from every issued one) or payload (hex), buyer}; with a registry, IDs "
       "issued before, given twice or with codewords too close are refused and the copies "
       "reserved in one transaction before any is written, and the rows of those written "
@@ -140,8 +174,19 @@ void init_issue(py::module_& m) {
         }
         if (!k) throw InvalidArgumentError("trace needs the key the copies were issued under");
         TraceFilesRequest request;
-        request.leaked = to_path(leaked);
-        request.original = to_path(original);
+        MeshCache seen;
+        if (is_path(leaked)) {
+          request.leaked = to_path(leaked);
+        } else {
+          request.leaked_mesh = mesh_in_memory(leaked, "leaked", seen);
+          request.leaked = memory_name(*request.leaked_mesh);
+        }
+        if (is_path(original)) {
+          request.original = to_path(original);
+        } else {
+          request.original_mesh = mesh_in_memory(original, "original", seen);
+          request.original = memory_name(*request.original_mesh);
+        }
         request.registry = registry;
         if (!report.is_none()) request.report = to_path(report);
         if (!pdf.is_none()) request.pdf = to_path(pdf);
@@ -181,8 +226,10 @@ void init_issue(py::module_& m) {
       py::arg("key") = py::none(), py::arg("key_file") = py::none(), py::arg("threshold") = 1e-6,
       py::arg("register") = true, py::arg("report") = py::none(), py::arg("pdf") = py::none(),
       py::arg("case") = "", py::arg("analyst") = "", py::arg("redact") = false,
-      "Names the buyers whose copies the leaked mesh file came from, as the CLI's trace does: "
-      "the copies the registry recorded of the original file under the key, each scored with "
+      "Names the buyers whose copies the leaked mesh came from, as the CLI's trace does: "
+      "leaked and original are paths, or meshes in memory (a meshmark.Mesh or a (V, F) pair; "
+      "an original in memory finds its copies by geometry, whatever file they were issued "
+      "from); the copies the registry recorded of the original under the key, each scored with "
       "an exact p-value, family-wise below threshold; with report (a path), writes the HTML "
       "evidence report there (with case and analyst; redact: no buyer labels, no folders), and "
       "with pdf (a path) the same as PDF, printed by headless Chromium. "

@@ -93,3 +93,50 @@ def test_trace_writes_a_report_with_case_and_analyst(fandisk, tmp_path):
     html = report.read_text(encoding="utf-8")
     assert "case 9" in html and "QA" in html and "buyer 22" in html
     assert meshmark.__version__ in html
+
+
+def test_issue_and_trace_take_meshes_in_memory(fandisk, tmp_path):
+    """Arrays in, as a researcher holds them: the registry knows the original by its geometry,
+    so an ID issued from the file is refused for the same arrays, and a leak traces whichever
+    way the original and the leak are given."""
+    db = str(tmp_path / "shop.db")
+    on_disk = meshmark.read_mesh(fandisk)
+    V, F = on_disk.V.copy(), on_disk.F.copy()
+    first = meshmark.issue([{"input": fandisk, "output": tmp_path / "file-30.ply", "id": 30,
+                             "buyer": "from the file"}], registry=db, key=KEY)
+    assert first[0]["status"] == "written", first
+    copies = [{"input": (V, F), "output": tmp_path / f"mem-{i}.ply", "id": i,
+               "buyer": f"memory {i}"} for i in (30, 31, 32)]
+    out = meshmark.issue(copies, registry=db, key=KEY)
+    assert out[0]["status"] == "refused" and "same geometry" in out[0]["message"], out[0]
+    assert [o["status"] for o in out[1:]] == ["written", "written"], out
+    rows = {r["id"]: r for r in (json.loads(line) for line in run_cli(
+        "registry", "export", db, "--format", "jsonl").splitlines())}
+    assert sorted(rows) == [30, 31, 32]
+    # The same geometry as the file's, computed when the file was issued; no file to hash.
+    assert rows[31]["original_geometry"] == rows[30]["original_geometry"] != ""
+    assert rows[31]["original_hash"] == rows[31]["original_geometry"]
+    assert rows[31]["original_path"] == "(in memory)"
+    # Each copy reads back its own ID blind (the CLI, an independent reader of the file).
+    for i in (31, 32):
+        assert run_cli("extract", tmp_path / f"mem-{i}.ply", "--coded", "--key", KEY,
+                       "--json")["id"] == i
+    # The leak: copy 31 with noise, in memory; traced against the original as arrays, as a
+    # Mesh and as the file: the same buyer named, alone, every time.
+    leak = meshmark.attack(meshmark.read_mesh(tmp_path / "mem-31.ply"), "noise", 0.0005, seed=3)
+    for original in ((V, F), on_disk, fandisk):
+        found = meshmark.trace(leak, original, db, key=KEY)
+        assert found["status"] == "named", found
+        assert [n["buyer"] for n in found["named"]] == ["memory 31"], found
+        assert found["candidates"] == 3 and found["identical_row"] == 0
+    # The unmarked original in memory names nobody; a report names the leak as in memory.
+    nobody = meshmark.trace((V, F), (V, F), db, key=KEY, report=tmp_path / "r.html")
+    assert nobody["status"] == "no-buyer" and nobody["named"] == []
+    assert "(in memory)" in (tmp_path / "r.html").read_text()
+    # Arrays that break the mesh's preconditions are refused, naming the face.
+    bad = F.copy()
+    bad[5, 1] = len(V) + 7
+    with pytest.raises(meshmark.InvalidInputError, match="face 5"):
+        meshmark.issue([{"input": (V, bad), "output": tmp_path / "bad.ply", "id": 40}],
+                       registry=db, key=KEY)
+    assert not (tmp_path / "bad.ply").exists()
