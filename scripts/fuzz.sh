@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the fuzzers (the mesh readers; hexadecimal payloads and the ID decoder; key files, batch
-# manifests, registries and glTF with external buffers: CMake targets fuzz_read, fuzz_decode and
-# fuzz_inputs, libFuzzer with AddressSanitizer and UndefinedBehaviorSanitizer,
+# manifests, registries and glTF with external buffers; campaign files: CMake targets fuzz_read,
+# fuzz_decode, fuzz_inputs and fuzz_campaign, libFuzzer with AddressSanitizer and UndefinedBehaviorSanitizer,
 # clang from Debian) and runs each for a bounded time, seeded with real meshes.
 # Usage: scripts/fuzz.sh [SECONDS_PER_FORMAT] (default 20). Crashes land in fuzz/crashes/;
 # keep each as a regression in fuzz/regressions/ (tests read every file there).
@@ -18,7 +18,7 @@ export LSAN_OPTIONS="suppressions=$PWD/.ci/lsan-suppressions.txt${LSAN_OPTIONS:+
 CXX=clang++ cmake -S . -B "$out" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" \
   -DMESHMARK_BUILD_FUZZERS=ON -DMESHMARK_BUILD_TESTS=OFF -DMESHMARK_BUILD_BENCH=OFF \
   -DMESHMARK_BUILD_PYTHON=OFF >"$out/configure.log" || { cat "$out/configure.log" >&2; exit 1; }
-cmake --build "$out" --target fuzz_read fuzz_decode fuzz_inputs --parallel "$(nproc)"
+cmake --build "$out" --target fuzz_read fuzz_decode fuzz_inputs fuzz_campaign --parallel "$(nproc)"
 # Seeds: real meshes, each prefixed with the byte that selects its format.
 seeds="$out/seeds"
 rm -rf "$seeds" && mkdir -p "$seeds"
@@ -67,4 +67,12 @@ fi
 mkdir -p "$out/corpus-inputs"
 "$out/fuzz_inputs" -max_total_time="$seconds" -max_len=200000 -timeout=10 -rss_limit_mb=2048 \
   -artifact_prefix=fuzz/crashes/ -print_final_stats=1 "$out/corpus-inputs" "$inputs" 2>&1 | tail -6
+# Campaign files: the project's own, their models found under data/ and in libcgal-demo's meshes
+# (unpacked into the fuzz build's tree by CMake).
+campaigns="$out/seeds-campaign"
+rm -rf "$campaigns" && mkdir -p "$campaigns" "$out/corpus-campaign"
+cp bench/campaigns/*.json "$campaigns/"
+MESHMARK_DATA_DIR="$PWD/data" MESHMARK_CGAL_DATA="$PWD/$out/cgal-data/data/meshes" \
+  "$out/fuzz_campaign" -max_total_time="$seconds" -max_len=20000 -timeout=10 -rss_limit_mb=2048 \
+  -artifact_prefix=fuzz/crashes/ -print_final_stats=1 "$out/corpus-campaign" "$campaigns" 2>&1 | tail -6
 echo "fuzz: no crash in ${seconds} s per target"
