@@ -10,15 +10,15 @@
 #include <optional>
 #include <type_traits>
 
-#include "meshmark/calibrate.h"
-#include "meshmark/carrier_check.h"
-#include "meshmark/coding.h"
-#include "meshmark/embed.h"
-#include "meshmark/io.h"
-#include "meshmark/issue.h"
-#include "meshmark/key.h"
-#include "meshmark/registry.h"
-#include "meshmark/watermark.h"
+#include "meshmark/carrier/carrier_check.h"
+#include "meshmark/forensics/issue.h"
+#include "meshmark/forensics/registry.h"
+#include "meshmark/io/io.h"
+#include "meshmark/mark/calibrate.h"
+#include "meshmark/mark/embed.h"
+#include "meshmark/protocol/coding.h"
+#include "meshmark/protocol/key.h"
+#include "meshmark/protocol/watermark.h"
 
 namespace meshmark::cli {
 

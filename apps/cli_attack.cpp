@@ -10,8 +10,8 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "meshmark/attack.h"
-#include "meshmark/error.h"
+#include "meshmark/attacks/attack.h"
+#include "meshmark/core/error.h"
 
 namespace meshmark::cli {
 

@@ -8,9 +8,9 @@
 #include <set>
 
 #include "cli.h"
+#include "meshmark/core/error.h"
+#include "meshmark/forensics/issue.h"
 #include "progress.h"
-#include "meshmark/error.h"
-#include "meshmark/issue.h"
 
 namespace meshmark::cli {
 

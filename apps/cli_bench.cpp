@@ -6,8 +6,8 @@
 // the summary.
 
 #include <fmt/format.h>
-#include <nlohmann/json.hpp>
 #include <unistd.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -22,15 +22,14 @@
 #endif
 
 #include "cli.h"
+#include "meshmark/campaign/campaign.h"
+#include "meshmark/campaign/campaign_run.h"
+#include "meshmark/core/error.h"
 #include "progress.h"
-#include "meshmark/campaign.h"
-#include "meshmark/campaign_run.h"
-#include "meshmark/error.h"
 
 namespace meshmark::cli {
 
 namespace {
-
 
 struct BenchArgs {
   std::string config, out;
@@ -165,16 +164,15 @@ void print_summary_json(const CampaignConfig& config, const CampaignRunResult& r
   nlohmann::json rows = nlohmann::json::array();
   if (config.trace) {
     for (const TraceSummaryRow& s : summarize_trace(config, r.rows))
-      rows.push_back({{"attack", s.attack},
-                      {"attack_strength", s.attack_strength},
-                      {"colluders", s.colluders},
-                      {"trials", s.trials},
-                      {"trace", {{"right", s.trace_right}, {"none", s.trace_none},
-                                 {"wrong", s.trace_wrong}}},
-                      {"blind", {{"right", s.blind_right}, {"none", s.blind_none},
-                                 {"wrong", s.blind_wrong}}},
-                      {"worst_right_p", s.worst_right_p},
-                      {"median_trace_seconds", s.median_trace_seconds}});
+      rows.push_back(
+          {{"attack", s.attack},
+           {"attack_strength", s.attack_strength},
+           {"colluders", s.colluders},
+           {"trials", s.trials},
+           {"trace", {{"right", s.trace_right}, {"none", s.trace_none}, {"wrong", s.trace_wrong}}},
+           {"blind", {{"right", s.blind_right}, {"none", s.blind_none}, {"wrong", s.blind_wrong}}},
+           {"worst_right_p", s.worst_right_p},
+           {"median_trace_seconds", s.median_trace_seconds}});
   } else {
     for (const SummaryRow& s : summarize(config, r.rows))
       rows.push_back({{"protocol", s.protocol},

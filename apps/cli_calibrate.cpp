@@ -8,9 +8,9 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "meshmark/calibration_cache.h"
-#include "meshmark/error.h"
-#include "meshmark/variant.h"
+#include "meshmark/campaign/calibration_cache.h"
+#include "meshmark/carrier/variant.h"
+#include "meshmark/core/error.h"
 
 namespace meshmark::cli {
 

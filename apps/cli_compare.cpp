@@ -7,9 +7,9 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "meshmark/error.h"
-#include "meshmark/metrics.h"
-#include "meshmark/roughness.h"
+#include "meshmark/carrier/roughness.h"
+#include "meshmark/core/error.h"
+#include "meshmark/metrics/metrics.h"
 
 namespace meshmark::cli {
 

@@ -7,10 +7,10 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "meshmark/decode.h"
-#include "meshmark/detect.h"
-#include "meshmark/error.h"
-#include "meshmark/variant.h"
+#include "meshmark/carrier/variant.h"
+#include "meshmark/core/error.h"
+#include "meshmark/mark/decode.h"
+#include "meshmark/protocol/detect.h"
 
 namespace meshmark::cli {
 

@@ -6,11 +6,11 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "meshmark/calibrate.h"
-#include "meshmark/embed.h"
-#include "meshmark/error.h"
-#include "meshmark/issue.h"
-#include "meshmark/registry.h"
+#include "meshmark/core/error.h"
+#include "meshmark/forensics/issue.h"
+#include "meshmark/forensics/registry.h"
+#include "meshmark/mark/calibrate.h"
+#include "meshmark/mark/embed.h"
 
 namespace meshmark::cli {
 

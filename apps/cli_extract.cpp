@@ -6,9 +6,9 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "meshmark/decode.h"
-#include "meshmark/error.h"
-#include "meshmark/variant.h"
+#include "meshmark/carrier/variant.h"
+#include "meshmark/core/error.h"
+#include "meshmark/mark/decode.h"
 
 namespace meshmark::cli {
 

@@ -8,8 +8,8 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "meshmark/error.h"
-#include "meshmark/registry.h"
+#include "meshmark/core/error.h"
+#include "meshmark/forensics/registry.h"
 
 namespace meshmark::cli {
 

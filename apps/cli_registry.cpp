@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "meshmark/error.h"
+#include "meshmark/core/error.h"
 
 namespace meshmark::cli {
 

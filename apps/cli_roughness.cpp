@@ -7,8 +7,8 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "meshmark/error.h"
-#include "meshmark/roughness.h"
+#include "meshmark/carrier/roughness.h"
+#include "meshmark/core/error.h"
 
 namespace meshmark::cli {
 

@@ -9,8 +9,8 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "meshmark/error.h"
-#include "meshmark/trace_files.h"
+#include "meshmark/core/error.h"
+#include "meshmark/forensics/trace_files.h"
 #include "progress.h"
 
 namespace meshmark::cli {

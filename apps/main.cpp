@@ -11,8 +11,8 @@
 #include <string_view>
 
 #include "cli.h"
-#include "meshmark/color.h"
-#include "meshmark/error.h"
+#include "meshmark/core/error.h"
+#include "meshmark/plot/color.h"
 #include "meshmark/version.h"
 
 namespace meshmark::cli {

@@ -1,5 +1,5 @@
 #pragma once
-// Progress on stderr, from the library's reports (meshmark/progress.h): a bar with an ETA
+// Progress on stderr, from the library's reports (meshmark/core/progress.h): a bar with an ETA
 // redrawn in place on a terminal, plain log lines, or nothing. Never on stdout, so --json
 // output stays clean.
 
@@ -9,7 +9,7 @@
 #include <chrono>
 #include <string>
 
-#include "meshmark/progress.h"
+#include "meshmark/core/progress.h"
 
 namespace meshmark::cli {
 
@@ -33,7 +33,8 @@ class Progress {
       started_ = true;
       return;
     }
-    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    const double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
     const double eta = elapsed / done * (total - done);
     if (mode_ == Bar) {
       const int width = 30;
@@ -57,7 +58,6 @@ class Progress {
   bool started_ = false;
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
-
 
 /// A bar on stderr when it is a terminal and the output is not JSON; otherwise nothing. The
 /// callback refers to progress, which must outlive it.

@@ -6,7 +6,7 @@
 #include <map>
 #include <string>
 
-#include "meshmark/io.h"
+#include "meshmark/io/io.h"
 
 namespace meshmark::bench {
 

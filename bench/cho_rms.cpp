@@ -20,10 +20,10 @@
 #include <string>
 #include <vector>
 
-#include "meshmark/embed.h"
-#include "meshmark/io.h"
-#include "meshmark/metrics.h"
-#include "meshmark/payload.h"
+#include "meshmark/io/io.h"
+#include "meshmark/mark/embed.h"
+#include "meshmark/mark/payload.h"
+#include "meshmark/metrics/metrics.h"
 
 using namespace meshmark;
 

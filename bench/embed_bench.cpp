@@ -11,13 +11,13 @@
 #include <map>
 
 #include "bench_meshes.h"
-#include "meshmark/attack.h"
-#include "meshmark/decode.h"
-#include "meshmark/embed.h"
-#include "meshmark/io.h"
-#include "meshmark/metrics.h"
-#include "meshmark/registry.h"
-#include "meshmark/roughness.h"
+#include "meshmark/attacks/attack.h"
+#include "meshmark/carrier/roughness.h"
+#include "meshmark/forensics/registry.h"
+#include "meshmark/io/io.h"
+#include "meshmark/mark/decode.h"
+#include "meshmark/mark/embed.h"
+#include "meshmark/metrics/metrics.h"
 
 using namespace meshmark;
 

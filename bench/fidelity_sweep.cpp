@@ -19,11 +19,11 @@
 #include <thread>
 #include <vector>
 
-#include "meshmark/calibrate.h"
-#include "meshmark/io.h"
-#include "meshmark/metrics.h"
-#include "meshmark/random.h"
-#include "meshmark/variant.h"
+#include "meshmark/carrier/variant.h"
+#include "meshmark/core/random.h"
+#include "meshmark/io/io.h"
+#include "meshmark/mark/calibrate.h"
+#include "meshmark/metrics/metrics.h"
 
 using namespace meshmark;
 

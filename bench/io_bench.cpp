@@ -11,10 +11,10 @@
 #include <filesystem>
 #include <memory>
 
-#include "meshmark/attack.h"
-#include "meshmark/decode.h"
-#include "meshmark/embed.h"
-#include "meshmark/io.h"
+#include "meshmark/attacks/attack.h"
+#include "meshmark/io/io.h"
+#include "meshmark/mark/decode.h"
+#include "meshmark/mark/embed.h"
 
 using namespace meshmark;
 

@@ -6,8 +6,8 @@
 
 #include <string>
 
-#include "meshmark/key.h"
-#include "meshmark/registry.h"
+#include "meshmark/forensics/registry.h"
+#include "meshmark/protocol/key.h"
 
 using namespace meshmark;
 

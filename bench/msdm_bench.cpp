@@ -9,9 +9,9 @@
 #include <string>
 
 #include "bench_meshes.h"
-#include "meshmark/attack.h"
-#include "meshmark/io.h"
-#include "meshmark/metrics.h"
+#include "meshmark/attacks/attack.h"
+#include "meshmark/io/io.h"
+#include "meshmark/metrics/metrics.h"
 
 using namespace meshmark;
 

@@ -6,12 +6,12 @@
 
 #include <filesystem>
 
-#include "meshmark/attack.h"
-#include "meshmark/embed.h"
-#include "meshmark/io.h"
-#include "meshmark/trace.h"
-#include "meshmark/variant.h"
-#include "meshmark/watermark.h"
+#include "meshmark/attacks/attack.h"
+#include "meshmark/carrier/variant.h"
+#include "meshmark/forensics/trace.h"
+#include "meshmark/io/io.h"
+#include "meshmark/mark/embed.h"
+#include "meshmark/protocol/watermark.h"
 
 using namespace meshmark;
 

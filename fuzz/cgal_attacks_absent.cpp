@@ -4,18 +4,24 @@
 // library under clang's sanitizers takes most of an hour on two cores). Reaching one of them is
 // a bug of the loader, and traps.
 
-#include "meshmark/attack.h"
+#include "meshmark/attacks/attack.h"
 
 namespace meshmark {
 
-Mesh attack_simplify(const Mesh&, double, SimplifyCost) { __builtin_trap(); }
+Mesh attack_simplify(const Mesh&, double, SimplifyCost) {
+  __builtin_trap();
+}
 
 std::vector<Mesh> attack_simplify_levels(const Mesh&, const std::vector<double>&, SimplifyCost) {
   __builtin_trap();
 }
 
-Mesh attack_remesh(const Mesh&, double, int) { __builtin_trap(); }
+Mesh attack_remesh(const Mesh&, double, int) {
+  __builtin_trap();
+}
 
-Mesh attack_subdivide(const Mesh&, Subdivision, int) { __builtin_trap(); }
+Mesh attack_subdivide(const Mesh&, Subdivision, int) {
+  __builtin_trap();
+}
 
 }  // namespace meshmark

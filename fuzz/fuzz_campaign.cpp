@@ -13,8 +13,8 @@
 #include <fstream>
 #include <string>
 
-#include "meshmark/campaign.h"
-#include "meshmark/error.h"
+#include "meshmark/campaign/campaign.h"
+#include "meshmark/core/error.h"
 
 namespace {
 

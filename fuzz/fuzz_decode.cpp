@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
-#include "meshmark/coding.h"
-#include "meshmark/error.h"
-#include "meshmark/key.h"
-#include "meshmark/payload.h"
+#include "meshmark/core/error.h"
+#include "meshmark/mark/payload.h"
+#include "meshmark/protocol/coding.h"
+#include "meshmark/protocol/key.h"
 
 namespace {
 

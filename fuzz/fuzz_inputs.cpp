@@ -14,11 +14,11 @@
 #include <map>
 #include <string>
 
-#include "meshmark/error.h"
-#include "meshmark/io.h"
-#include "meshmark/issue.h"
-#include "meshmark/key.h"
-#include "meshmark/registry.h"
+#include "meshmark/core/error.h"
+#include "meshmark/forensics/issue.h"
+#include "meshmark/forensics/registry.h"
+#include "meshmark/io/io.h"
+#include "meshmark/protocol/key.h"
 
 namespace {
 

@@ -6,8 +6,8 @@
 #include <cstdint>
 #include <string>
 
-#include "meshmark/error.h"
-#include "meshmark/io.h"
+#include "meshmark/core/error.h"
+#include "meshmark/io/io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 1) return 0;

@@ -10,7 +10,7 @@
 #include <regex>
 #include <sstream>
 
-#include "meshmark/io.h"
+#include "meshmark/io/io.h"
 #include "test_data.h"
 
 namespace meshmark {

@@ -6,7 +6,7 @@ execute_process(COMMAND ${CMAKE_COMMAND} --build ${BUILD_DIR} --target meshmark_
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "the site did not build:\n${out}")
 endif()
-file(STRINGS ${BUILD_DIR}/doc/doxygen-warnings.log warnings REGEX "(/docs/|README\\.md)")
+file(STRINGS ${BUILD_DIR}/doc/doxygen-warnings.log warnings REGEX "(/docs/|README\\.md|CONTRIBUTING\\.md)")
 if(warnings)
   list(JOIN warnings "\n" warnings)
   message(FATAL_ERROR "Doxygen warns about the pages:\n${warnings}")

@@ -66,7 +66,7 @@ if(BUILD_SHARED_VARIANT)
        --target meshmark meshmark_cli)
 endif()
 step("install" ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
-set(installed include/meshmark/version.h include/meshmark/embed.h bin/meshmark
+set(installed include/meshmark/version.h include/meshmark/mark/embed.h bin/meshmark
     ${LIBDIR}/cmake/meshmark/meshmarkConfig.cmake ${LIBDIR}/cmake/meshmark/meshmarkConfigVersion.cmake
     ${LIBDIR}/cmake/meshmark/meshmarkTargets.cmake)
 if(SHARED)  # the real file, the soname's link and the link-time name

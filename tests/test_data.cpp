@@ -16,8 +16,8 @@
 #include <random>
 #include <sstream>
 
-#include "meshmark/error.h"
-#include "meshmark/io.h"
+#include "meshmark/core/error.h"
+#include "meshmark/io/io.h"
 
 namespace meshmark::test {
 

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "meshmark/mesh.h"
+#include "meshmark/core/mesh.h"
 
 namespace meshmark::test {
 

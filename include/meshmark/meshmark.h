@@ -6,24 +6,25 @@
 /// folder (solvers, geometry helpers, the campaign machinery) are building blocks that may
 /// change. examples/shop.cpp is a program built on this header alone.
 
-#include "meshmark/attack.h"           // attacks and chains of attacks
-#include "meshmark/calibrate.h"        // the strongest mark within fidelity limits
-#include "meshmark/coding.h"           // coded buyer IDs
-#include "meshmark/decode.h"           // the blind reading of a histogram mark
-#include "meshmark/detect.h"           // is this ID there? with a false-alarm probability
-#include "meshmark/embed.h"            // one embedding, its options and result
-#include "meshmark/error.h"            // the exceptions every call throws
-#include "meshmark/evidence_report.h"  // the HTML evidence report
-#include "meshmark/report_pdf.h"       // ... and its PDF, printed by headless Chromium
-#include "meshmark/io.h"               // reading and writing every mesh format
-#include "meshmark/issue.h"            // issuing marked copies, recorded in a registry
-#include "meshmark/key.h"              // secret keys and key files
-#include "meshmark/mesh.h"             // the triangle mesh
-#include "meshmark/metrics.h"          // distortion metrics (RMS, Hausdorff, MSDM, MSDM2)
-#include "meshmark/payload.h"          // raw payloads
-#include "meshmark/registry.h"         // the registry of issued copies
-#include "meshmark/trace.h"            // naming the buyer of a leak
-#include "meshmark/trace_files.h"      // tracing from files, with the report
-#include "meshmark/variant.h"          // the framework's variants (DRS, VRS, ...)
-#include "meshmark/version.h"          // meshmark's version
-#include "meshmark/watermark.h"        // the protocol: keyed payloads and IDs, read back
+#include "meshmark/attacks/attack.h"             // attacks and chains of attacks
+#include "meshmark/carrier/variant.h"            // the framework's variants (DRS, VRS, ...)
+#include "meshmark/core/error.h"                 // the exceptions every call throws
+#include "meshmark/core/mesh.h"                  // the triangle mesh
+#include "meshmark/forensics/evidence_report.h"  // the HTML evidence report
+#include "meshmark/forensics/issue.h"            // issuing marked copies, recorded in a registry
+#include "meshmark/forensics/registry.h"         // the registry of issued copies
+#include "meshmark/forensics/report_pdf.h"       // ... and its PDF, printed by headless Chromium
+#include "meshmark/forensics/spacing.h"          // issued codewords kept apart; IDs chosen
+#include "meshmark/forensics/trace.h"            // naming the buyer of a leak
+#include "meshmark/forensics/trace_files.h"      // tracing from files, with the report
+#include "meshmark/io/io.h"                      // reading and writing every mesh format
+#include "meshmark/mark/calibrate.h"             // the strongest mark within fidelity limits
+#include "meshmark/mark/decode.h"                // the blind reading of a histogram mark
+#include "meshmark/mark/embed.h"                 // one embedding, its options and result
+#include "meshmark/mark/payload.h"               // raw payloads
+#include "meshmark/metrics/metrics.h"            // distortion metrics (RMS, Hausdorff, MSDM, MSDM2)
+#include "meshmark/protocol/coding.h"            // coded buyer IDs
+#include "meshmark/protocol/detect.h"            // is this ID there? with a false-alarm probability
+#include "meshmark/protocol/key.h"               // secret keys and key files
+#include "meshmark/protocol/watermark.h"         // the protocol: keyed payloads and IDs, read back
+#include "meshmark/version.h"                    // meshmark's version

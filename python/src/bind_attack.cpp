@@ -5,8 +5,8 @@
 #include <cmath>
 
 #include "bindings.h"
-#include "meshmark/attack.h"
-#include "meshmark/error.h"
+#include "meshmark/attacks/attack.h"
+#include "meshmark/core/error.h"
 
 namespace meshmark::python {
 

@@ -6,11 +6,11 @@
 #include <pybind11/functional.h>
 
 #include "bindings.h"
-#include "meshmark/calibrate.h"
-#include "meshmark/calibration_cache.h"
-#include "meshmark/campaign.h"
-#include "meshmark/error.h"
-#include "meshmark/method.h"
+#include "meshmark/campaign/calibration_cache.h"
+#include "meshmark/campaign/campaign.h"
+#include "meshmark/carrier/method.h"
+#include "meshmark/core/error.h"
+#include "meshmark/mark/calibrate.h"
 
 namespace meshmark::python {
 

@@ -8,10 +8,10 @@
 #include <mutex>
 
 #include "bindings.h"
-#include "meshmark/campaign.h"
-#include "meshmark/campaign_run.h"
-#include "meshmark/error.h"
-#include "meshmark/io.h"
+#include "meshmark/campaign/campaign.h"
+#include "meshmark/campaign/campaign_run.h"
+#include "meshmark/core/error.h"
+#include "meshmark/io/io.h"
 
 namespace meshmark::python {
 

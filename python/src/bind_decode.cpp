@@ -6,11 +6,11 @@
 #include <cmath>
 
 #include "bindings.h"
-#include "meshmark/decode.h"
-#include "meshmark/detect.h"
-#include "meshmark/error.h"
-#include "meshmark/variant.h"
-#include "meshmark/watermark.h"
+#include "meshmark/carrier/variant.h"
+#include "meshmark/core/error.h"
+#include "meshmark/mark/decode.h"
+#include "meshmark/protocol/detect.h"
+#include "meshmark/protocol/watermark.h"
 
 namespace meshmark::python {
 

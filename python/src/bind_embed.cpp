@@ -3,9 +3,9 @@
 #include <fmt/format.h>
 
 #include "bindings.h"
-#include "meshmark/embed.h"
-#include "meshmark/error.h"
-#include "meshmark/watermark.h"
+#include "meshmark/core/error.h"
+#include "meshmark/mark/embed.h"
+#include "meshmark/protocol/watermark.h"
 
 namespace meshmark::python {
 

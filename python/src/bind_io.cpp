@@ -3,8 +3,8 @@
 #include <fmt/format.h>
 
 #include "bindings.h"
-#include "meshmark/error.h"
-#include "meshmark/io.h"
+#include "meshmark/core/error.h"
+#include "meshmark/io/io.h"
 
 namespace meshmark::python {
 

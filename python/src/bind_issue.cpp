@@ -7,11 +7,11 @@
 #include <memory>
 
 #include "bindings.h"
-#include "meshmark/coding.h"
-#include "meshmark/error.h"
-#include "meshmark/issue.h"
-#include "meshmark/trace.h"
-#include "meshmark/trace_files.h"
+#include "meshmark/core/error.h"
+#include "meshmark/forensics/issue.h"
+#include "meshmark/forensics/trace.h"
+#include "meshmark/forensics/trace_files.h"
+#include "meshmark/protocol/coding.h"
 
 namespace meshmark::python {
 

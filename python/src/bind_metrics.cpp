@@ -2,8 +2,8 @@
 // msdm2.
 
 #include "bindings.h"
-#include "meshmark/error.h"
-#include "meshmark/metrics.h"
+#include "meshmark/core/error.h"
+#include "meshmark/metrics/metrics.h"
 
 namespace meshmark::python {
 

@@ -14,11 +14,11 @@
 #include <utility>
 #include <vector>
 
-#include "meshmark/enum_names.h"
-#include "meshmark/key.h"
-#include "meshmark/mesh.h"
-#include "meshmark/payload.h"
-#include "meshmark/variant.h"
+#include "meshmark/carrier/variant.h"
+#include "meshmark/core/enum_names.h"
+#include "meshmark/core/mesh.h"
+#include "meshmark/mark/payload.h"
+#include "meshmark/protocol/key.h"
 
 namespace meshmark::python {
 

@@ -7,7 +7,7 @@
 #include <limits>
 
 #include "bindings.h"
-#include "meshmark/error.h"
+#include "meshmark/core/error.h"
 
 namespace meshmark::python {
 

@@ -4,10 +4,10 @@
 #include <fmt/format.h>
 
 #include "bindings.h"
-#include "meshmark/carrier_check.h"
-#include "meshmark/error.h"
-#include "meshmark/histogram.h"
-#include "meshmark/variant.h"
+#include "meshmark/carrier/carrier_check.h"
+#include "meshmark/carrier/histogram.h"
+#include "meshmark/carrier/variant.h"
+#include "meshmark/core/error.h"
 #include "meshmark/version.h"
 
 namespace meshmark::python {

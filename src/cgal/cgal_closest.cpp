@@ -5,9 +5,9 @@
 #include <CGAL/AABB_triangle_primitive.h>
 #include <CGAL/Simple_cartesian.h>
 
-#include "meshmark/closest_point.h"
-#include "meshmark/error.h"
-#include "parallel.h"
+#include "core/parallel.h"
+#include "meshmark/core/error.h"
+#include "metrics/closest_point.h"
 
 namespace meshmark {
 

@@ -6,7 +6,7 @@
 
 #include <fmt/format.h>
 
-#include "meshmark/error.h"
+#include "meshmark/core/error.h"
 
 namespace meshmark::detail {
 

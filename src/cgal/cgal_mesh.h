@@ -6,7 +6,7 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Surface_mesh.h>
 
-#include "meshmark/mesh.h"
+#include "meshmark/core/mesh.h"
 
 namespace meshmark::detail {
 

@@ -7,8 +7,8 @@
 #include <fmt/format.h>
 
 #include "cgal_mesh.h"
-#include "meshmark/attack.h"
-#include "meshmark/error.h"
+#include "meshmark/attacks/attack.h"
+#include "meshmark/core/error.h"
 
 namespace meshmark {
 

@@ -4,13 +4,13 @@
 // command line must read back (tests/external_project.cmake). Exit code 0 only when all 64 bits
 // read back right and the copy was issued, 1 otherwise (2 on a usage error).
 
-#include <meshmark/embed.h>
-#include <meshmark/error.h>
-#include <meshmark/io.h>
-#include <meshmark/issue.h>
-#include <meshmark/payload.h>
+#include <meshmark/core/error.h>
+#include <meshmark/forensics/issue.h>
+#include <meshmark/io/io.h>
+#include <meshmark/mark/embed.h>
+#include <meshmark/mark/payload.h>
+#include <meshmark/protocol/watermark.h>
 #include <meshmark/version.h>
-#include <meshmark/watermark.h>
 
 #include <cstdio>
 #include <exception>

@@ -1,0 +1,305 @@
+#pragma once
+/// \file campaign.h
+/// Benchmark campaigns (docs/method.md section 6): models x variants x payloads,
+/// each embedding at its calibrated strength, then attacked at every strength of every attack
+/// (several draws for random attacks) and decoded blind. One row per trial.
+///
+/// A campaign is described by a JSON file:
+///
+///     {"name": "quick", "bits": 64, "payloads": 6, "draws": 10, "seed": 1,
+///      "models": ["${data}/meshes/spot.obj", {"name": "fandisk", "path":
+///      "${cgal}/fandisk.off"}], "variants": ["DRS", "SRS", "VRS"], "calibration": {"max_rms":
+///      0.04, "max_msdm": 0.25, "iterations": 10}, "attacks": [{"kind": "noise", "strengths":
+///      [0.001, 0.003]}, {"kind": "loop", "strengths": [1]}]}
+///
+/// "${data}" is meshmark's data folder (the environment variable MESHMARK_DATA_DIR, else the
+/// installed one, CMake's MESHMARK_DATA_DIR), whose meshes/ holds the project's own meshes;
+/// "${cgal}" is libcgal-demo's unpacked data/meshes (MESHMARK_CGAL_DATA, else ${data}/cgal);
+/// other relative paths are relative to the file.
+/// "strength": A instead of "calibration" embeds every model at alpha = A. Deterministic
+/// attacks (quantization, smoothing, simplification, subdivision, format changes) run one draw.
+/// Every trial is named by a key (model|variant|payload|attack|strength|draw) and seeded from
+/// it, so a trial gives the same row whichever process, thread or order runs it.
+///
+/// An attack's "kind" may be a chain (attack.h, parse_attack_chain) whose last step takes the
+/// strengths: {"kind": "similarity:2,simplify", "strengths": [0.3, 0.5]} runs
+/// "similarity:2,simplify:0.3" and "similarity:2,simplify:0.5" (the earlier steps carry their
+/// own strengths; a chain is deterministic when all its steps are).
+///
+/// Attacks whose definition the literature varies take parameters (attack.h, AttackParams)
+/// beside "kind": {"kind": "smooth", "lambda": 0.03, "fixed_boundary": true, "strengths": [5,
+/// 10]}, {"kind": "taubin", "lambda": 0.5, "mu": -0.53, "weighting": "inverse-distance", ...},
+/// {"kind": "quant", "convention": "benchmark", ...}; they go to every step of a chain that
+/// reads them. Rows name such a series by series_label ("smooth [lambda=0.03 fixed_boundary]").
+///
+/// Several calibration protocols (blind mode): "protocols": [{"name": "perceptual", "max_rms":
+/// 0.008, "max_msdm": 0.19}, {"name": "geometric", "max_rms": 0.012, "max_msdm": 0.29}]; each
+/// (model, variant) is calibrated once per protocol (its keys are those of "calibration",
+/// whose values it overrides) and every embedding runs once per protocol; rows, keys (a last
+/// "|NAME") and calibrations name the protocol.
+///
+/// Variants may name Cho et al.'s methods (method.h, MarkScheme: "cho-mean", "cho-variance",
+/// "cho-mean/VRS"), which then run beside the QP framework's variants on the same trials.
+/// In blind mode every embedding (model, variant, payload, protocol) is calibrated for itself,
+/// as `embed --fidelity` calibrates a copy: its row's strength is its own, and its distortion
+/// is within the protocol's limits (the (model, variant) calibration of one payload does not
+/// hold for another: on spot, other payloads at its strength measured up to 1.3 times the RMS
+/// limit). A model and variant whose calibration finds no strength embed nothing.
+///
+/// Trace mode ("mode": "trace"; trace.h) measures tracing with the original against the blind
+/// decoder. Per model and variant, "copies" (1000 by default) coded IDs are issued under the
+/// campaign's key (campaign_key) to consecutive IDs from campaign_first_id, as registry
+/// records; each payload index p picks a leaker among them (campaign_leaker) whose copy alone is
+/// embedded (keyed, at the strength with "spread", 0.25 by default). Every attack of every
+/// trial is then traced (the original and the issued records) and decoded blind (read_id) on
+/// the same attacked mesh; each gives right (only leakers named), none, or wrong (an innocent
+/// named). "collusion": true repeats every attack on the average of the vertex positions of
+/// the leaker's copy and the next ID's (the previous one's for the last ID): right is then at
+/// least one colluder named and no innocent. Rows carry both outcomes; keys of averaged trials
+/// end in "|avg2". bits and the 32-bit ID must make an IdCode (coding.h).
+///
+/// This header holds the parts (configuration, planning, one unit's trials, rows, statistics,
+/// report); run_campaign (campaign_run.h) runs a whole campaign into a results directory.
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "meshmark/attacks/attack.h"
+#include "meshmark/core/enum_names.h"
+#include "meshmark/core/mesh.h"
+#include "meshmark/forensics/registry.h"
+#include "meshmark/mark/calibrate.h"
+#include "meshmark/protocol/key.h"
+
+namespace meshmark {
+
+/// One attack of a campaign at several strengths.
+struct AttackSeries {
+  std::string kind;               ///< an attack kind (attack.h), a chain ending in one, or "none"
+  std::vector<double> strengths;  ///< at least one
+  int draws = 0;                  ///< 0: the campaign's draws (1 for deterministic kinds)
+  AttackParams params;            ///< for every step of the chain that reads them
+};
+
+/// The series' name in rows and reports: its kind, then its non-default parameters in
+/// brackets ("smooth [lambda=0.03 fixed_boundary]").
+std::string series_label(const AttackSeries& series);
+
+/// A calibration protocol: a name (empty for a campaign with one "calibration") and limits.
+struct CampaignProtocol {
+  std::string name;
+  CalibrateOptions calibration;
+};
+
+/// A model of a campaign.
+struct CampaignModel {
+  std::string name;  ///< short name used in rows (the file's stem by default)
+  std::string path;  ///< resolved path
+};
+
+/// A parsed campaign file.
+struct CampaignConfig {
+  std::string name;
+  std::string source;  ///< the file it came from
+  std::vector<CampaignModel> models;
+  std::vector<std::string> variants;
+  int bits = 64;
+  int payloads = 6;
+  int draws = 10;
+  std::uint64_t seed = 1;
+  bool calibrate = true;  ///< calibrate each (model, variant), else use `strength`
+  double strength = 0.05;
+  CalibrateOptions calibration;             ///< the first protocol's
+  std::vector<CampaignProtocol> protocols;  ///< at least one (the unnamed "calibration")
+  std::vector<AttackSeries> attacks;        ///< "none" (strength 0) is always added first
+  bool trace = false;                       ///< "mode": "trace" (else "blind", the default)
+  int copies = 1000;                        ///< trace: IDs issued per model and variant (>= 2)
+  bool collusion = false;  ///< trace: every attack also on an average of two copies
+  double spread = 0.25;    ///< trace: keyed strength spread (watermark.h)
+};
+
+/// Reads a campaign file. \throw InvalidInputError naming the file and the bad key or value;
+/// IOError when it cannot be read.
+CampaignConfig load_campaign(const std::string& path);
+
+/// True for "none" and for attacks (or chains, every step) whose output does not depend on the
+/// seed (AttackKind::seeded). \throw InvalidArgumentError for an unknown kind or bad strength.
+bool attack_is_deterministic(const std::string& kind);
+
+/// The attack chain a series runs at strength x ("similarity:2,simplify" at 0.3:
+/// "similarity:2,simplify:0.3"). \throw InvalidArgumentError naming a bad step.
+std::vector<AttackStep> series_chain(const std::string& kind, double x);
+
+/// The same with the series' parameters set on the steps that read them.
+std::vector<AttackStep> series_chain(const AttackSeries& series, double x);
+
+/// An embedding of the campaign: model, variant, payload and protocol indices.
+struct CampaignUnit {
+  int model = 0, variant = 0, payload = 0, protocol = 0;
+};
+
+/// The units in a fixed order (model-major, protocol-minor).
+std::vector<CampaignUnit> campaign_units(const CampaignConfig& config);
+
+/// The payload of index p (random, from the campaign's seed).
+Payload campaign_payload(const CampaignConfig& config, int p);
+
+/// The payload calibrations use (one per length and seed; `meshmark calibrate` uses seed 1).
+Payload calibration_payload(int bits, std::uint64_t seed);
+
+/// A calibrated strength of a (model, variant).
+struct CalibrationRecord {
+  std::string model, variant;
+  std::string protocol;  ///< its name ("" for the unnamed one)
+  std::string status;    ///< calibrate_status_name, or "fixed"
+  double strength = 0, rms_percent = 0, msdm = 0, seconds = 0;
+  double bin_offset = 0.05;  ///< G the trials embed with (calibrate.h: BinOffsetRule)
+  int evaluations = 0;
+  std::string cause;  ///< below minimum: calibrate_cause_name, and the first diagnostic
+};
+
+/// What a trial's tracer named, against the copies that were leaked.
+enum class TraceOutcome {
+  Right,  ///< someone named, and every one named is a leaker
+  None,   ///< nobody named
+  Wrong,  ///< an innocent named (whoever else is)
+};
+
+/// The names of TraceOutcome's values (trace_outcome_name).
+template <>
+struct EnumTable<TraceOutcome> {
+  static constexpr const char* what = "trace outcome";
+  static constexpr NamedValue<TraceOutcome> values[] = {
+      {TraceOutcome::Right, "right"}, {TraceOutcome::None, "none"}, {TraceOutcome::Wrong, "wrong"}};
+};
+
+/// "right", "none", "wrong".
+const char* trace_outcome_name(TraceOutcome outcome);
+
+/// The outcome of naming `named` when `leakers` leaked.
+TraceOutcome trace_outcome(const std::vector<std::uint64_t>& named,
+                           const std::vector<std::uint64_t>& leakers);
+
+/// Trace mode: the key copies are issued under (from the campaign's seed).
+Key campaign_key(const CampaignConfig& config);
+
+/// Trace mode: the first of the consecutive IDs issued (from the seed, below 2^31).
+std::uint64_t campaign_first_id(const CampaignConfig& config);
+
+/// Trace mode: the leaker of payload index p, one of the issued IDs (from the seed).
+std::uint64_t campaign_leaker(const CampaignConfig& config, int p);
+
+/// Trace mode: the records of the copies issued from a model in variant at strength (alpha)
+/// and bin offset G, as a registry would list them: config.copies consecutive IDs from
+/// campaign_first_id, keyed with campaign_key, config.bits bits, 32-bit IDs, config.spread.
+std::vector<IssuedCopy> campaign_copies(const CampaignConfig& config, const std::string& model,
+                                        const std::string& variant, double strength,
+                                        double bin_offset = 0.05);
+
+/// One trial.
+struct TrialRow {
+  std::string key;  ///< model|variant|payload|attack|attack strength|draw[|protocol]
+  std::string model, variant;
+  std::string protocol;  ///< the calibration protocol's name ("" for the unnamed one)
+  int payload = 0;
+  double strength = 0, rms_percent = 0, msdm = 0;  ///< embedding strength and distortions
+  std::string attack;
+  double attack_strength = 0;
+  int draw = 0;
+  int vertices = 0;  ///< of the attacked mesh
+  double ber = 0;    ///< bit error rate (erasures count as errors); 0.5 when not decodable
+  int erasures = 0;
+  std::string status;  ///< "ok", or what failed (embedding, attack)
+  double embed_seconds = 0, attack_seconds = 0, extract_seconds = 0;
+  // Trace mode only (colluders 0 otherwise). ber is then the blind reading's against the
+  // (first) leaker's codeword, and extract_seconds read_id's time.
+  int colluders = 0;          ///< copies averaged into the leak: 1, or 2 (collusion)
+  std::string leakers;        ///< their IDs, space-separated
+  std::string trace_outcome;  ///< trace_outcome_name of trace()'s named buyers
+  std::string trace_status;   ///< trace_status_name
+  std::string trace_named;    ///< the IDs trace named, space-separated, best first
+  double trace_p = 1;         ///< corrected p of trace's best candidate
+  std::string blind_outcome;  ///< trace_outcome_name of read_id's ID (none when no ID)
+  std::string blind_id;       ///< the ID read_id decoded, or why none
+  double trace_seconds = 0;   ///< trace(), registration included
+};
+
+/// The key of a trial; colluders 2 (an averaged trial in trace mode) appends "|avg2", a named
+/// protocol "|" and its name.
+std::string trial_key(const std::string& model, const std::string& variant, int payload,
+                      const std::string& attack, double attack_strength, int draw,
+                      int colluders = 0, const std::string& protocol = "");
+
+/// The keys of a unit's trials, in canonical order (attacks, strengths, draws).
+std::vector<std::string> unit_trial_keys(const CampaignConfig& config, const CampaignUnit& unit);
+
+/// Runs every trial of one unit not already done, calling emit for each row (from the calling
+/// thread). mesh is the unit's model, record its calibration.
+void run_campaign_unit(const CampaignConfig& config, const CampaignUnit& unit, const Mesh& mesh,
+                       const CalibrationRecord& record,
+                       const std::function<bool(const std::string& key)>& done,
+                       const std::function<void(const TrialRow&)>& emit);
+
+/// Calibrates one (model, variant) to the limits of protocol (an index into config.protocols),
+/// or records the fixed strength.
+CalibrationRecord calibrate_for_campaign(const CampaignConfig& config, int model, int variant,
+                                         const Mesh& mesh, int protocol = 0);
+
+/// One JSON line (no newline) and back. from_json throws InvalidInputError on a bad line.
+std::string row_to_json(const TrialRow& row);
+TrialRow row_from_json(const std::string& line);
+std::string calibration_to_json(const CalibrationRecord& record);
+CalibrationRecord calibration_from_json(const std::string& line);
+
+/// CSV header and one CSV line (no newline) of a row (its protocol last); trace adds the trace
+/// mode's columns.
+std::string csv_header(bool trace = false);
+std::string row_to_csv(const TrialRow& row, bool trace = false);
+
+/// The median bit error rate of one variant, attack and strength, as the paper reports it.
+struct SummaryRow {
+  std::string protocol, variant, attack;  ///< attack: the series' label
+  double attack_strength = 0;
+  double median_ber = 0, mean_ber = 0;
+  int trials = 0;    ///< trials that measured a mark (status "ok"): the statistics' sample
+  int excluded = 0;  ///< trials left out: no mark within the limits, or the attack failed
+};
+
+/// Medians over models, payloads and draws of the trials that measured a mark, in the order
+/// protocols, variants, then attacks of the config; the others (a model the calibration could
+/// not mark within the limits, a failed embedding or attack) are counted in `excluded`, not as
+/// BER 0.5. A group with no measured trial has no row.
+std::vector<SummaryRow> summarize(const CampaignConfig& config, const std::vector<TrialRow>& rows);
+
+/// Trace mode: the outcomes of one attack, strength and number of colluders, over models,
+/// variants, payloads and draws, for trace and for the blind decoder on the same trials.
+struct TraceSummaryRow {
+  std::string attack;
+  double attack_strength = 0;
+  int colluders = 1;
+  int trials = 0;
+  int trace_right = 0, trace_none = 0, trace_wrong = 0;
+  int blind_right = 0, blind_none = 0, blind_wrong = 0;
+  double worst_right_p = 0;  ///< largest corrected p among trace's right trials (0: none)
+  double median_trace_seconds = 0;
+};
+
+/// The outcome counts, in the config's order of attacks and strengths, single copies first.
+std::vector<TraceSummaryRow> summarize_trace(const CampaignConfig& config,
+                                             const std::vector<TrialRow>& rows);
+
+/// Writes summary.csv, one SVG (and PNG when rsvg-convert is installed) per attack with the
+/// median BER against strength, one curve per variant, a panel figure of all attacks, and
+/// report.md (calibrations, distortions, medians, Loop table, timings, the published results
+/// of section 8 beside DRS's). Returns the report's path. In trace mode: summary.csv of
+/// summarize_trace, figure-trace.svg (right / none / wrong bars, trace beside blind, per
+/// attack and strength) and a report.md that lists every wrong outcome first. \throw IOError
+/// when a file cannot be written or rsvg-convert fails on a figure (its message quoted).
+std::string write_campaign_report(const std::string& dir, const CampaignConfig& config,
+                                  const std::vector<CalibrationRecord>& calibrations,
+                                  const std::vector<TrialRow>& rows, double wall_seconds);
+
+}  // namespace meshmark

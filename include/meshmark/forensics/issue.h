@@ -1,0 +1,175 @@
+#pragma once
+/// \file issue.h
+/// Issuing watermarked copies: each copy of an original carries a buyer's coded ID (or a raw
+/// payload), is written only when its bytes carry the mark, and is recorded in the registry of
+/// issued copies. One copy (the command line's `embed`) and a manifest of many (`embed
+/// --batch`) go through the same rules:
+///
+/// - Before anything is embedded: no two copies write the same file and no copy writes a file
+///   any copy reads, the registry or a kept file (IssueSettings::kept_files: the key file, the
+///   manifest), a path naming it through a link included; an ID already issued from the same
+///   original under the same key, an ID given twice, or an ID whose codeword is closer than
+///   kIssuedSpacing bits to one already issued is refused (a buyer must never get a copy that could
+///   be taken for another's). A copy asking for `id:auto` gets the smallest ID that passes these
+///   rules (free_ids()).
+/// - Each distinct original is read and prepared once, then the copies are embedded on
+///   IssueSettings::threads threads, each at the fixed strength or at the strongest within
+///   fidelity limits (calibrate.h).
+/// - A copy is written (atomically) only when the written bytes, read back, carry every bit
+///   with at least half the strength (write_marked_mesh).
+/// - With a registry, every copy written is recorded in one transaction; when recording fails,
+///   the copies written are removed: no issued copy goes unrecorded.
+/// - A copy recorded by an earlier run with the same settings and output, its file intact, is
+///   skipped when IssueSettings::resume is set (a batch run again after a kill).
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "meshmark/core/enum_names.h"
+#include "meshmark/core/progress.h"
+#include "meshmark/forensics/registry.h"
+#include "meshmark/io/io.h"
+#include "meshmark/mark/calibrate.h"
+#include "meshmark/mark/embed.h"
+#include "meshmark/mark/payload.h"
+#include "meshmark/protocol/key.h"
+
+namespace meshmark {
+
+/// What every copy of one issue shares.
+struct IssueSettings {
+  int bits = 64;           ///< payload length nb
+  EmbedOptions embedding;  ///< method, variant, strength, solver (strengths are set here)
+  ReadOptions read;        ///< how originals are read, and written copies read back
+  WriteOptions write;      ///< output format settings (format from the path when unset)
+  std::optional<Key> key;  ///< keyed layout; the key of coded IDs (public_key() without)
+  /// Coded IDs without key are coded under public_key(), which anyone can read, remove or
+  /// forge: such a request is refused unless this is set.
+  bool allow_public_key = false;
+  int id_bits = 32;  ///< length of a coded ID in bits (1..32)
+  double strength_spread =
+      0.25;  ///< keyed or coded marks: per-bit strength spread (keyed_strengths)
+  /// Fidelity limits: each copy gets the strongest mark within them; none: every copy at
+  /// embedding.strength.
+  std::optional<CalibrateOptions> limits;
+  std::string registry;  ///< record coded copies there (SQLite file or postgresql:// URI); "" none
+  bool resume = true;    ///< skip copies an earlier run issued and recorded, their files intact
+  int threads = 0;       ///< copies embedded at once; 0: one per hardware thread
+  /// Files no copy may write, besides the inputs and the registry: the key's file and the
+  /// manifest, each refused by what it is ("the key file"); paths, as given.
+  std::vector<std::pair<std::string, std::string>> kept_files;  ///< (what it is, path)
+  /// Called as copies are made (progress.h): phase "issuing", copies done of those to make,
+  /// the output just made.
+  ProgressCallback progress;
+};
+
+/// One copy to issue.
+struct CopyRequest {
+  std::string input;  ///< the original's path, or its name when `mesh` is set
+  /// The original in memory (Python's arrays, a caller's mesh): then it is not read from
+  /// `input`, which only names it in messages and as the registry's original_path, and the
+  /// registry's original_hash is its geometry_hash (there are no file bytes to hash).
+  std::shared_ptr<const Mesh> mesh;
+  std::string output;               ///< where the copy goes (format from its extension)
+  std::optional<std::uint64_t> id;  ///< a coded buyer ID, or none: a raw payload
+  std::string payload_hex;          ///< the raw payload (hexadecimal), when there is no ID
+  std::string buyer;                ///< the buyer's label, recorded with a coded ID
+  std::size_t line = 0;             ///< its manifest line (1-based), 0 when not from one
+  std::string refusal;              ///< why the request is refused before it runs, or ""
+  bool auto_id = false;             ///< no id given: the registry picks it (id:auto, free_ids())
+};
+
+/// What became of a copy.
+enum class CopyStatus {
+  Written,            ///< written, carrying the mark (and recorded, with a registry)
+  Skipped,            ///< issued and recorded by an earlier run, its file intact
+  Refused,            ///< not run: a malformed request, a clash or the registry refuses it
+  Unreadable,         ///< its original cannot be read
+  NotEmbedded,        ///< the embedding failed (infeasible, not converged, no usable carrier)
+  NotWithinFidelity,  ///< no strength within the fidelity limits carries the mark
+  NotCarried,         ///< the bytes it would write do not carry the mark (nothing written)
+  WriteFailed,        ///< the file cannot be written
+  NotRecorded,        ///< written, but the registry could not record it: removed
+};
+
+/// The names of CopyStatus's values (copy_status_name).
+template <>
+struct EnumTable<CopyStatus> {
+  static constexpr const char* what = "copy status";
+  static constexpr NamedValue<CopyStatus> values[] = {
+      {CopyStatus::Written, "written"},
+      {CopyStatus::Skipped, "skipped"},
+      {CopyStatus::Refused, "refused"},
+      {CopyStatus::Unreadable, "unreadable"},
+      {CopyStatus::NotEmbedded, "not embedded"},
+      {CopyStatus::NotWithinFidelity, "not within the fidelity limits"},
+      {CopyStatus::NotCarried, "not carried by the file"},
+      {CopyStatus::WriteFailed, "write failed"},
+      {CopyStatus::NotRecorded, "not recorded"}};
+};
+
+/// "written", "skipped", "refused", "unreadable", "not embedded", "not within the fidelity
+/// limits", "not carried by the file", "write failed", "not recorded".
+const char* copy_status_name(CopyStatus status);
+
+/// One copy's outcome.
+struct CopyOutcome {
+  CopyStatus status = CopyStatus::Refused;
+  std::string message;                ///< why it failed, or a one-line summary of the copy
+  std::vector<std::string> warnings;  ///< the reader's notes and a weak carrier's diagnostics
+  Payload word;                       ///< payload order (a coded ID's codeword)
+  Payload bins;                       ///< bin order: what was embedded
+  EmbedOptions embedding;             ///< as embedded (the strength found by a search)
+  EmbedResult result;                 ///< the embedding (positions dropped once written)
+  std::optional<CalibrateResult> calibration;  ///< the fidelity search, with limits
+  IssuedCopy record;                           ///< the registry record (coded IDs with a registry)
+  std::int64_t vertices = 0;                   ///< the original's vertex count
+  bool ok() const { return status == CopyStatus::Written || status == CopyStatus::Skipped; }
+};
+
+/// What issue_copies did.
+struct IssueResult {
+  std::vector<CopyOutcome> copies;             ///< one per request, in order
+  std::size_t inputs = 0;                      ///< distinct originals
+  int threads = 1;                             ///< threads the copies were embedded on
+  double seconds = 0;                          ///< wall time
+  std::size_t count(CopyStatus status) const;  ///< copies with this status
+};
+
+/// Issues one copy per request (see the file's comment for the rules). Never throws for one
+/// copy's failure: each outcome says what happened to it.
+/// \throw InvalidArgumentError for settings out of range; IOError when the registry cannot be
+///        opened.
+IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings& settings);
+
+/// Sets request's ID from text: "auto" (the registry picks it: CopyRequest::auto_id) or an ID
+/// in decimal or 0x hex (parse_id() in coding.h, which throws InvalidArgumentError).
+void set_copy_id(CopyRequest& request, const std::string& text);
+
+/// Reads a manifest. A path ending in `.csv` is CSV (RFC 4180: commas, quoted fields holding
+/// commas, doubled quotes or line breaks, any UTF-8) with a header row naming the columns
+/// `input`, `output`, `id` or `payload`, and `buyer`, in any order. Any other path holds one
+/// copy per line, `INPUT OUTPUT PAYLOAD` (hexadecimal) or `INPUT OUTPUT id:N BUYER...` (a coded
+/// ID, or `id:auto`, and the buyer's label); `#` starts a comment, and a line whose buyer label
+/// a `#` would cut is refused (such a label needs CSV); blank lines are skipped. A malformed line
+/// or record is a request with its refusal set, so that it is reported like any other failure.
+/// \throw IOError when the file cannot be read (at most 64 MiB); InvalidInputError for a CSV
+///        header without the needed columns, or a CSV record whose quoting is broken.
+std::vector<CopyRequest> read_manifest(const std::string& path);
+
+/// The registry record of a copy of input (its content hash read from the file) carrying the
+/// coded id for buyer, under key, with settings' embedding. \throw IOError when input cannot
+/// be read.
+IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::uint64_t id,
+                       const IssueSettings& settings);
+
+/// The same for an original in memory named `name` (CopyRequest::mesh): its original_hash is
+/// its geometry_hash, its original_path the name as given.
+IssuedCopy issued_copy(const Mesh& original, const std::string& name, const std::string& buyer,
+                       std::uint64_t id, const IssueSettings& settings);
+
+}  // namespace meshmark

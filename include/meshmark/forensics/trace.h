@@ -1,0 +1,167 @@
+#pragma once
+/// \file trace.h
+/// Informed tracing of a leak: with the original mesh and the copies issued from it (registry.h),
+/// which buyers' marks are present in the leaked mesh?
+///
+/// Steps: the leak is registered onto the original (registration.h) and measured at every
+/// original vertex (the closest point of the registered leak's surface; vertices with no
+/// surface within `erase_distance` are erased: cropped away or in holes). The histogram is the
+/// original's (its carrier, center, range and bins: the embedding kept them), so resampling,
+/// cropping and decimation do not desynchronize it. Each bin's mean position is compared with
+/// the original's: a mark moves it from the original's mean m0 to 1/2 +- alpha_j, and attacks
+/// attenuate that shift by a common factor gamma (smoothing shrinks it), which is fitted; each
+/// bit is the hypothesis nearer to what was measured. Three readings are made: every bit, and
+/// the bits outside a middle band of two widths (bits whose shift lies near the middle between
+/// the hypotheses are erased: attacks leave the weakest bits there, and an average of two
+/// copies leaves there every bit on which the two differ). gamma is fitted on the bits outside
+/// the widest band. These readings do not depend on any candidate. Each candidate copy's
+/// codeword is then compared with each, and its p-value is the smallest exact probability
+/// (detect.h, CodewordNull) that an innocent codeword matches as well, times the number of
+/// readings, then times the number of candidates (Bonferroni). Buyers below the threshold are
+/// named; two or more are reported together (collusion: both colluders of an average of two
+/// copies match every bit outside the band).
+
+#include <string>
+#include <vector>
+
+#include "meshmark/core/enum_names.h"
+#include "meshmark/core/mesh.h"
+#include "meshmark/core/progress.h"
+#include "meshmark/forensics/registration.h"
+#include "meshmark/forensics/registry.h"
+#include "meshmark/mark/decode.h"
+#include "meshmark/protocol/key.h"
+
+namespace meshmark {
+
+/// The leak measured at the original's carrier vertices: for each, the point of the leak's
+/// surface on the ray from center through the vertex (where the plane of the nearest leaked
+/// triangle crosses that ray), or the nearest point itself where the ray runs along that plane.
+/// An unattacked copy of a radially marked mesh gives back its own vertices.
+struct Resampled {
+  Eigen::MatrixX3d point;              ///< #VO x 3 (rows of unmeasured vertices: the original's)
+  std::vector<std::uint8_t> measured;  ///< 1 where a surface lies within erase_distance
+  double fraction = 0;                 ///< measured share of the carrier
+  bool vertexwise = false;  ///< true: point[i] is the leak's vertex i (same faces), not a ray hit
+};
+
+/// Resamples the leak (VL, FL, already in the original's frame) at the carrier vertices of
+/// (VO, FO); erase_distance in model units. A leak with the original's faces (noise,
+/// quantization, smoothing, a similarity) is measured vertex for vertex.
+Resampled resample_at_original(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
+                               const Eigen::MatrixX3d& VO, const Eigen::MatrixX3i& FO,
+                               const Eigen::Vector3d& center, double erase_distance);
+
+/// Options of trace.
+struct TraceOptions {
+  double threshold = 1e-6;        ///< family-wise false-alarm probability for naming a buyer
+  double erase_distance = 0.005;  ///< no surface within this fraction of the diagonal: erased
+  bool register_leak = true;      ///< false: the leak is already in the original's frame
+  RegistrationOptions registration;
+  /// Called as the trace goes (progress.h): phase "tracing", the registration and then each
+  /// group of candidates read alike.
+  ProgressCallback progress;
+};
+
+/// One candidate's evidence.
+struct CandidateScore {
+  IssuedCopy copy;         ///< the issued copy
+  int matches = 0;         ///< bits read equal to its codeword's (best reading)
+  int compared = 0;        ///< bits compared (not erased) in that reading
+  double p_value = 1;      ///< this candidate alone: the smallest exact p over the readings
+                           ///< times their number
+  double corrected_p = 1;  ///< min(1, p_value x candidates)
+  /// The row's authentication code under the trace's key (check_row): an Edited row is
+  /// scored and counted but never named.
+  RowAuth auth = RowAuth::Unauthenticated;
+};
+
+/// What trace concluded.
+enum class TraceStatus {
+  Named,               ///< at least one buyer passes the threshold
+  NoBuyer,             ///< none does
+  RegistrationFailed,  ///< the leak could not be brought onto the original
+  NoCandidates,        ///< no copy of this original under this key in the list
+};
+
+/// The names of TraceStatus's values (trace_status_name).
+template <>
+struct EnumTable<TraceStatus> {
+  static constexpr const char* what = "trace status";
+  static constexpr NamedValue<TraceStatus> values[] = {
+      {TraceStatus::Named, "named"},
+      {TraceStatus::NoBuyer, "no-buyer"},
+      {TraceStatus::RegistrationFailed, "registration-failed"},
+      {TraceStatus::NoCandidates, "no-candidates"}};
+};
+
+/// "named", "no-buyer", "registration-failed", "no-candidates".
+const char* trace_status_name(TraceStatus status);
+
+/// The soft evidence of one payload bit (first group of candidates), in bin units: what the
+/// bin's mean moved by from the reference, and what a 0 or a 1 would have moved it by after
+/// the fitted attenuation.
+struct BitEvidence {
+  double shift = 0;             ///< measured shift of the bin's mean (bin widths)
+  double if_one = 0;            ///< expected shift for a 1 (bin widths, attenuated)
+  double if_zero = 0;           ///< expected shift for a 0 (bin widths, attenuated)
+  int vertices = 0;             ///< measured vertices in the bin (0: the bit is erased)
+  std::uint8_t bit = kErasure;  ///< the hypothesis nearer to the shift, or kErasure
+};
+
+/// Where trace spent its time (seconds, wall clock).
+struct TraceTimings {
+  double registration = 0;  ///< register_similarity
+  double reference = 0;     ///< the search for the smoothing the leak resembles
+  double resampling = 0;    ///< the leak measured at the original's vertices (every group)
+  double scoring = 0;       ///< readings, null distributions and candidates' p-values
+};
+
+/// What trace found.
+struct TraceResult {
+  TraceStatus status = TraceStatus::NoBuyer;
+  std::size_t candidates = 0;           ///< copies issued under this key (scored or not)
+  RegistrationResult registration;      ///< leak -> original
+  double measured_fraction = 0;         ///< original carrier vertices measured (not erased)
+  double attenuation = 0;               ///< fitted gamma of the first group of candidates
+  std::string processing;               ///< the smoothing the leak was read against, or "none"
+  std::vector<BitEvidence> bits;        ///< per payload bit, first group of candidates
+  std::vector<CandidateScore> named;    ///< candidates below the threshold, best first
+  std::vector<CandidateScore> ranking;  ///< every candidate, best first
+  std::string message;                  ///< one line for a person
+  /// What weakens or qualifies the verdict, one sentence each: candidate rows whose MAC fails
+  /// (never named) or that carry none, a leak whose bytes are another row's file.
+  std::vector<std::string> warnings;
+  /// The row whose recorded output_hash the leak's bytes equal (compare_with_issued_files),
+  /// 0 when none does or it was not checked.
+  std::int64_t identical_row = 0;
+  TraceTimings seconds;  ///< where the time went
+};
+
+/// Traces leaked against the copies issued from original under key (candidates: every copy
+/// whose key fingerprint is key's; others are ignored). Candidates may differ in variant,
+/// bits, ID length, strength and spread: each group is read with its own settings.
+/// \throw InvalidArgumentError when a mesh has no usable triangle.
+TraceResult trace(const Mesh& leaked, const Mesh& original,
+                  const std::vector<IssuedCopy>& candidates, const Key& key,
+                  const TraceOptions& options = {});
+
+/// Checks a trace against the bytes of the leaked file (content_hash, registry.h): when they
+/// are those of a candidate's recorded copy (its output_hash), identical_row is that row, and
+/// the message says so when it is a named buyer's. When it is not a named buyer's while some
+/// buyer is named, the mark and the registry contradict each other: nobody is named and a
+/// warning says why.
+void compare_with_issued_files(TraceResult& r, const std::string& leaked_hash);
+
+/// Traces leaked against the copies a registry (an SQLite file or a postgresql:// URI, which
+/// must exist) recorded under key of the original: of the file whose content hash is
+/// original_hash, and of any file of the same geometry (geometry_hash of original, registry.h;
+/// the same shape saved in another format). When none was, the message says how many copies of
+/// other originals were issued under that key (the original given is then likely not the file the
+/// copies were made from). \throw IOError when the registry does not exist or cannot be read; as
+/// trace() otherwise.
+TraceResult trace_issued(const Mesh& leaked, const Mesh& original, const std::string& original_hash,
+                         const std::string& registry, const Key& key,
+                         const TraceOptions& options = {});
+
+}  // namespace meshmark

@@ -1,0 +1,62 @@
+#pragma once
+// Internal: the trials of a campaign unit, shared by the blind engine (campaign_plan.cpp,
+// campaign_unit.cpp, campaign_report.cpp) and the trace mode (campaign_trace.cpp,
+// campaign_trace_report.cpp).
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "meshmark/campaign/campaign.h"
+#include "meshmark/mark/embed.h"
+
+namespace meshmark::detail {
+
+/// True when a row's outcome text (TrialRow::trace_outcome, ::blind_outcome) names `outcome`.
+inline bool outcome_is(const std::string& text, TraceOutcome outcome) {
+  return text == trace_outcome_name(outcome);
+}
+
+/// A seed per text (a trial's key): FNV-1a finished by SplitMix64, salted with the campaign's.
+std::uint64_t seed_of(const std::string& text, std::uint64_t salt);
+
+/// One trial to run: an attack series at one strength, one draw, on one copy or (trace mode,
+/// colluders 2) an average of two.
+struct PlannedTrial {
+  const AttackSeries* series = nullptr;
+  double strength = 0;
+  int draw = 0;
+  int colluders = 0;  ///< 0 in blind mode
+  std::string key;
+};
+
+/// The unit's trials in canonical order: attacks, strengths, draws, then (trace mode, collusion)
+/// every one again on an average of two copies.
+std::vector<PlannedTrial> plan_trials(const CampaignConfig& config, const CampaignUnit& unit);
+
+/// The trial's attack applied to mesh (a copy of it for "none"), seeded from its key.
+Mesh attack_for_trial(const CampaignConfig& config, const PlannedTrial& trial, const Mesh& mesh);
+
+/// Trace mode's run_campaign_unit.
+void run_trace_unit(const CampaignConfig& config, const CampaignUnit& unit, const Mesh& mesh,
+                    const CalibrationRecord& record,
+                    const std::function<bool(const std::string& key)>& done,
+                    const std::function<void(const TrialRow&)>& emit);
+
+/// The report's section comparing the campaign with the LIRIS benchmark's published results
+/// (campaign_published.cpp): per protocol, the published columns of equal distortion beside
+/// the variants' mean and median BER, for the series with the benchmark's attack definitions;
+/// "" when the campaign has none of them.
+std::string published_comparison(const CampaignConfig& config,
+                                 const std::vector<SummaryRow>& summary);
+
+/// Trace mode's write_campaign_report.
+std::string write_trace_report(const std::string& dir, const CampaignConfig& config,
+                               const std::vector<CalibrationRecord>& calibrations,
+                               const std::vector<TrialRow>& rows, double wall_seconds);
+
+/// The embedding options of a campaign's scheme name (a variant, or a Cho method: MarkScheme).
+EmbedOptions scheme_options(const std::string& scheme);
+
+}  // namespace meshmark::detail

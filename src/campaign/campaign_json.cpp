@@ -1,0 +1,123 @@
+// Campaign serialization: rows and calibrations as JSON lines (the journals' records), rows as
+// CSV. The JSON fields are those of TrialRow and CalibrationRecord, by name (nlohmann's type
+// macros); a row's protocol and a calibration's protocol and cause only when not empty, the
+// trace mode's fields only on trace rows (colluders not 0), as the journals have always held.
+
+#include <fmt/format.h>
+
+#include <nlohmann/json.hpp>
+
+#include "meshmark/campaign/campaign.h"
+#include "meshmark/core/error.h"
+
+namespace meshmark {
+
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(TrialRow, key, model, variant, protocol, payload,
+                                                strength, rms_percent, msdm, attack,
+                                                attack_strength, draw, vertices, ber, erasures,
+                                                status, embed_seconds, attack_seconds,
+                                                extract_seconds, colluders, leakers, trace_outcome,
+                                                trace_status, trace_named, trace_p, blind_outcome,
+                                                blind_id, trace_seconds)
+
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(CalibrationRecord, model, variant, protocol, status,
+                                                strength, rms_percent, msdm, seconds, bin_offset,
+                                                evaluations, cause)
+
+namespace {
+
+using nlohmann::json;
+
+// Fields every row has.
+constexpr const char* kRowFields[] = {
+    "key",      "model",  "variant",         "payload",        "strength",       "rms_percent",
+    "msdm",     "attack", "attack_strength", "draw",           "vertices",       "ber",
+    "erasures", "status", "embed_seconds",   "attack_seconds", "extract_seconds"};
+// Fields of trace rows only.
+constexpr const char* kTraceFields[] = {"colluders",     "leakers",     "trace_outcome",
+                                        "trace_status",  "trace_named", "trace_p",
+                                        "blind_outcome", "blind_id",    "trace_seconds"};
+// Fields every calibration has (bin_offset is read as the paper's 0.05 when absent: records
+// written before G was searched).
+constexpr const char* kCalibrationFields[] = {"model",       "variant", "status",  "strength",
+                                              "rms_percent", "msdm",    "seconds", "evaluations"};
+
+// Throws InvalidInputError(file, 0, "not a WHAT: ...") unless j is an object with every field.
+template <std::size_t N>
+void require(const json& j, const char* const (&fields)[N], const char* file, const char* what) {
+  if (!j.is_object())
+    throw InvalidInputError(file, 0, fmt::format("not a {}: not an object", what));
+  for (const char* f : fields)
+    if (!j.contains(f))
+      throw InvalidInputError(file, 0, fmt::format("not a {}: key '{}' not found", what, f));
+}
+
+std::string csv_quote(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string out = "\"";
+  for (const char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+}  // namespace
+
+std::string row_to_json(const TrialRow& r) {
+  json j = r;
+  if (r.protocol.empty()) j.erase("protocol");
+  if (r.colluders == 0)
+    for (const char* f : kTraceFields) j.erase(f);
+  return j.dump();
+}
+
+TrialRow row_from_json(const std::string& line) {
+  try {
+    const json j = json::parse(line);
+    require(j, kRowFields, "rows", "campaign row");
+    if (j.contains("colluders")) require(j, kTraceFields, "rows", "campaign row");
+    return j.get<TrialRow>();
+  } catch (const json::exception& e) {
+    throw InvalidInputError("rows", 0, fmt::format("not a campaign row: {}", e.what()));
+  }
+}
+
+std::string calibration_to_json(const CalibrationRecord& r) {
+  json j = r;
+  if (r.protocol.empty()) j.erase("protocol");
+  if (r.cause.empty()) j.erase("cause");
+  return j.dump();
+}
+
+CalibrationRecord calibration_from_json(const std::string& line) {
+  try {
+    const json j = json::parse(line);
+    require(j, kCalibrationFields, "calibrations", "calibration");
+    return j.get<CalibrationRecord>();
+  } catch (const json::exception& e) {
+    throw InvalidInputError("calibrations", 0, fmt::format("not a calibration: {}", e.what()));
+  }
+}
+
+std::string csv_header(bool trace) {
+  return std::string(
+             "model,variant,payload,strength,rms_percent,msdm,attack,attack_strength,draw,"
+             "vertices,ber,erasures,status,embed_seconds,attack_seconds,extract_seconds,protocol") +
+         (trace ? ",colluders,leakers,trace_outcome,trace_status,trace_named,trace_p,"
+                  "blind_outcome,blind_id,trace_seconds"
+                : "");
+}
+
+std::string row_to_csv(const TrialRow& r, bool trace) {
+  std::string line =
+      fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}", csv_quote(r.model),
+                  csv_quote(r.variant), r.payload, r.strength, r.rms_percent, r.msdm,
+                  csv_quote(r.attack), r.attack_strength, r.draw, r.vertices, r.ber, r.erasures,
+                  csv_quote(r.status), r.embed_seconds, r.attack_seconds, r.extract_seconds);
+  line += "," + csv_quote(r.protocol);
+  if (trace)
+    line += fmt::format(",{},{},{},{},{},{},{},{},{}", r.colluders, csv_quote(r.leakers),
+                        r.trace_outcome, r.trace_status, csv_quote(r.trace_named), r.trace_p,
+                        r.blind_outcome, csv_quote(r.blind_id), r.trace_seconds);
+  return line;
+}
+
+}  // namespace meshmark

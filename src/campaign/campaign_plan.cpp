@@ -1,0 +1,115 @@
+// Campaign planning: the units (embeddings), their payloads, the trials of a unit with their
+// keys and seeds, and the attack series they run.
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+#include "campaign/campaign_internal.h"
+#include "meshmark/attacks/attack.h"
+#include "meshmark/campaign/campaign.h"
+#include "meshmark/carrier/method.h"
+#include "meshmark/core/random.h"
+
+namespace meshmark {
+
+namespace detail {
+std::uint64_t seed_of(const std::string& text, std::uint64_t salt) {
+  std::uint64_t h = 1469598103934665603ull ^ salt;  // FNV-1a
+  for (const unsigned char c : text) h = (h ^ c) * 1099511628211ull;
+  return Random(h).next();
+}
+}  // namespace detail
+
+using detail::seed_of;
+
+bool attack_is_deterministic(const std::string& kind) {
+  return kind == "none" || attack_chain_is_deterministic(kind);
+}
+
+std::vector<AttackStep> series_chain(const std::string& kind, double x) {
+  return parse_attack_chain(fmt::format("{}:{}", kind, x));
+}
+
+std::vector<AttackStep> series_chain(const AttackSeries& series, double x) {
+  std::vector<AttackStep> steps = series_chain(series.kind, x);
+  set_chain_params(steps, series.params);
+  return steps;
+}
+
+std::string series_label(const AttackSeries& series) {
+  const std::string params = attack_params_label(series.params);
+  return params.empty() ? series.kind : fmt::format("{} [{}]", series.kind, params);
+}
+
+std::vector<CampaignUnit> campaign_units(const CampaignConfig& c) {
+  std::vector<CampaignUnit> units;
+  for (int m = 0; m < static_cast<int>(c.models.size()); ++m)
+    for (int v = 0; v < static_cast<int>(c.variants.size()); ++v)
+      for (int p = 0; p < c.payloads; ++p)
+        for (int k = 0; k < static_cast<int>(c.protocols.size()); ++k)
+          units.push_back({m, v, p, k});
+  return units;
+}
+
+namespace {
+int draws_of(const CampaignConfig& c, const AttackSeries& s) {
+  if (s.draws > 0) return s.draws;
+  return attack_is_deterministic(s.kind) ? 1 : c.draws;
+}
+}  // namespace
+
+Payload campaign_payload(const CampaignConfig& c, int p) {
+  return random_payload(c.bits, seed_of(fmt::format("payload {}", p), c.seed));
+}
+
+Payload calibration_payload(int bits, std::uint64_t seed) {
+  return random_payload(bits, seed_of("calibration", seed));
+}
+
+std::string trial_key(const std::string& model, const std::string& variant, int payload,
+                      const std::string& attack, double attack_strength, int draw, int colluders,
+                      const std::string& protocol) {
+  return fmt::format("{}|{}|{}|{}|{}|{}{}{}", model, variant, payload, attack, attack_strength,
+                     draw, colluders == 2 ? "|avg2" : "", protocol.empty() ? "" : "|" + protocol);
+}
+
+EmbedOptions detail::scheme_options(const std::string& scheme) {
+  const MarkScheme s = parse_scheme(scheme);
+  EmbedOptions eo;
+  eo.method = s.method;
+  eo.variant = s.variant;
+  return eo;
+}
+
+std::vector<detail::PlannedTrial> detail::plan_trials(const CampaignConfig& c,
+                                                      const CampaignUnit& u) {
+  std::vector<PlannedTrial> trials;
+  const std::vector<int> colluders = !c.trace      ? std::vector<int>{0}
+                                     : c.collusion ? std::vector<int>{1, 2}
+                                                   : std::vector<int>{1};
+  for (const int n : colluders)
+    for (const AttackSeries& s : c.attacks)
+      for (const double x : s.strengths)
+        for (int d = 0; d < draws_of(c, s); ++d)
+          trials.push_back({&s, x, d, n,
+                            trial_key(c.models[u.model].name, c.variants[u.variant], u.payload,
+                                      series_label(s), x, d, n, c.protocols[u.protocol].name)});
+  return trials;
+}
+
+Mesh detail::attack_for_trial(const CampaignConfig& c, const PlannedTrial& t, const Mesh& mesh) {
+  const std::uint64_t seed = seed_of(t.key, c.seed);
+  if (t.series->kind == "none") return mesh;
+  const std::vector<AttackStep> steps = series_chain(*t.series, t.strength);
+  if (steps.size() == 1) return apply_attack(mesh, steps[0], seed);
+  return apply_attack_chain(mesh, steps, seed);
+}
+
+std::vector<std::string> unit_trial_keys(const CampaignConfig& c, const CampaignUnit& u) {
+  std::vector<std::string> keys;
+  for (detail::PlannedTrial& t : detail::plan_trials(c, u)) keys.push_back(std::move(t.key));
+  return keys;
+}
+
+}  // namespace meshmark

@@ -1,0 +1,239 @@
+// Trace mode of the campaigns: copies issued to consecutive IDs, the leaker's copy embedded
+// (and a colluder's), every attack traced with the original and decoded blind on the same
+// attacked mesh, and the outcomes counted.
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <map>
+
+#include "campaign/campaign_internal.h"
+#include "meshmark/campaign/campaign.h"
+#include "meshmark/carrier/variant.h"
+#include "meshmark/core/error.h"
+#include "meshmark/forensics/trace.h"
+#include "meshmark/metrics/metrics.h"
+#include "meshmark/protocol/coding.h"
+#include "meshmark/protocol/watermark.h"
+
+namespace meshmark {
+
+using detail::seed_of;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+std::string joined(const std::vector<std::uint64_t>& ids) {
+  return fmt::format("{}", fmt::join(ids, " "));
+}
+
+}  // namespace
+
+const char* trace_outcome_name(TraceOutcome outcome) {
+  return enum_name(outcome);
+}
+
+TraceOutcome trace_outcome(const std::vector<std::uint64_t>& named,
+                           const std::vector<std::uint64_t>& leakers) {
+  if (named.empty()) return TraceOutcome::None;
+  for (const std::uint64_t id : named)
+    if (std::find(leakers.begin(), leakers.end(), id) == leakers.end()) return TraceOutcome::Wrong;
+  return TraceOutcome::Right;
+}
+
+Key campaign_key(const CampaignConfig& c) {
+  return key_from_passphrase_v1(fmt::format("meshmark campaign key, seed {}", c.seed));
+}
+
+std::uint64_t campaign_first_id(const CampaignConfig& c) {
+  return seed_of("first issued ID", c.seed) % (std::uint64_t{1} << 31);
+}
+
+std::uint64_t campaign_leaker(const CampaignConfig& c, int p) {
+  return campaign_first_id(c) +
+         seed_of(fmt::format("leaker {}", p), c.seed) % static_cast<std::uint64_t>(c.copies);
+}
+
+std::vector<IssuedCopy> campaign_copies(const CampaignConfig& c, const std::string& model,
+                                        const std::string& variant, double strength,
+                                        double bin_offset) {
+  const std::string fingerprint = key_fingerprint(campaign_key(c));
+  std::vector<IssuedCopy> copies(c.copies);
+  for (int i = 0; i < c.copies; ++i) {
+    IssuedCopy& copy = copies[i];
+    copy.id = campaign_first_id(c) + i;
+    copy.buyer = fmt::format("buyer {}", copy.id);
+    copy.original_path = model;
+    copy.bits = c.bits;
+    const MarkScheme scheme = parse_scheme(variant);
+    copy.variant = scheme.variant.name();
+    copy.method = method_name(scheme.method);
+    copy.strength = strength;
+    copy.bin_offset = bin_offset;
+    copy.strength_spread = c.spread;
+    copy.key_fingerprint = fingerprint;
+  }
+  return copies;
+}
+
+namespace detail {
+
+namespace {
+
+// The leakers of a unit: its leaker, and the colluder (the next ID, or the previous one for
+// the last issued).
+std::vector<std::uint64_t> unit_leakers(const CampaignConfig& c, int payload) {
+  const std::uint64_t leaker = campaign_leaker(c, payload);
+  const bool last = leaker + 1 == campaign_first_id(c) + c.copies;
+  return {leaker, last ? leaker - 1 : leaker + 1};
+}
+
+// Traces and decodes blind one attacked mesh, filling the row's outcomes.
+void judge(const Mesh& attacked, const Mesh& original, const std::vector<IssuedCopy>& copies,
+           const Key& key, const CampaignConfig& c, const EmbedOptions& scheme,
+           const std::vector<std::uint64_t>& leakers, TrialRow& row) {
+  const IdCode code(IdCodeOptions{c.bits});
+  auto t0 = Clock::now();
+  const TraceResult t = trace(attacked, original, copies, key);
+  row.trace_seconds = since(t0);
+  std::vector<std::uint64_t> named;
+  for (const CandidateScore& s : t.named) named.push_back(s.copy.id);
+  row.trace_outcome = trace_outcome_name(trace_outcome(named, leakers));
+  row.trace_status = trace_status_name(t.status);
+  row.trace_named = joined(named);
+  row.trace_p = t.ranking.empty() ? 1.0 : t.ranking.front().corrected_p;
+  t0 = Clock::now();
+  const IdReading blind = read_id(
+      attacked.V, attacked.F,
+      ExtractOptions{.bits = c.bits, .center = scheme.variant.center, .method = scheme.method},
+      code, key);
+  row.extract_seconds = since(t0);
+  row.blind_outcome = trace_outcome_name(trace_outcome(
+      blind.id.valid ? std::vector{blind.id.id} : std::vector<std::uint64_t>{}, leakers));
+  row.blind_id = blind.id.valid ? std::to_string(blind.id.id)
+                                : fmt::format("no ID ({})", id_decode_status_name(blind.id.status));
+  row.ber = bit_error_rate(blind.reading.bits, code.encode(leakers.front(), key));
+  row.erasures = blind.reading.extract.erasures;
+}
+
+}  // namespace
+
+void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& mesh,
+                    const CalibrationRecord& record,
+                    const std::function<bool(const std::string& key)>& done,
+                    const std::function<void(const TrialRow&)>& emit) {
+  std::vector<PlannedTrial> todo;
+  for (PlannedTrial& t : plan_trials(c, u))
+    if (!done(t.key)) todo.push_back(std::move(t));
+  if (todo.empty()) return;
+  const std::string& model = c.models[u.model].name;
+  const std::string& variant = c.variants[u.variant];
+  const Key key = campaign_key(c);
+  const std::vector<IssuedCopy> copies =
+      campaign_copies(c, model, variant, record.strength, record.bin_offset);
+  const std::vector<std::uint64_t> pair = unit_leakers(c, u.payload);
+  const bool averaged =
+      std::any_of(todo.begin(), todo.end(), [](const PlannedTrial& t) { return t.colluders == 2; });
+
+  // The leaker's copy (and the colluder's, when an averaged trial is to run), keyed and coded
+  // as `meshmark embed --id` makes them.
+  EmbedOptions eo = scheme_options(variant);
+  eo.strength = record.strength;
+  eo.bin_offset = record.bin_offset;
+  TrialRow base;
+  base.model = model;
+  base.variant = variant;
+  base.payload = u.payload;
+  base.strength = record.strength;
+  base.status = record.strength > 0 ? "ok" : "no strength meets the calibration limits";
+  std::vector<Mesh> marked;
+  const IdCode code(IdCodeOptions{c.bits});
+  eo.strengths = mark_strengths(key, c.bits, true, eo.strength, c.spread);
+  for (std::size_t k = 0; k < (averaged ? 2u : 1u) && base.status == "ok"; ++k) {
+    const auto t0 = Clock::now();
+    const EmbedResult e = embed(mesh.V, mesh.F, id_bins(code, pair[k], key), eo);
+    if (k == 0) base.embed_seconds = since(t0);
+    if (e.status != EmbedStatus::Embedded) {
+      base.status =
+          fmt::format("embedding ID {} {}: {}", pair[k], embed_status_name(e.status), e.message);
+      break;
+    }
+    marked.push_back(mesh);
+    marked.back().V = e.V;
+    if (k == 0) base.rms_percent = e.rms_percent, base.msdm = msdm(mesh.V, e.V, mesh.F).global;
+  }
+  Mesh average;
+  if (averaged && marked.size() == 2) {
+    average = marked[0];
+    average.V = 0.5 * (marked[0].V + marked[1].V);
+  }
+
+  for (const PlannedTrial& t : todo) {
+    TrialRow row = base;
+    row.key = t.key;
+    row.attack = series_label(*t.series);
+    row.attack_strength = t.strength;
+    row.draw = t.draw;
+    row.colluders = t.colluders;
+    const std::vector<std::uint64_t> leakers(pair.begin(), pair.begin() + t.colluders);
+    row.leakers = joined(leakers);
+    row.ber = 0.5;
+    row.trace_outcome = row.blind_outcome = trace_outcome_name(TraceOutcome::None);
+    if (base.status == "ok") {
+      try {
+        const auto t0 = Clock::now();
+        const Mesh attacked = attack_for_trial(c, t, t.colluders == 2 ? average : marked[0]);
+        row.attack_seconds = since(t0);
+        row.vertices = static_cast<int>(attacked.V.rows());
+        judge(attacked, mesh, copies, key, c, eo, leakers, row);
+      } catch (const Error& e) {
+        row.status = fmt::format("attack or trace failed: {}", e.what());
+      }
+    }
+    emit(row);
+  }
+}
+
+}  // namespace detail
+
+std::vector<TraceSummaryRow> summarize_trace(const CampaignConfig& c,
+                                             const std::vector<TrialRow>& rows) {
+  std::map<std::string, std::vector<const TrialRow*>> groups;
+  for (const TrialRow& r : rows)
+    groups[fmt::format("{}|{}|{}", r.attack, r.attack_strength, r.colluders)].push_back(&r);
+  std::vector<TraceSummaryRow> out;
+  for (const int n : {1, 2})
+    for (const AttackSeries& s : c.attacks)
+      for (const double x : s.strengths) {
+        const auto it = groups.find(fmt::format("{}|{}|{}", series_label(s), x, n));
+        if (it == groups.end()) continue;
+        TraceSummaryRow row;
+        row.attack = series_label(s);
+        row.attack_strength = x;
+        row.colluders = n;
+        std::vector<double> seconds;
+        for (const TrialRow* r : it->second) {
+          ++row.trials;
+          row.trace_right += detail::outcome_is(r->trace_outcome, TraceOutcome::Right);
+          row.trace_none += detail::outcome_is(r->trace_outcome, TraceOutcome::None);
+          row.trace_wrong += detail::outcome_is(r->trace_outcome, TraceOutcome::Wrong);
+          row.blind_right += detail::outcome_is(r->blind_outcome, TraceOutcome::Right);
+          row.blind_none += detail::outcome_is(r->blind_outcome, TraceOutcome::None);
+          row.blind_wrong += detail::outcome_is(r->blind_outcome, TraceOutcome::Wrong);
+          if (detail::outcome_is(r->trace_outcome, TraceOutcome::Right))
+            row.worst_right_p = std::max(row.worst_right_p, r->trace_p);
+          seconds.push_back(r->trace_seconds);
+        }
+        std::sort(seconds.begin(), seconds.end());
+        row.median_trace_seconds = seconds[seconds.size() / 2];
+        out.push_back(row);
+      }
+  return out;
+}
+
+}  // namespace meshmark

@@ -1,0 +1,543 @@
+// Issuing watermarked copies (issue.h): the registry's refusals, each original read once, the
+// copies embedded in parallel, written only when they carry the mark, recorded in one
+// transaction.
+
+#include "meshmark/forensics/issue.h"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <memory>
+
+#include "core/parallel.h"
+#include "core/progress_counter.h"
+#include "meshmark/core/error.h"
+#include "meshmark/forensics/spacing.h"
+#include "meshmark/protocol/coding.h"
+#include "meshmark/protocol/watermark.h"
+
+namespace meshmark {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// The same file for two names (an existing file by identity, a new one by its absolute path).
+std::string file_identity(const std::string& path) {
+  std::error_code ec;
+  const auto absolute = fs::absolute(path, ec);
+  if (ec) return path;
+  const auto canonical = fs::weakly_canonical(absolute, ec);
+  return ec ? absolute.lexically_normal().string() : canonical.lexically_normal().string();
+}
+
+// What an original is read and prepared once under: its path, or the address of the mesh given
+// in memory (two meshes in memory may share a name).
+std::string original_key(const CopyRequest& r) {
+  return r.mesh ? fmt::format("\x01mesh {}", static_cast<const void*>(r.mesh.get())) : r.input;
+}
+
+void refuse(CopyOutcome& outcome, std::string message) {
+  outcome.status = CopyStatus::Refused;
+  outcome.message = std::move(message);
+}
+
+bool pending(const CopyOutcome& outcome) {
+  return outcome.status == CopyStatus::Written && outcome.message.empty();
+}
+
+// Whether a and b name one file: the same canonical path (links resolved), or, both existing,
+// the same inode (a hard link).
+bool same_file(const std::string& a, const std::string& b) {
+  if (file_identity(a) == file_identity(b)) return true;
+  std::error_code ec;
+  return fs::equivalent(a, b, ec);
+}
+
+// Before anything is embedded: no two copies write the same file, and no copy writes a file
+// any copy reads, the registry or a kept file. Every copy involved is refused.
+void refuse_clashes(const std::vector<CopyRequest>& requests, const IssueSettings& settings,
+                    std::vector<CopyOutcome>& out) {
+  std::vector<std::pair<std::string, std::string>> kept = settings.kept_files;
+  if (!settings.registry.empty() && settings.registry.find("://") == std::string::npos)
+    kept.emplace_back("the registry", settings.registry);
+  for (std::size_t k = 0; k < requests.size(); ++k) {
+    if (!pending(out[k])) continue;
+    for (const auto& [what, path] : kept)
+      if (!path.empty() && pending(out[k]) && same_file(requests[k].output, path))
+        refuse(out[k],
+               fmt::format("{}: refusing to overwrite {} ({})", requests[k].output, what, path));
+  }
+  const auto where = [&](std::size_t k) {
+    return requests[k].line ? fmt::format("line {}", requests[k].line)
+                            : fmt::format("copy {}", k + 1);
+  };
+  std::map<std::string, std::vector<std::size_t>> writers;
+  std::map<std::string, std::size_t> readers;
+  for (std::size_t k = 0; k < requests.size(); ++k) {
+    if (!pending(out[k])) continue;
+    const std::string output = file_identity(requests[k].output);
+    if (!requests[k].mesh && same_file(requests[k].output, requests[k].input)) {
+      refuse(out[k], fmt::format("{}: refusing to overwrite the input file", requests[k].output));
+      continue;
+    }
+    writers[output].push_back(k);
+    if (!requests[k].mesh) readers.emplace(file_identity(requests[k].input), k);
+  }
+  for (const auto& [file, ks] : writers) {
+    if (ks.size() > 1) {
+      std::string names;
+      for (const std::size_t k : ks) names += (names.empty() ? "" : ", ") + where(k);
+      for (const std::size_t k : ks)
+        refuse(out[k], fmt::format("{} all write this output: none of them is run", names));
+    }
+    const auto r = readers.find(file);
+    if (r != readers.end())
+      for (const std::size_t k : ks)
+        if (pending(out[k]))
+          refuse(out[k], fmt::format("the output is the input of {}", where(r->second)));
+  }
+}
+
+// Whether the recorded copy is this one, issued by an earlier run, with its file as recorded.
+// searched: the strength and G were searched within fidelity limits, so the recorded ones are
+// whatever the search found for that copy.
+bool resumable(const IssuedCopy& taken, IssuedCopy wanted, const std::string& output,
+               bool searched) {
+  if (taken.state != "issued") return false;
+  wanted.output_path = normalized_path(output);
+  if (searched) wanted.strength = taken.strength, wanted.bin_offset = taken.bin_offset;
+  if (!same_copy(taken, wanted)) return false;
+  try {
+    return content_hash(read_file(output)) == taken.output_hash;
+  } catch (const std::exception&) {
+    return false;  // gone or unreadable: not resumable, refused as already issued
+  }
+}
+
+// The registry's refusals: coded IDs only, an ID issued before or given twice (or skipped, an
+// intact copy of an earlier run), a codeword too close to an issued one.
+// Requests with id:auto get theirs here, chosen by free_ids() (spacing.h).
+void check_registry(const Registry& registry, std::vector<CopyRequest>& requests,
+                    const IssueSettings& settings, std::vector<CopyOutcome>& out) {
+  std::vector<std::size_t> candidates, automatic;
+  std::vector<IssuedCopy> given, chosen;        // the copies with an ID, those asking for one
+  std::map<std::string, IssuedCopy> originals;  // each input read and hashed once
+  for (std::size_t k = 0; k < requests.size(); ++k) {
+    if (!pending(out[k])) continue;
+    if (!requests[k].id && !requests[k].auto_id) {
+      refuse(out[k], "a registry records coded IDs only (id:N, id:auto, --id)");
+      continue;
+    }
+    try {
+      const CopyRequest& r = requests[k];
+      auto it = originals.find(original_key(r));
+      if (it == originals.end())
+        it = originals
+                 .emplace(original_key(r), r.mesh ? issued_copy(*r.mesh, r.input, "", 0, settings)
+                                                  : issued_copy(r.input, "", 0, settings))
+                 .first;
+      out[k].record = it->second;
+      out[k].record.buyer = requests[k].buyer;
+      out[k].record.id = requests[k].id.value_or(0);
+      candidates.push_back(k);
+      if (requests[k].auto_id)
+        automatic.push_back(k), chosen.push_back(out[k].record);
+      else
+        given.push_back(out[k].record);
+    } catch (const IOError& e) {
+      out[k].status = CopyStatus::Unreadable, out[k].message = e.what();
+    } catch (const InvalidInputError& e) {
+      out[k].status = CopyStatus::Unreadable, out[k].message = e.what();
+    }
+  }
+  if (!automatic.empty()) {
+    try {
+      const std::vector<std::uint64_t> ids =
+          free_ids(registry, given, chosen, id_key(settings.key));
+      for (std::size_t j = 0; j < automatic.size(); ++j)
+        requests[automatic[j]].id = out[automatic[j]].record.id = ids[j];
+    } catch (const InvalidArgumentError& e) {
+      for (const std::size_t k : automatic) refuse(out[k], e.what());
+    }
+  }
+  // The same ID of the same original: the same file, or the same geometry in another file.
+  const auto same = [&](std::size_t k, const IssuedCopy& c) {
+    const IssuedCopy& r = out[k].record;
+    return pending(out[k]) && r.id == c.id &&
+           (r.original_hash == c.original_hash ||
+            (!c.original_geometry.empty() && r.original_geometry == c.original_geometry));
+  };
+  std::vector<IssuedCopy> wanted;
+  for (const std::size_t k : candidates) wanted.push_back(out[k].record);
+  for (const IssuedCopy& taken : registry.conflicts(wanted))
+    for (const std::size_t k : candidates) {
+      if (!same(k, taken)) continue;
+      if (taken.row && taken.state == "reserved") {
+        // An issue that reserved this row and did not complete it: this very copy (buyer,
+        // settings, output) is finished under the same row, whatever its file holds now.
+        IssuedCopy request = out[k].record;
+        request.output_path = normalized_path(requests[k].output);
+        request.strength = taken.strength, request.bin_offset = taken.bin_offset;
+        if (same_copy(taken, request)) {
+          out[k].record.row = taken.row;
+          out[k].record.issued_at = taken.issued_at;
+          out[k].warnings.push_back(fmt::format(
+              "{}: ID {} was reserved for '{}' on {} (row {}) by an issue that did not complete "
+              "it: this run writes the copy and completes the row",
+              requests[k].output, taken.id, taken.buyer, taken.issued_at, taken.row));
+          continue;
+        }
+        refuse(out[k],
+               fmt::format("ID {} is reserved for '{}' since {} (row {}, {}) by an issue "
+                           "that is running or was interrupted: rerun that issue to "
+                           "finish it, or choose another ID",
+                           taken.id, taken.buyer, taken.issued_at, taken.row, taken.output_path));
+        continue;
+      }
+      if (taken.row && settings.resume &&
+          resumable(taken, out[k].record, requests[k].output, settings.limits.has_value())) {
+        out[k].status = CopyStatus::Skipped;
+        out[k].message = fmt::format("already issued to '{}' on {} and its file is intact: skipped",
+                                     taken.buyer, taken.issued_at);
+        continue;
+      }
+      const bool other_file = taken.original_hash != out[k].record.original_hash;
+      refuse(out[k],
+             taken.row
+                 ? fmt::format("ID {} already issued from this original{} under this key to '{}' "
+                               "on {} ({}): choose another ID",
+                               taken.id,
+                               other_file
+                                   ? fmt::format(" (the same geometry, as {})", taken.original_path)
+                                   : "",
+                               taken.buyer, taken.issued_at, taken.output_path)
+                 : fmt::format("ID {} is given twice for this original", taken.id));
+    }
+  wanted.clear();
+  std::vector<std::size_t> index;
+  for (const std::size_t k : candidates)
+    if (pending(out[k])) wanted.push_back(out[k].record), index.push_back(k);
+  for (const CloseCodeword& c : close_codewords(registry, wanted, id_key(settings.key)))
+    for (const std::size_t k : index)
+      if (same(k, c.copy))
+        refuse(out[k], fmt::format("ID {}'s codeword is {} bits from that of ID {} ('{}'), closer "
+                                   "than {}: a copy of one could be taken for the other; choose "
+                                   "another ID",
+                                   c.copy.id, c.distance, c.near.id, c.near.buyer, kIssuedSpacing));
+}
+
+// An original, read and prepared once for every copy made from it.
+struct Original {
+  Mesh mesh;
+  PreparedEmbedder embedder;
+};
+
+// Embeds and writes one copy (out[k] pending).
+void make_copy(const CopyRequest& request, const Original& original, const IssueSettings& settings,
+               const IdCode* code, CopyOutcome& out) {
+  const int nb = settings.bits;
+  const bool coded = request.id.has_value();
+  out.vertices = original.mesh.V.rows();
+  for (const std::string& note : original.mesh.notes)
+    out.warnings.push_back(fmt::format("{}: {}", request.input, note));
+  out.word = coded ? code->encode(*request.id, id_key(settings.key))
+                   : payload_from_hex(request.payload_hex, nb);
+  out.bins = mark_layout(settings.key, nb, coded).to_bins(out.word);
+  EmbedOptions& o = out.embedding;
+  o.strengths = mark_strengths(settings.key, nb, coded, o.strength, settings.strength_spread);
+  if (settings.limits) {
+    CalibrateOptions co = *settings.limits;
+    co.strengths = [&](double alpha) {
+      return mark_strengths(settings.key, nb, coded, alpha, settings.strength_spread);
+    };
+    out.calibration = calibrate_strength(original.embedder, out.bins, o, co);
+    const CalibrateResult& c = *out.calibration;
+    o.strength = c.strength > 0 ? c.strength : co.min_strength;
+    o.bin_offset = c.bin_offset, o.strengths = c.strengths;
+    out.result = c.embedding;
+    out.calibration->embedding.V.resize(0, 3);
+    if (c.status == CalibrateStatus::BelowMinimum) {
+      out.status = CopyStatus::NotWithinFidelity, out.message = c.message;
+      return;
+    }
+  } else {
+    out.result = original.embedder.embed(out.bins, o);
+  }
+  out.record.strength = o.strength, out.record.bin_offset = o.bin_offset;
+  if (out.result.check.status == CarrierHealth::Weak)
+    for (const std::string& d : out.result.check.diagnostics)
+      out.warnings.push_back(fmt::format("{}: {}", request.input, d));
+  if (out.result.status != EmbedStatus::Embedded) {
+    out.status = CopyStatus::NotEmbedded, out.message = out.result.message;
+    return;
+  }
+  std::error_code ec;
+  if (!request.mesh && fs::equivalent(request.output, request.input, ec)) {
+    refuse(out, fmt::format("{}: refusing to overwrite the input file", request.output));
+    return;
+  }
+  Mesh copy = original.mesh;
+  copy.V = std::move(out.result.V);
+  out.result.V.resize(0, 3);
+  ExtractOptions eo;
+  eo.center = o.variant.center;
+  eo.method = o.method;
+  try {
+    const WrittenCheck written = write_marked_mesh(request.output, copy, settings.write,
+                                                   settings.read, out.bins, eo, 0.5 * o.strength);
+    if (!written.carried) {
+      out.status = CopyStatus::NotCarried, out.message = written.message;
+      return;
+    }
+  } catch (const IOError& e) {
+    out.status = CopyStatus::WriteFailed, out.message = e.what();
+    return;
+  }
+  out.message =
+      fmt::format("{} rounds, RMS {:.5f} %{}, {:.1f} ms", out.result.rounds, out.result.rms_percent,
+                  out.calibration ? fmt::format(", strength {:.5f}, MSDM {:.4f}",
+                                                out.calibration->strength, out.calibration->msdm)
+                                  : "",
+                  1e3 * out.result.seconds);
+  if (request.auto_id) out.message = fmt::format("ID {}, {}", *request.id, out.message);
+  if (out.result.check.status == CarrierHealth::Weak)
+    out.message += fmt::format(" (warning: {})", out.result.check.summary());
+}
+
+}  // namespace
+
+const char* copy_status_name(CopyStatus status) {
+  return enum_name(status);
+}
+
+std::size_t IssueResult::count(CopyStatus status) const {
+  std::size_t n = 0;
+  for (const CopyOutcome& c : copies) n += c.status == status;
+  return n;
+}
+
+IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::uint64_t id,
+                       const IssueSettings& settings) {
+  const std::string file_hash = content_hash(read_file(input));
+  IssuedCopy c = issued_copy(read_mesh(input, settings.read), input, buyer, id, settings);
+  c.original_hash = file_hash;
+  c.original_path = normalized_path(input);
+  return c;
+}
+
+IssuedCopy issued_copy(const Mesh& original, const std::string& name, const std::string& buyer,
+                       std::uint64_t id, const IssueSettings& settings) {
+  IssuedCopy c;
+  c.original_geometry = geometry_hash(original.V, original.F);
+  c.original_hash = c.original_geometry;
+  c.original_path = name;
+  c.buyer = buyer;
+  c.id = id;
+  c.id_bits = settings.id_bits;
+  c.bits = settings.bits;
+  c.variant = settings.embedding.variant.name();
+  c.strength = settings.embedding.strength;
+  c.strength_spread = settings.strength_spread;
+  c.bin_offset = settings.embedding.bin_offset;
+  c.key_fingerprint = key_fingerprint(id_key(settings.key));
+  c.key_derivation = id_key(settings.key).derivation;
+  c.method = method_name(settings.embedding.method);
+  return c;
+}
+
+namespace {
+
+// Reserves the rows of the copies about to be made (those without one: an interrupted
+// issue's rows are finished as they are), in one transaction; when that fails (another issue
+// took an ID meanwhile, the database failed), none of these copies is made.
+void reserve_rows(Registry& registry, const std::vector<CopyRequest>& requests,
+                  std::vector<std::size_t>& jobs, const IssueSettings& settings,
+                  std::vector<CopyOutcome>& out) {
+  std::vector<IssuedCopy> fresh;
+  std::vector<std::size_t> index;
+  for (const std::size_t k : jobs)
+    if (out[k].record.row == 0) {
+      out[k].record.output_path = normalized_path(requests[k].output);
+      fresh.push_back(out[k].record), index.push_back(k);
+    }
+  if (fresh.empty()) return;
+  try {
+    fresh = registry.reserve(std::move(fresh), id_key(settings.key));
+    for (std::size_t j = 0; j < index.size(); ++j) out[index[j]].record = fresh[j];
+  } catch (const std::exception& e) {
+    for (const std::size_t k : index) refuse(out[k], fmt::format("not reserved: {}", e.what()));
+    std::erase_if(jobs, [&](std::size_t k) { return !pending(out[k]); });
+  }
+}
+
+// Completes the rows of the copies written, in one transaction (all, or none and their files
+// removed), and releases the rows of the copies that were not.
+void complete_rows(Registry& registry, const std::vector<CopyRequest>& requests,
+                   const IssueSettings& settings, std::vector<CopyOutcome>& out) {
+  std::vector<IssuedCopy> done, dropped;
+  for (std::size_t k = 0; k < requests.size(); ++k)
+    if (out[k].record.row != 0 && out[k].status != CopyStatus::Written)
+      dropped.push_back(out[k].record);
+  try {
+    for (std::size_t k = 0; k < requests.size(); ++k) {
+      if (out[k].record.row == 0 || out[k].status != CopyStatus::Written) continue;
+      IssuedCopy c = out[k].record;
+      c.output_path = normalized_path(requests[k].output);
+      c.output_hash = content_hash(read_file(requests[k].output));
+      done.push_back(c);
+    }
+    if (!done.empty()) registry.complete(std::move(done), id_key(settings.key));
+  } catch (const std::exception& e) {
+    // A copy that another run of the same request completed meanwhile, its file as recorded,
+    // is kept; every other copy written is removed and its row given back.
+    std::map<std::string, std::string> completed;
+    try {
+      for (const IssuedCopy& c : registry.list())
+        if (c.state == "issued") completed[c.output_path] = c.output_hash;
+    } catch (const std::exception&) {
+      completed.clear();
+    }
+    for (std::size_t k = 0; k < requests.size(); ++k) {
+      CopyOutcome& c = out[k];
+      if (c.status != CopyStatus::Written || c.record.row == 0) continue;
+      const auto other = completed.find(normalized_path(requests[k].output));
+      std::string hash;
+      try {
+        hash = content_hash(read_file(requests[k].output));
+      } catch (const std::exception&) {
+        hash.clear();
+      }
+      if (other != completed.end() && !hash.empty() && other->second == hash) {
+        c.status = CopyStatus::Skipped;
+        c.message = "issued and recorded by another run of the same request: its file is intact";
+        continue;
+      }
+      std::remove(requests[k].output.c_str());
+      c.status = CopyStatus::NotRecorded;
+      c.message = fmt::format("not recorded, removed: {}", e.what());
+      dropped.push_back(c.record);
+    }
+  }
+  try {
+    registry.release(dropped);
+  } catch (const std::exception& e) {
+    for (CopyOutcome& c : out)
+      if (c.status != CopyStatus::Written && c.record.row != 0)
+        c.warnings.push_back(fmt::format("row {} stays reserved: {}", c.record.row, e.what()));
+  }
+}
+
+}  // namespace
+
+IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings& settings) {
+  const auto start = std::chrono::steady_clock::now();
+  if (settings.bits < 1)
+    throw InvalidArgumentError(fmt::format("{} payload bits: at least 1", settings.bits));
+  IssueResult result;
+  std::vector<CopyOutcome>& out = result.copies;
+  out.resize(requests.size());
+  bool any_coded = false;
+  for (std::size_t k = 0; k < requests.size(); ++k) {
+    out[k].status = CopyStatus::Written;  // pending: Written with no message yet
+    out[k].embedding = settings.embedding;
+    const CopyRequest& r = requests[k];
+    if (!r.refusal.empty()) {
+      refuse(out[k], r.refusal);
+      continue;
+    }
+    if (r.auto_id && settings.registry.empty()) {
+      refuse(out[k], "id:auto needs a registry (--registry): it picks an ID no copy has yet");
+      continue;
+    }
+    if ((r.id || r.auto_id) && !settings.key && !settings.allow_public_key) {
+      refuse(out[k],
+             "a coded ID without a secret key is coded under the public key: anyone could read "
+             "it, remove it or write another buyer's ID; give a key (--key-file), or say "
+             "--public-key to issue it anyway");
+      continue;
+    }
+    any_coded = any_coded || r.id || r.auto_id;
+    if (!r.id && !r.auto_id) {
+      try {
+        payload_from_hex(r.payload_hex, settings.bits);
+      } catch (const Error& e) {
+        refuse(out[k], e.what());
+      }
+    }
+  }
+  // The ID code (its options checked once, for every coded copy).
+  std::optional<IdCode> code;
+  if (any_coded) {
+    IdCodeOptions co;
+    co.bits = settings.bits;
+    co.id_bits = settings.id_bits;
+    code.emplace(co);
+  }
+  refuse_clashes(requests, settings, out);
+  std::optional<Registry> registry;
+  if (!settings.registry.empty()) {
+    registry.emplace(settings.registry);
+    check_registry(*registry, requests, settings, out);
+  }
+  // Each distinct original read and prepared once, before the work is shared out.
+  // An original that cannot be read is Unreadable; options its preparation refuses make every
+  // copy of it Refused.
+  std::map<std::string, std::shared_ptr<const Original>> originals;
+  std::map<std::string, std::pair<CopyStatus, std::string>> failed;
+  for (std::size_t k = 0; k < requests.size(); ++k) {
+    const std::string input = original_key(requests[k]);
+    if (!pending(out[k]) || originals.count(input) || failed.count(input)) continue;
+    try {
+      Mesh mesh =
+          requests[k].mesh ? *requests[k].mesh : read_mesh(requests[k].input, settings.read);
+      if (requests[k].mesh) validate_mesh(mesh.V, mesh.F, requests[k].input);
+      PreparedEmbedder embedder(mesh.V, mesh.F, settings.embedding);
+      originals[input] =
+          std::make_shared<const Original>(Original{std::move(mesh), std::move(embedder)});
+    } catch (const IOError& e) {
+      failed[input] = {CopyStatus::Unreadable, e.what()};
+    } catch (const InvalidInputError& e) {
+      failed[input] = {CopyStatus::Unreadable, e.what()};
+    } catch (const InvalidArgumentError& e) {
+      failed[input] = {CopyStatus::Refused, e.what()};
+    } catch (const std::exception& e) {
+      failed[input] = {CopyStatus::NotEmbedded, e.what()};
+    }
+  }
+  result.inputs = originals.size() + failed.size();
+  std::vector<std::size_t> jobs;
+  for (std::size_t k = 0; k < requests.size(); ++k) {
+    if (!pending(out[k])) continue;
+    const auto bad = failed.find(original_key(requests[k]));
+    if (bad != failed.end())
+      out[k].status = bad->second.first, out[k].message = bad->second.second;
+    else
+      jobs.push_back(k);
+  }
+  // The registry reserves every ID before its copy is written: an issue killed while writing
+  // leaves reserved rows (which a rerun completes), never a copy that no row names.
+  if (registry) reserve_rows(*registry, requests, jobs, settings, out);
+  detail::ProgressCounter progress(settings.progress, "issuing", static_cast<long>(jobs.size()));
+  result.threads = detail::parallel_for(jobs.size(), settings.threads, [&](std::size_t j) {
+    const std::size_t k = jobs[j];
+
+    try {
+      make_copy(requests[k], *originals.at(original_key(requests[k])), settings,
+                code ? &*code : nullptr, out[k]);
+    } catch (const InvalidArgumentError& e) {  // options this copy's embedding refuses
+      refuse(out[k], e.what());
+    } catch (const std::exception& e) {
+      out[k].status = CopyStatus::NotEmbedded, out[k].message = e.what();
+    }
+    progress.step(1, requests[k].output);
+  });
+  if (registry) complete_rows(*registry, requests, settings, out);
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+}  // namespace meshmark

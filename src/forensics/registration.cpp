@@ -1,0 +1,347 @@
+#include "meshmark/forensics/registration.h"
+
+#include <fmt/format.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <vector>
+
+#include "meshmark/carrier/histogram.h"
+#include "meshmark/core/error.h"
+#include "meshmark/core/mesh.h"
+#include "meshmark/core/random.h"
+#include "metrics/closest_point.h"
+
+namespace meshmark {
+
+Eigen::MatrixX3d Similarity::apply(const Eigen::MatrixX3d& V) const {
+  Eigen::MatrixX3d out = (scale * V * rotation.transpose());
+  out.rowwise() += translation.transpose();
+  return out;
+}
+
+Similarity Similarity::inverse() const {
+  Similarity inv;
+  inv.rotation = rotation.transpose();
+  inv.scale = 1 / scale;
+  inv.translation = -inv.scale * (inv.rotation * translation);
+  return inv;
+}
+
+namespace {
+
+// Centroid and covariance of the rows of P.
+void moments(const Eigen::MatrixX3d& P, Eigen::Vector3d& mean, Eigen::Matrix3d& cov) {
+  mean = P.colwise().mean().transpose();
+  const Eigen::MatrixX3d Q = P.rowwise() - mean.transpose();
+  cov = Q.transpose() * Q / std::max<double>(1, static_cast<double>(P.rows()));
+}
+
+// The RMS distance of the closest `trim` fraction of the samples S, moved by T, to the surface.
+double trimmed_rms(const Eigen::MatrixX3d& S, const SurfaceIndex& surface, const Similarity& T,
+                   double trim) {
+  const ClosestPoints cp = surface.query(T.apply(S));
+  std::vector<double> d(cp.distance.data(), cp.distance.data() + S.rows());
+  const auto keep =
+      std::max<std::size_t>(3, static_cast<std::size_t>(trim * static_cast<double>(S.rows())));
+  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(keep - 1), d.end());
+  double sum = 0;
+  for (std::size_t k = 0; k < keep; ++k) sum += d[k] * d[k];
+  return std::sqrt(sum / static_cast<double>(keep));
+}
+
+// Trimmed ICP from start: returns the transform, its trimmed RMS and the steps taken (at most
+// `iterations`; it stops when the trimmed RMS changes by less than `tolerance` of itself).
+// with_scale false: the scale stays as it is (rigid steps); true: Umeyama's similarity.
+Similarity icp(const Eigen::MatrixX3d& S, const SurfaceIndex& original, Similarity T,
+               const RegistrationOptions& o, bool with_scale, int iterations, double tolerance,
+               double& rms, int& steps) {
+  const Eigen::Index n = S.rows();
+  const Eigen::Index keep =
+      std::min(n, std::max<Eigen::Index>(3, static_cast<Eigen::Index>(o.trim * n)));
+  std::vector<Eigen::Index> order(static_cast<std::size_t>(n));
+  rms = std::numeric_limits<double>::infinity();
+  for (steps = 0; steps < iterations; ++steps) {
+    const ClosestPoints cp = original.query(T.apply(S));
+    std::iota(order.begin(), order.end(), 0);
+    std::nth_element(
+        order.begin(), order.begin() + (keep - 1), order.end(),
+        [&](Eigen::Index a, Eigen::Index b) { return cp.distance(a) < cp.distance(b); });
+    Eigen::Matrix3Xd src(3, keep), dst(3, keep);
+    double sum = 0;
+    for (Eigen::Index k = 0; k < keep; ++k) {
+      src.col(k) = S.row(order[k]).transpose();
+      dst.col(k) = cp.point.row(order[k]).transpose();
+      sum += cp.distance(order[k]) * cp.distance(order[k]);
+    }
+    const double now = std::sqrt(sum / keep);
+    Similarity next;
+    if (!with_scale) src *= T.scale;
+    const Eigen::Matrix4d M = Eigen::umeyama(src, dst, with_scale);
+    next.scale = with_scale ? M.block<3, 3>(0, 0).col(0).norm() : T.scale;
+    next.rotation = M.block<3, 3>(0, 0) / (with_scale ? next.scale : 1.0);
+    next.translation = M.block<3, 1>(0, 3);
+    const double previous = rms;
+    T = next;
+    rms = now;
+    if (std::abs(previous - now) <= tolerance * now) break;  // converged
+  }
+  // The residual of the final transform.
+  rms = trimmed_rms(S, original, T, o.trim);
+  return T;
+}
+
+// Trimmed point-to-plane ICP with a free scale, from T: each step minimizes the squared
+// distances of the kept samples to the tangent planes at their closest points, linearized in a
+// small rotation w, a translation t and a relative scale change c about the samples' centroid
+// (Gauss-Newton; it converges in far fewer steps than point to point once near). Same stopping
+// rule as icp().
+Similarity icp_plane(const Eigen::MatrixX3d& S, const SurfaceIndex& original,
+                     const Eigen::MatrixX3d& VO, const Eigen::MatrixX3i& FO, Similarity T,
+                     const RegistrationOptions& o, int iterations, double tolerance, double& rms,
+                     int& steps) {
+  const Eigen::Index n = S.rows();
+  const Eigen::Index keep =
+      std::min(n, std::max<Eigen::Index>(7, static_cast<Eigen::Index>(o.trim * n)));
+  if (keep < 7) {  // too few samples for the 7 unknowns: the start as it is
+    rms = trimmed_rms(S, original, T, o.trim);
+    steps = 0;
+    return T;
+  }
+  std::vector<Eigen::Index> order(static_cast<std::size_t>(n));
+  rms = std::numeric_limits<double>::infinity();
+  double lowest = rms;
+  int stalled = 0;
+  for (steps = 0; steps < iterations; ++steps) {
+    const Eigen::MatrixX3d P = T.apply(S);
+    const ClosestPoints cp = original.query(P);
+    std::iota(order.begin(), order.end(), 0);
+    std::nth_element(
+        order.begin(), order.begin() + (keep - 1), order.end(),
+        [&](Eigen::Index a, Eigen::Index b) { return cp.distance(a) < cp.distance(b); });
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (Eigen::Index k = 0; k < keep; ++k) centroid += P.row(order[k]).transpose();
+    centroid /= static_cast<double>(keep);
+    Eigen::Matrix<double, 7, 7> A = Eigen::Matrix<double, 7, 7>::Zero();
+    Eigen::Matrix<double, 7, 1> b = Eigen::Matrix<double, 7, 1>::Zero();
+    double sum = 0;
+    for (Eigen::Index k = 0; k < keep; ++k) {
+      const Eigen::Index i = order[k];
+      const int f = cp.face[i];
+      const Eigen::Vector3d a = VO.row(FO(f, 0)), e1 = VO.row(FO(f, 1)).transpose() - a,
+                            e2 = VO.row(FO(f, 2)).transpose() - a;
+      const Eigen::Vector3d normal = e1.cross(e2).normalized();
+      const Eigen::Vector3d p = P.row(i).transpose() - centroid;
+      Eigen::Matrix<double, 7, 1> J;
+      J << p.cross(normal), normal, normal.dot(p);
+      const double r = normal.dot(P.row(i).transpose() - cp.point.row(i).transpose());
+      A += J * J.transpose();
+      b -= J * r;
+      sum += cp.distance(i) * cp.distance(i);
+    }
+    const double now = std::sqrt(sum / static_cast<double>(keep));
+    const Eigen::Matrix<double, 7, 1> x = A.ldlt().solve(b);
+    if (!x.allFinite()) break;
+    double radius = 0;  // of the kept samples about their centroid
+    for (Eigen::Index k = 0; k < keep; ++k)
+      radius = std::max(radius, (P.row(order[k]).transpose() - centroid).norm());
+    const Eigen::Vector3d w = x.head<3>();
+    const Eigen::Matrix3d dR = w.norm() > 0
+                                   ? Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix()
+                                   : Eigen::Matrix3d::Identity();
+    const double ds = 1 + x(6);
+    if (!(ds > 0.5 && ds < 2)) break;
+    // p -> ds dR (p - centroid) + centroid + t, composed with T.
+    Similarity next;
+    next.rotation = dR * T.rotation;
+    next.scale = ds * T.scale;
+    next.translation = ds * dR * (T.translation - centroid) + centroid + x.segment<3>(3);
+    T = next;
+    rms = now;
+    // Converged when the step moves no kept sample by more than `tolerance` of their radius,
+    // or when the residual has not improved for 3 steps (the kept set and the closest faces
+    // switching back and forth).
+    const double moved = (w.norm() + std::abs(x(6))) * radius + x.segment<3>(3).norm();
+    if (moved <= tolerance * radius) break;
+    if (now < (1 - 1e-6) * lowest)
+      lowest = now, stalled = 0;
+    else if (++stalled >= 3)
+      break;
+  }
+  rms = trimmed_rms(S, original, T, o.trim);
+  return T;
+}
+
+}  // namespace
+
+RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
+                                       const Eigen::MatrixX3d& VO, const Eigen::MatrixX3i& FO,
+                                       const RegistrationOptions& o) {
+  if (!(o.trim > 0 && o.trim <= 1) || o.samples < 3 || o.iterations < 1 || !(o.max_residual > 0))
+    throw InvalidArgumentError("registration options out of range");
+  const std::vector<std::uint8_t> used_l = carrier_vertices(VL, FL);
+  const std::vector<std::uint8_t> used_o = carrier_vertices(VO, FO);
+  std::vector<Eigen::Index> rows;
+  for (Eigen::Index i = 0; i < VL.rows(); ++i)  // each position once (kCounted)
+    if (used_l[i] == kCounted) rows.push_back(i);
+  if (rows.size() < 3)
+    throw InvalidArgumentError("the leaked mesh has fewer than 3 usable vertices");
+  Random rng(o.seed);
+  if (static_cast<int>(rows.size()) > o.samples) {
+    for (int k = 0; k < o.samples; ++k)
+      std::swap(rows[k], rows[k + rng.next() % (rows.size() - k)]);
+    rows.resize(static_cast<std::size_t>(o.samples));
+  }
+  Eigen::MatrixX3d S(static_cast<Eigen::Index>(rows.size()), 3);
+  for (std::size_t k = 0; k < rows.size(); ++k) S.row(k) = VL.row(rows[k]);
+  Eigen::MatrixX3d PO(std::count(used_o.begin(), used_o.end(), kCounted), 3);
+  for (Eigen::Index i = 0, k = 0; i < VO.rows(); ++i)
+    if (used_o[i] == kCounted) PO.row(k++) = VO.row(i);
+  const double diagonal = bounding_box_diagonal(VO, used_o);
+
+  // Starts: the identity, then the principal axes matched in the four proper ways.
+  std::vector<Similarity> starts(1);
+  Eigen::Vector3d mean_l, mean_o;
+  Eigen::Matrix3d cov_l, cov_o;
+  Eigen::MatrixX3d all_l(
+      static_cast<Eigen::Index>(std::count(used_l.begin(), used_l.end(), kCounted)), 3);
+  for (Eigen::Index i = 0, k = 0; i < VL.rows(); ++i)
+    if (used_l[i] == kCounted) all_l.row(k++) = VL.row(i);
+  moments(all_l, mean_l, cov_l);
+  moments(PO, mean_o, cov_o);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> el(cov_l), eo(cov_o);
+  const double scale = std::sqrt(cov_o.trace() / std::max(cov_l.trace(), 1e-300));
+  for (const Eigen::Vector3d& signs : {Eigen::Vector3d(1, 1, 1), Eigen::Vector3d(1, -1, -1),
+                                       Eigen::Vector3d(-1, 1, -1), Eigen::Vector3d(-1, -1, 1)}) {
+    Eigen::Matrix3d R = eo.eigenvectors() * signs.asDiagonal() * el.eigenvectors().transpose();
+    if (R.determinant() < 0) R = -R;  // eigenvector bases may be left-handed
+    Similarity s;
+    s.rotation = R;
+    s.scale = scale;
+    s.translation = mean_o - scale * R * mean_l;
+    starts.push_back(s);
+  }
+  const SurfaceIndex index(VO, FO);
+  RegistrationResult best;
+  best.residual = std::numeric_limits<double>::infinity();
+  // A leak near the original's frame (what decimation, remeshing, smoothing, noise, cropping
+  // and compression tools give) is refined from the identity only, and kept as it is unless
+  // that halves its residual: fitting a transform to an unmoved leak would absorb part of the
+  // mark (a scale that shrinks or grows the bins' radii).
+  const double at_identity = trimmed_rms(S, index, Similarity{}, o.trim) / diagonal;
+  const bool near_frame = at_identity <= o.in_frame;
+  if (near_frame) {
+    starts.resize(1);  // the identity
+    best.residual = at_identity;
+  }
+  // Rigid steps first at the start's scale (a free scale from a poor start collapses the leak
+  // onto a patch of the original), then the similarity from there.
+  auto refine = [&](const Eigen::MatrixX3d& samples, const Similarity& start, int iterations,
+                    double tolerance, double& rms, int& steps) {
+    int more = 0;
+    const Similarity rigid =
+        icp(samples, index, start, o, false, iterations, tolerance, rms, steps);
+    const Similarity T = icp(samples, index, rigid, o, true, iterations, tolerance, rms, more);
+    steps += more;
+    return T;
+  };
+  if (VL.rows() == VO.rows() && FL.rows() == FO.rows() && FL == FO) {
+    // The leak has the original's faces (noise, quantization, smoothing, a similarity): vertex
+    // i corresponds to vertex i, and the similarity is the least-squares fit of the pairs
+    // (Umeyama), refitted on the closest `trim` of them.
+    std::vector<Eigen::Index> pairs;
+    for (Eigen::Index i = 0; i < VL.rows(); ++i)
+      if (used_l[i] && used_o[i]) pairs.push_back(i);
+    if (pairs.size() >= 3) {
+      Similarity T;
+      for (const double share : {1.0, o.trim}) {
+        std::vector<double> d(pairs.size());
+        const Eigen::MatrixX3d moved = T.apply(VL);
+        for (std::size_t k = 0; k < pairs.size(); ++k)
+          d[k] = (moved.row(pairs[k]) - VO.row(pairs[k])).norm();
+        std::vector<std::size_t> order(pairs.size());
+        std::iota(order.begin(), order.end(), 0);
+        const auto keep = std::max<std::size_t>(
+            3, static_cast<std::size_t>(share * static_cast<double>(pairs.size())));
+        std::nth_element(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(keep - 1),
+                         order.end(), [&](std::size_t a, std::size_t b) { return d[a] < d[b]; });
+        Eigen::Matrix3Xd src(3, keep), dst(3, keep);
+        for (std::size_t k = 0; k < keep; ++k) {
+          src.col(static_cast<Eigen::Index>(k)) = VL.row(pairs[order[k]]).transpose();
+          dst.col(static_cast<Eigen::Index>(k)) = VO.row(pairs[order[k]]).transpose();
+        }
+        const Eigen::Matrix4d M = Eigen::umeyama(src, dst, true);
+        T.scale = M.block<3, 3>(0, 0).col(0).norm();
+        T.rotation = M.block<3, 3>(0, 0) / T.scale;
+        T.translation = M.block<3, 1>(0, 3);
+      }
+      const double rms = trimmed_rms(S, index, T, o.trim) / diagonal;
+      if (rms < (near_frame ? 0.5 : 1.0) * best.residual) {
+        best.transform = T;
+        best.residual = rms;
+        best.iterations = 1;
+      }
+      starts.clear();  // no ICP
+    }
+  }
+  // The starts in order of promise: each is run for a few loose steps on a coarse subset (the
+  // first rows of S are a random subset of it) and ranked by its residual there.
+  std::vector<std::pair<double, Similarity>> ranked;
+  const Eigen::Index coarse = std::min<Eigen::Index>(S.rows(), 200);
+  for (const Similarity& start : starts) {
+    double rms = 0;
+    int steps = 0;
+    const Similarity T =
+        near_frame ? start : refine(S.topRows(coarse), start, 12, 1e-4, rms, steps);
+    ranked.emplace_back(rms, T);
+  }
+  std::stable_sort(ranked.begin(), ranked.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (std::size_t k = 0; k < ranked.size(); ++k) {
+    const Similarity& from = ranked[k].second;
+    // Point to point until near (on 300 samples), then point to plane with every sample (point
+    // to point creeps along the surface).
+    double rms = 0;
+    int steps = 0, more = 0;
+    const Similarity near =
+        refine(S.topRows(std::min<Eigen::Index>(S.rows(), 300)), from, 60, 1e-5, rms, steps);
+    const Similarity T = icp_plane(S, index, VO, FO, near, o, o.iterations, 1e-6, rms, more);
+    steps += more;
+    if (rms / diagonal < (near_frame ? 0.5 : 1.0) * best.residual) {
+      best.transform = T;
+      best.residual = rms / diagonal;
+      best.iterations = std::max(steps, 1);
+    }
+    // Registered well enough, or the other starts were far worse on the coarse subset (a
+    // noisy leak cannot get below its noise): the other starts cannot matter.
+    if (best.residual <= 1e-3 ||
+        (k + 1 < ranked.size() && ranked[k + 1].first / diagonal > 3 * best.residual))
+      break;
+  }
+  const ClosestPoints cp = index.query(best.transform.apply(S));
+  const double near = std::max(3 * best.residual, 1e-3) * diagonal;
+  best.overlap = static_cast<double>((cp.distance.array() <= near).count()) / S.rows();
+  // A leak shrunk onto a patch of the original fits it closely and means nothing: the
+  // registered leak must span at least 2 % of the original's diagonal.
+  const Eigen::MatrixX3d moved = best.transform.apply(all_l);
+  const double span = (moved.colwise().maxCoeff() - moved.colwise().minCoeff()).norm() / diagonal;
+  const bool collapsed = !(span >= 0.02);
+  best.status = best.residual <= o.max_residual && !collapsed ? RegistrationStatus::Registered
+                                                              : RegistrationStatus::Failed;
+  best.message = fmt::format(
+      "{}{}: residual {:.3g} of the diagonal, {:.0f} % of the leak near the "
+      "original, scale {:.6f}{}",
+      best.status == RegistrationStatus::Registered ? "registered" : "FAILED",
+      best.iterations == 0 ? " (in the original's frame)" : "", best.residual, 100 * best.overlap,
+      best.transform.scale,
+      collapsed ? fmt::format(" (the registered leak spans only {:.2g} of the original's diagonal: "
+                              "it is not this original)",
+                              span)
+                : "");
+  return best;
+}
+
+}  // namespace meshmark

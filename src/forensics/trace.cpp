@@ -1,0 +1,477 @@
+#include "meshmark/forensics/trace.h"
+
+#include <fmt/format.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <tuple>
+
+#include "core/progress_counter.h"
+#include "meshmark/attacks/attack.h"
+#include "meshmark/carrier/histogram.h"
+#include "meshmark/carrier/method.h"
+#include "meshmark/carrier/variant.h"
+#include "meshmark/core/error.h"
+#include "meshmark/protocol/coding.h"
+#include "meshmark/protocol/detect.h"
+#include "meshmark/protocol/watermark.h"
+#include "metrics/closest_point.h"
+
+namespace meshmark {
+
+const char* trace_status_name(TraceStatus status) {
+  return enum_name(status);
+}
+
+namespace {
+
+// The readings trace scores every candidate on: bits whose shift lies within this distance of
+// the middle between the hypotheses (position 0.5, see position()) are erased. A candidate's
+// p-value is its smallest over the readings times their number (Bonferroni).
+constexpr std::array<double, 3> kBands = {0.0, 0.2, 0.35};
+
+Resampled measure(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
+                  const Eigen::MatrixX3d& VO, const std::vector<std::uint8_t>& carrier,
+                  const Eigen::Vector3d& center, double erase) {
+  std::vector<Eigen::Index> rows;
+  for (Eigen::Index i = 0; i < VO.rows(); ++i)  // each position once
+    if (carrier[i] == kCounted) rows.push_back(i);
+  Eigen::MatrixX3d Q(static_cast<Eigen::Index>(rows.size()), 3);
+  for (std::size_t k = 0; k < rows.size(); ++k) Q.row(k) = VO.row(rows[k]);
+  const ClosestPoints cp = closest_points(VL, FL, Q);
+  Resampled m;
+  m.point = VO;
+  m.measured.assign(static_cast<std::size_t>(VO.rows()), 0);
+  std::size_t found = 0;
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    if (!(cp.distance(k) <= erase)) continue;
+    const Eigen::Vector3d q = cp.point.row(k).transpose();
+    const Eigen::Vector3d a = VL.row(FL(cp.face[k], 0)), b = VL.row(FL(cp.face[k], 1)),
+                          c = VL.row(FL(cp.face[k], 2));
+    const Eigen::Vector3d n = (b - a).cross(c - a).normalized();
+    const Eigen::Vector3d dir = (Q.row(k).transpose() - center).normalized();
+    const double along = dir.dot(n);
+    Eigen::Vector3d p = q;
+    if (std::abs(along) > 0.1) {
+      const Eigen::Vector3d hit = center + dir * ((a - center).dot(n) / along);
+      if ((hit - q).norm() <= erase) p = hit;
+    }
+    m.point.row(rows[k]) = p.transpose();
+    m.measured[rows[k]] = 1;
+    ++found;
+  }
+  m.fraction = rows.empty() ? 0 : static_cast<double>(found) / rows.size();
+  return m;
+}
+
+// Where a bin's shift lies between the attenuated hypotheses: 0 at a 0, 1 at a 1.
+double position(const BitEvidence& e) {
+  const double span = e.if_one - e.if_zero;
+  return span != 0 ? (e.shift - e.if_zero) / span : 0.5;
+}
+
+// Each bin's evidence (bin order; shift detrended; bit: the nearer hypothesis, kErasure for a
+// bin with nothing measured) and the fitted attenuation gamma. gamma and a linear trend are
+// first the least-squares fit of the shifts to the hypotheses they are nearer to, then refitted
+// on the confident bins only (those outside the middle band of kBands' widest width), so that
+// bins a mark does not explain (an average of two copies moves the bins where they differ to
+// the middle) do not pull gamma down.
+std::vector<BitEvidence> read_bins(const Eigen::MatrixX3d& VO, const Eigen::VectorXd& reference,
+                                   const std::vector<std::uint8_t>& carrier, const Histogram& h,
+                                   const Resampled& m, const std::vector<double>& alpha,
+                                   BinStatistic statistic, double& gamma) {
+  const int nb = h.bins - 2;
+  std::vector<double> sum0(nb, 0), sum(nb, 0);
+  std::vector<int> count(nb, 0);
+  for (Eigen::Index i = 0; i < VO.rows(); ++i) {
+    if (carrier[i] != kCounted || !m.measured[i]) continue;
+    const int j = h.bin[i] - 1;
+    if (j < 0 || j >= nb) continue;
+    const double rho = (m.point.row(i).transpose() - h.center).norm();
+    // The reference: the original, or the original processed as the leak seems to have been.
+    // Each on the bins' score scale (method.h: t itself for the mean).
+    sum0[j] += bin_score_term(statistic, (reference(i) - h.rho_min) / h.step - h.bin[i]);
+    sum[j] += bin_score_term(statistic, (rho - h.rho_min) / h.step - h.bin[i]);
+    ++count[j];
+  }
+  std::vector<double> shift(nb, 0), up(nb, 0), down(nb, 0);
+  for (int j = 0; j < nb; ++j) {
+    if (!count[j]) continue;
+    const double m0 = sum0[j] / count[j];
+    shift[j] = (sum[j] - sum0[j]) / count[j];
+    up[j] = 0.5 + alpha[j] - m0;  // the shift a 1 asks for
+    down[j] = 0.5 - alpha[j] - m0;
+  }
+  // shift_j = gamma e_j + a + b x_j: the mark's attenuated shift plus a trend linear in the
+  // bin's radius x_j (a residue of scale from registration, or a shrinkage, moves every bin by
+  // about a + b x_j; the mark's signs are keyed, so they do not follow it).
+  std::vector<double> x(nb);
+  for (int j = 0; j < nb; ++j) x[j] = (j + 0.5) / nb - 0.5;
+  std::vector<BitEvidence> ev(nb);
+  double a = 0, b = 0;
+  auto classify = [&](double g) {
+    for (int j = 0; j < nb; ++j) {
+      const double s = shift[j] - a - b * x[j];
+      ev[j] = {s, g * up[j], g * down[j], count[j], kErasure};
+      if (count[j]) ev[j].bit = std::abs(s - ev[j].if_one) < std::abs(s - ev[j].if_zero);
+    }
+  };
+  // Least squares for (gamma, a, b) over the measured bins (or the confident ones), each bin
+  // against the hypothesis it is nearer to, until the bits stop changing.
+  auto fit = [&](double g, bool confident_only) {
+    for (int round = 0; round < 20; ++round) {
+      classify(g);
+      Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+      int used = 0;
+      for (int j = 0; j < nb; ++j) {
+        if (!count[j]) continue;
+        if (confident_only && std::abs(position(ev[j]) - 0.5) < kBands.back()) continue;
+        const Eigen::Vector3d row(ev[j].bit ? up[j] : down[j], 1.0, x[j]);
+        A += row * row.transpose(), rhs += row * shift[j], ++used;
+      }
+      if (used < 8) break;  // too few bins to fit a trend besides the mark
+      const Eigen::Vector3d solution = A.ldlt().solve(rhs);
+      if (!solution.allFinite()) break;
+      const double next = std::clamp(solution(0), 0.02, 2.0);
+      const bool settled = std::abs(next - g) < 1e-12 && std::abs(solution(1) - a) < 1e-12 &&
+                           std::abs(solution(2) - b) < 1e-12;
+      g = next, a = solution(1), b = solution(2);
+      if (settled) break;
+    }
+    return g;
+  };
+  gamma = fit(fit(1.0, false), true);
+  classify(gamma);
+  return ev;
+}
+
+// The bits (bin order) with those whose position lies within `band` of the middle erased.
+std::vector<std::uint8_t> banded_bits(const std::vector<BitEvidence>& ev, double band) {
+  std::vector<std::uint8_t> bits(ev.size(), kErasure);
+  for (std::size_t j = 0; j < ev.size(); ++j)
+    if (ev[j].vertices && !(std::abs(position(ev[j]) - 0.5) < band)) bits[j] = ev[j].bit;
+  return bits;
+}
+
+// The distance from center of a surface through P's vertices, where the leak was measured:
+// for a leak measured along rays, where the tangent plane at P_i (normal N_i) crosses the ray
+// from center through the original's vertex i (as the leak's own surface was, see measure());
+// |P_i - center| for a leak measured vertex for vertex, or where the ray runs nearly along the
+// plane. For P = VO both give |VO_i - center|.
+Eigen::VectorXd radii(const Eigen::MatrixX3d& P, const Eigen::MatrixX3d& VO,
+                      const Eigen::MatrixX3d& N, const Resampled& m,
+                      const Eigen::Vector3d& center) {
+  Eigen::VectorXd r(P.rows());
+  for (Eigen::Index i = 0; i < P.rows(); ++i) {
+    const Eigen::Vector3d p = P.row(i).transpose() - center;
+    r(i) = p.norm();
+    if (m.vertexwise) continue;
+    const Eigen::Vector3d u = (VO.row(i).transpose() - center).normalized();
+    const Eigen::Vector3d n = N.row(i).transpose();
+    const double along = n.dot(u);
+    if (std::abs(along) > 0.1) r(i) = n.dot(p) / along;
+  }
+  return r;
+}
+
+// The leak may have been smoothed: the processing of the original that the measured leak
+// resembles best becomes the reference the shifts are measured from, when it lowers the RMS
+// difference of the distances to the center over the measured carrier vertices (the quantity
+// the bins are made of) by 5 % at least; its shrinking is then not taken for the mark. It uses
+// no candidate's codeword, so the null of the scores does not depend on it. Processing:
+// Laplacian smoothing with lambda 0.3, or Taubin, k = 1 to 40 iterations (a series stops 5
+// iterations past its best), its displacement scaled by a fitted s in [0, 4] (smoothing
+// another mesh of the same surface, after decimation or remeshing, shrinks it by another
+// amount per iteration). Returns the reference positions.
+Eigen::MatrixX3d processed_reference(const Mesh& original, const Eigen::MatrixX3d& normals,
+                                     const std::vector<std::uint8_t>& carrier, const Resampled& m,
+                                     const Eigen::Vector3d& center, std::string& processing) {
+  std::vector<Eigen::Index> rows;
+  for (Eigen::Index i = 0; i < original.V.rows(); ++i)
+    if (carrier[i] == kCounted && m.measured[i]) rows.push_back(i);
+  const Eigen::VectorXd base = radii(original.V, original.V, normals, m, center);
+  // d: what the leak's distances to the center differ by from the original's.
+  Eigen::VectorXd d(static_cast<Eigen::Index>(rows.size()));
+  for (std::size_t k = 0; k < rows.size(); ++k)
+    d(static_cast<Eigen::Index>(k)) =
+        (m.point.row(rows[k]).transpose() - center).norm() - base(rows[k]);
+  const double unprocessed = d.norm();
+  double best = unprocessed;
+  Eigen::MatrixX3d reference = original.V;
+  processing = "none";
+  Eigen::VectorXd change(d.size());
+  for (const bool taubin : {false, true}) {
+    Mesh current = original;
+    double series_best = unprocessed;
+    int worse = 0;  // iterations since the series' best
+    for (int k = 1; k <= 40 && worse < 5; ++k) {
+      current = taubin ? attack_smooth_taubin(current, 1) : attack_smooth_laplacian(current, 1);
+      const Eigen::VectorXd now = radii(current.V, original.V, normals, m, center);
+      for (std::size_t j = 0; j < rows.size(); ++j)
+        change(static_cast<Eigen::Index>(j)) = now(rows[j]) - base(rows[j]);
+      const double norm2 = change.squaredNorm();
+      const double scale = norm2 > 0 ? std::clamp(change.dot(d) / norm2, 0.0, 4.0) : 0.0;
+      const double e = (d - scale * change).norm();
+      worse = e < series_best ? 0 : worse + 1;
+      series_best = std::min(series_best, e);
+      if (e < best) {
+        best = e;
+        reference = original.V + scale * (current.V - original.V);
+        processing = fmt::format("{} smoothing x {} scaled by {:.2f}",
+                                 taubin ? "Taubin" : "Laplacian", k, scale);
+      }
+    }
+  }
+  if (!(best < 0.95 * unprocessed)) reference = original.V, processing = "none";
+  return reference;
+}
+
+}  // namespace
+
+Resampled resample_at_original(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
+                               const Eigen::MatrixX3d& VO, const Eigen::MatrixX3i& FO,
+                               const Eigen::Vector3d& center, double erase_distance) {
+  const std::vector<std::uint8_t> carrier = carrier_vertices(VO, FO);
+  if (VL.rows() == VO.rows() && FL.rows() == FO.rows() && FL == FO) {
+    // The same connectivity (noise, quantization, smoothing, a similarity): vertex i is
+    // vertex i, measured where it is, unless it moved beyond the erase distance.
+    Resampled m;
+    m.point = VL;
+    m.measured.assign(static_cast<std::size_t>(VO.rows()), 0);
+    std::size_t used = 0, found = 0;
+    for (Eigen::Index i = 0; i < VO.rows(); ++i) {
+      if (carrier[i] != kCounted) continue;
+      ++used;
+      if ((VL.row(i) - VO.row(i)).norm() <= erase_distance) m.measured[i] = 1, ++found;
+    }
+    m.fraction = used ? static_cast<double>(found) / used : 0;
+    m.vertexwise = true;
+    return m;
+  }
+  return measure(VL, FL, VO, carrier, center, erase_distance);
+}
+
+TraceResult trace(const Mesh& leaked, const Mesh& original,
+                  const std::vector<IssuedCopy>& candidates, const Key& key,
+                  const TraceOptions& o) {
+  if (!(o.threshold > 0 && o.threshold < 1))
+    throw InvalidArgumentError(fmt::format("the threshold {} is out of (0, 1)", o.threshold));
+  if (!(o.erase_distance > 0)) throw InvalidArgumentError("the erase distance must be positive");
+  TraceResult r;
+  const std::string fingerprint = key_fingerprint(key);
+  std::vector<IssuedCopy> mine;
+  for (const IssuedCopy& c : candidates)
+    if (c.key_fingerprint == fingerprint) mine.push_back(c);
+  r.candidates = mine.size();
+  if (mine.empty()) {
+    r.status = TraceStatus::NoCandidates;
+    r.message = "no copy was issued under this key";
+    return r;
+  }
+  using Clock = std::chrono::steady_clock;
+  auto since = [](Clock::time_point t) {
+    return std::chrono::duration<double>(Clock::now() - t).count();
+  };
+  // Groups of candidates read alike.
+  using GroupKey = std::tuple<char, int, int, double, double, std::string>;
+  std::map<GroupKey, std::vector<std::size_t>> groups;
+  for (std::size_t k = 0; k < mine.size(); ++k)
+    groups[{mine[k].variant.empty() ? 'D' : mine[k].variant[0], mine[k].bits, mine[k].id_bits,
+            mine[k].strength, mine[k].strength_spread, mine[k].method}]
+        .push_back(k);
+  // Progress: the registration, then each group measured and scored.
+  detail::ProgressCounter progress(o.progress, "tracing", 1 + static_cast<long>(groups.size()));
+  Clock::time_point t = Clock::now();
+  if (o.register_leak) {
+    r.registration =
+        register_similarity(leaked.V, leaked.F, original.V, original.F, o.registration);
+    if (r.registration.status != RegistrationStatus::Registered) {
+      r.status = TraceStatus::RegistrationFailed;
+      r.message = r.registration.message;
+      return r;
+    }
+  } else {
+    r.registration.status = RegistrationStatus::Registered;
+    r.registration.message = "in the original's frame (not registered)";
+  }
+  progress.step(1, "registered");
+  const Eigen::MatrixX3d VL = r.registration.transform.apply(leaked.V);
+  const std::vector<std::uint8_t> carrier = carrier_vertices(original.V, original.F);
+  const double diagonal = bounding_box_diagonal(original.V, carrier);
+
+  r.seconds.registration = since(t);
+  Eigen::MatrixX3d reference = original.V;
+  const Eigen::MatrixX3d normals = vertex_normals(original.V, original.F);
+  r.processing = "none";
+  bool first = true;
+  for (const auto& [group, members] : groups) {
+    const auto& [letter, bits, id_bits, strength, spread, method] = group;
+    const BinStatistic statistic = bin_statistic(parse_method(method));
+    const CenterKind kind = parse_variant(std::string(1, letter) + "RS").center;
+    const Center center = center_of_mass(original.V, original.F, carrier, kind);
+    const Histogram h = build_histogram(original.V, carrier, center.point, bits);
+    if (!h.valid()) throw InvalidArgumentError("the original has no histogram");
+    t = Clock::now();
+    const Resampled m = resample_at_original(VL, leaked.F, original.V, original.F, center.point,
+                                             o.erase_distance * diagonal);
+    r.seconds.resampling += since(t);
+    if (first) {
+      t = Clock::now();
+      reference = processed_reference(original, normals, carrier, m, center.point, r.processing);
+      r.seconds.reference = since(t);
+    }
+    t = Clock::now();
+    double gamma = 1;
+    const std::vector<double> alpha = mark_strengths(key, bits, true, strength, spread);
+    const std::vector<BitEvidence> evidence =
+        read_bins(original.V, radii(reference, original.V, normals, m, center.point), carrier, h, m,
+                  alpha, statistic, gamma);
+    const BitLayout layout = mark_layout(key, bits, true);
+    IdCodeOptions co;
+    co.bits = bits;
+    co.id_bits = id_bits;
+    const IdCode code(co);
+    std::vector<Payload> codewords;
+    for (const std::size_t k : members) codewords.push_back(code.encode(mine[k].id, key));
+    std::vector<CandidateScore> scores(members.size());
+    std::vector<std::uint8_t> previous;
+    for (const double band : kBands) {
+      const std::vector<std::uint8_t> read = layout.from_bins(banded_bits(evidence, band));
+      if (read == previous) continue;  // the same reading: the same p-values
+      previous = read;
+      const CodewordNull null(code, read, key);
+      for (std::size_t c = 0; c < members.size(); ++c) {
+        CandidateScore s;
+        s.copy = mine[members[c]];
+        s.compared = 0;
+        for (int j = 0; j < bits; ++j) {
+          s.compared += read[j] <= 1;
+          s.matches += read[j] <= 1 && read[j] == codewords[c].bits[j];
+        }
+        s.p_value = std::min(1.0, null.p_value(s.matches) * static_cast<double>(kBands.size()));
+        if (band == kBands.front() || s.p_value < scores[c].p_value) scores[c] = s;
+      }
+    }
+    for (CandidateScore& s : scores) {
+      s.corrected_p = std::min(1.0, s.p_value * static_cast<double>(mine.size()));
+      r.ranking.push_back(s);
+    }
+    const std::vector<std::uint8_t> read = layout.from_bins(banded_bits(evidence, 0.0));
+    r.seconds.scoring += since(t);
+    progress.step(1, fmt::format("{} candidates scored", members.size()));
+    if (first) {
+      r.measured_fraction = m.fraction, r.attenuation = gamma, first = false;
+      for (int j = 0; j < bits; ++j) {
+        BitEvidence e = evidence[layout.bin_of[j]];
+        if (layout.whitening[j]) std::swap(e.if_one, e.if_zero);
+        e.bit = read[j];
+        r.bits.push_back(e);
+      }
+    }
+  }
+  std::stable_sort(
+      r.ranking.begin(), r.ranking.end(),
+      [](const CandidateScore& a, const CandidateScore& b) { return a.p_value < b.p_value; });
+  // A row edited after it was recorded is never named (its buyer or its ID may be anyone's);
+  // a row without a MAC is, with a warning.
+  std::size_t edited = 0;
+  for (CandidateScore& s : r.ranking) {
+    s.auth = check_row(key, s.copy);
+    if (s.auth == RowAuth::Edited) {
+      ++edited;
+      if (s.corrected_p < o.threshold)
+        r.warnings.push_back(fmt::format(
+            "row {} (ID {}) reads as the leaker (p = {:.3g} after correction) but fails its "
+            "authentication code: it was changed after it was recorded, and is not named",
+            s.copy.row, s.copy.id, s.corrected_p));
+      continue;
+    }
+    if (s.corrected_p < o.threshold) {
+      r.named.push_back(s);
+      if (s.auth == RowAuth::Unauthenticated)
+        r.warnings.push_back(fmt::format(
+            "row {} (ID {}) carries no authentication code (recorded before registry schema "
+            "4, or without the key): its buyer and ID are as the registry says, unverified",
+            s.copy.row, s.copy.id));
+      if (s.copy.state == "reserved")
+        r.warnings.push_back(fmt::format(
+            "row {} (ID {}) is reserved, not completed: the issue of its copy was interrupted "
+            "(or is running) after the ID was reserved; check that the copy was delivered",
+            s.copy.row, s.copy.id));
+    }
+  }
+  if (edited > 0)
+    r.warnings.push_back(fmt::format(
+        "{} of the {} candidate rows fail their authentication code (meshmark registry verify "
+        "lists them)",
+        edited, r.ranking.size()));
+  r.status = r.named.empty() ? TraceStatus::NoBuyer : TraceStatus::Named;
+  if (r.named.empty() && !r.warnings.empty() && r.ranking.front().corrected_p < o.threshold &&
+      r.ranking.front().auth == RowAuth::Edited) {
+    r.message =
+        "no buyer: the candidates that read as the leaker fail their authentication "
+        "code (see the warnings)";
+    return r;
+  }
+  r.message =
+      r.named.empty()
+          ? fmt::format("no buyer: the best of {} candidates has p = {:.3g} after correction",
+                        r.ranking.size(), r.ranking.front().corrected_p)
+          : fmt::format(
+                "{} named: '{}' (ID {}), p = {:.3g} after correction for {} candidates",
+                r.named.size() == 1 ? "one buyer" : fmt::format("{} buyers", r.named.size()),
+                r.named[0].copy.buyer, r.named[0].copy.id, r.named[0].corrected_p,
+                r.ranking.size());
+  return r;
+}
+
+void compare_with_issued_files(TraceResult& r, const std::string& leaked_hash) {
+  const CandidateScore* same = nullptr;
+  for (const CandidateScore& s : r.ranking)
+    if (!s.copy.output_hash.empty() && s.copy.output_hash == leaked_hash) same = &s;
+  if (!same) return;
+  r.identical_row = same->copy.row;
+  bool named = false;
+  for (const CandidateScore& s : r.named) named = named || s.copy.row == same->copy.row;
+  if (named) {
+    r.message +=
+        fmt::format("; the leak is byte for byte the file issued in row {}", same->copy.row);
+  } else if (!r.named.empty()) {
+    r.warnings.push_back(fmt::format(
+        "the leak's bytes are those of the copy recorded in row {} (ID {}), not of a named "
+        "buyer's: the mark and the registry contradict each other, and nobody is named",
+        same->copy.row, same->copy.id));
+    r.named.clear();
+    r.status = TraceStatus::NoBuyer;
+    r.message =
+        "no buyer: the mark read and the leak's bytes name different rows (see the "
+        "warnings)";
+  }
+}
+
+TraceResult trace_issued(const Mesh& leaked, const Mesh& original, const std::string& original_hash,
+                         const std::string& registry, const Key& key, const TraceOptions& options) {
+  RegistryQuery q;  // the copies of this file, and of its geometry in any other file
+  q.original_hash = original_hash;
+  q.original_geometry = geometry_hash(original.V, original.F);
+  q.key_fingerprint = key_fingerprint(key);
+  const std::vector<IssuedCopy> candidates = read_registry(registry, q);
+  TraceResult r = trace(leaked, original, candidates, key, options);
+  if (r.status == TraceStatus::NoCandidates) {
+    RegistryQuery by_key;
+    by_key.key_fingerprint = q.key_fingerprint;
+    if (const std::size_t others = read_registry(registry, by_key).size(); others > 0)
+      r.message = fmt::format(
+          "no copy of this original was issued under this key ({} copies of other originals "
+          "were: is the original the file the copies were made from?)",
+          others);
+  }
+  return r;
+}
+
+}  // namespace meshmark

@@ -1,0 +1,150 @@
+#include "io/file_image.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "core/text_scan.h"
+
+namespace meshmark::detail {
+
+int slot_type_size(SlotType type) {
+  switch (type) {
+    case SlotType::Int8:
+    case SlotType::UInt8:
+      return 1;
+    case SlotType::Int16:
+    case SlotType::UInt16:
+      return 2;
+    case SlotType::Int32:
+    case SlotType::UInt32:
+    case SlotType::Float32:
+      return 4;
+    case SlotType::Float64:
+      return 8;
+    case SlotType::Text:
+      return 0;
+  }
+  return 0;
+}
+
+namespace {
+
+template <class T>
+T load(const char* data, bool big_endian) {
+  T v;
+  char tmp[sizeof(T)];
+  std::memcpy(tmp, data, sizeof(T));
+  if (big_endian != (std::endian::native == std::endian::big)) std::reverse(tmp, tmp + sizeof(T));
+  std::memcpy(&v, tmp, sizeof(T));
+  return v;
+}
+
+template <class T>
+void store(char* data, bool big_endian, T v) {
+  char tmp[sizeof(T)];
+  std::memcpy(tmp, &v, sizeof(T));
+  if (big_endian != (std::endian::native == std::endian::big)) std::reverse(tmp, tmp + sizeof(T));
+  std::memcpy(data, tmp, sizeof(T));
+}
+
+template <class T>
+T to_integer(double value) {
+  const double lo = static_cast<double>(std::numeric_limits<T>::min());
+  const double hi = static_cast<double>(std::numeric_limits<T>::max());
+  return static_cast<T>(std::clamp(std::nearbyint(value), lo, hi));
+}
+
+}  // namespace
+
+double read_scalar(const char* data, SlotType type, bool big_endian) {
+  switch (type) {
+    case SlotType::Int8:
+      return load<std::int8_t>(data, big_endian);
+    case SlotType::UInt8:
+      return load<std::uint8_t>(data, big_endian);
+    case SlotType::Int16:
+      return load<std::int16_t>(data, big_endian);
+    case SlotType::UInt16:
+      return load<std::uint16_t>(data, big_endian);
+    case SlotType::Int32:
+      return load<std::int32_t>(data, big_endian);
+    case SlotType::UInt32:
+      return load<std::uint32_t>(data, big_endian);
+    case SlotType::Float32:
+      return load<float>(data, big_endian);
+    case SlotType::Float64:
+      return load<double>(data, big_endian);
+    case SlotType::Text:
+      break;
+  }
+  return 0;
+}
+
+void write_scalar(char* data, SlotType type, bool big_endian, double value) {
+  switch (type) {
+    case SlotType::Int8:
+      return store(data, big_endian, to_integer<std::int8_t>(value));
+    case SlotType::UInt8:
+      return store(data, big_endian, to_integer<std::uint8_t>(value));
+    case SlotType::Int16:
+      return store(data, big_endian, to_integer<std::int16_t>(value));
+    case SlotType::UInt16:
+      return store(data, big_endian, to_integer<std::uint16_t>(value));
+    case SlotType::Int32:
+      return store(data, big_endian, to_integer<std::int32_t>(value));
+    case SlotType::UInt32:
+      return store(data, big_endian, to_integer<std::uint32_t>(value));
+    case SlotType::Float32:
+      return store(data, big_endian, static_cast<float>(value));
+    case SlotType::Float64:
+      return store(data, big_endian, value);
+    case SlotType::Text:
+      break;
+  }
+}
+
+bool image_applies(const Mesh& mesh, FileFormat format, Encoding encoding) {
+  const FileImage* image = mesh.image.get();
+  return image && image->format == format && image->encoding == encoding &&
+         image->V.rows() == mesh.V.rows() && image->face_count == mesh.faces.size() &&
+         image->face_index_count == mesh.faces.indices.size();
+}
+
+namespace {
+// The value a slot must hold for the vertex positions V.
+bool new_value(const FileImage& image, const CoordSlot& slot, const Eigen::MatrixX3d& V,
+               double& value) {
+  const double now = V(slot.vertex, slot.axis);
+  const double then = image.V(slot.vertex, slot.axis);
+  if (now == then && std::signbit(now) == std::signbit(then)) return false;
+  value = slot.original == then ? now : slot.original + (now - then);
+  return true;
+}
+}  // namespace
+
+std::string patch_image(const FileImage& image, const Eigen::MatrixX3d& V) {
+  double value = 0;
+  if (image.encoding != Encoding::Ascii) {
+    std::string out = image.bytes;
+    for (const CoordSlot& slot : image.slots)
+      if (new_value(image, slot, V, value))
+        write_scalar(out.data() + slot.offset, slot.type, slot.big_endian, value);
+    return out;
+  }
+  std::string out;
+  out.reserve(image.bytes.size() + image.bytes.size() / 4);
+  std::size_t pos = 0;
+  for (const CoordSlot& slot : image.slots) {
+    if (!new_value(image, slot, V, value)) continue;
+    out.append(image.bytes, pos, slot.offset - pos);
+    append_double(out, value);
+    pos = slot.offset + slot.length;
+  }
+  out.append(image.bytes, pos, std::string::npos);
+  return out;
+}
+
+}  // namespace meshmark::detail

@@ -1,0 +1,74 @@
+#pragma once
+// Internal: the image of a source file that lets a write change positions and nothing else.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "meshmark/core/mesh.h"
+
+namespace meshmark {
+
+/// How one coordinate is stored in the file.
+enum class SlotType : std::uint8_t {
+  Text,
+  Int8,
+  UInt8,
+  Int16,
+  UInt16,
+  Int32,
+  UInt32,
+  Float32,
+  Float64
+};
+
+/// One stored coordinate: where it is, how it is stored, and which vertex and axis it holds.
+struct CoordSlot {
+  std::uint64_t offset = 0;  ///< byte offset in FileImage::bytes
+  double original = 0;       ///< the value stored there
+  std::int32_t vertex = 0;   ///< the vertex (row of V) it belongs to
+  std::uint16_t length = 0;  ///< byte length (text token length, or the binary type's size)
+  std::uint8_t axis = 0;     ///< 0, 1, 2 for x, y, z
+  SlotType type = SlotType::Text;
+  bool big_endian = false;
+};
+
+/// What a format's writer keeps beside the bytes (glTF, Draco, 3MF define their own).
+struct FormatImage {
+  virtual ~FormatImage() = default;
+};
+
+struct FileImage {
+  FileFormat format = FileFormat::Obj;
+  Encoding encoding = Encoding::Ascii;
+  std::string bytes;             ///< the whole source file
+  std::vector<CoordSlot> slots;  ///< in increasing offset order
+  Eigen::MatrixX3d V;            ///< positions as read (rows of the mesh)
+  std::size_t face_count = 0;    ///< faces as read, to detect changed connectivity
+  std::size_t face_index_count = 0;
+  std::shared_ptr<const FormatImage> extra;  ///< the format's own record, if any
+};
+
+namespace detail {
+
+/// Size in bytes of a binary slot type.
+int slot_type_size(SlotType type);
+
+/// Reads a binary scalar of the given type at data (endianness as given) as a double.
+double read_scalar(const char* data, SlotType type, bool big_endian);
+
+/// Writes value, converted to type (integers rounded and clamped), at data.
+void write_scalar(char* data, SlotType type, bool big_endian, double value);
+
+/// True when a mesh can be written through its image: same format and encoding, same vertex
+/// and face counts.
+bool image_applies(const Mesh& mesh, FileFormat format, Encoding encoding);
+
+/// The image's bytes with every coordinate whose vertex moved replaced by the new value; other
+/// bytes as read. A slot whose stored value differs from the vertex's value as read (a
+/// tolerance-welded STL corner) is written as stored value + displacement.
+std::string patch_image(const FileImage& image, const Eigen::MatrixX3d& V);
+
+}  // namespace detail
+}  // namespace meshmark

@@ -1,0 +1,390 @@
+#include "meshmark/protocol/coding.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <numeric>
+#include <set>
+
+#include "meshmark/core/error.h"
+
+namespace meshmark {
+
+std::uint64_t parse_id(const std::string& text) {
+  // Decimal digits (leading zeros are still decimal: "0100" is one hundred, never octal), or 0x
+  // and hexadecimal digits; nothing else, not even a space: a mistyped ID must never become
+  // another buyer's.
+  const bool hex = text.size() > 2 && text[0] == '0' && (text[1] == 'x' || text[1] == 'X');
+  const std::string digits = hex ? text.substr(2) : text;
+  const auto is_digit = [hex](unsigned char c) { return hex ? std::isxdigit(c) : std::isdigit(c); };
+  if (digits.empty() || !std::all_of(digits.begin(), digits.end(), is_digit))
+    throw InvalidArgumentError(fmt::format(
+        "ID '{}' is not a non-negative integer (decimal digits, or 0x and hexadecimal digits)",
+        text));
+  errno = 0;
+  char* end = nullptr;
+  const unsigned long long value = std::strtoull(digits.c_str(), &end, hex ? 16 : 10);
+  if (errno != 0 || *end != '\0')
+    throw InvalidArgumentError(fmt::format("ID '{}' is out of range (at most 2^64 - 1)", text));
+  return value;
+}
+
+namespace {
+
+// Primitive polynomials of GF(2^m), m = 3..10 (bit i = coefficient of x^i).
+constexpr int kPrimitive[11] = {0, 0, 0, 0xB, 0x13, 0x25, 0x43, 0x89, 0x11D, 0x211, 0x409};
+
+// The exponents of the roots of g: the union of the cyclotomic cosets of 1..2t modulo 2^m - 1.
+std::set<int> generator_roots(int m, int t) {
+  const int N = (1 << m) - 1;
+  std::set<int> roots;
+  for (int i = 1; i <= 2 * t; ++i)
+    for (int j = i % N; roots.insert(j).second; j = (2 * j) % N) {
+    }
+  return roots;
+}
+
+}  // namespace
+
+double log2_hamming_ball(int n, int t) {
+  double sum = 0;
+  for (int i = 0; i <= std::min(t, n); ++i)
+    sum += std::exp(std::lgamma(n + 1.0) - std::lgamma(i + 1.0) - std::lgamma(n - i + 1.0));
+  return std::log2(sum);
+}
+
+const char* id_decode_status_name(IdDecodeStatus status) {
+  return enum_name(status);
+}
+
+int bch_parity_bits(int m, int t) {
+  if (m < 3 || m > 10) throw InvalidArgumentError(fmt::format("GF(2^{}) is out of 3..10", m));
+  if (t < 0 || 2 * t >= (1 << m) - 1)
+    throw InvalidArgumentError(fmt::format("t = {} is out of range for GF(2^{})", t, m));
+  return static_cast<int>(generator_roots(m, t).size());
+}
+
+IdCode::IdCode(const IdCodeOptions& o) : n_(o.bits), id_bits_(o.id_bits), retries_(o.retries) {
+  if (o.retries < 0 || o.retries > 1000)
+    throw InvalidArgumentError(fmt::format("{} retries is out of 0..1000", o.retries));
+  if (o.bits < 8 || o.bits > 1024)
+    throw InvalidArgumentError(fmt::format("a coded payload needs 8..1024 bits, not {}", o.bits));
+  if (o.id_bits < 1 || o.id_bits > 32)
+    throw InvalidArgumentError(fmt::format("an ID has 1..32 bits, not {}", o.id_bits));
+  if (!(o.false_accept > 0 && o.false_accept < 1))
+    throw InvalidArgumentError(
+        fmt::format("the false-accept bound {} is out of (0, 1)", o.false_accept));
+  if (o.min_check_bits < 0 || o.min_check_bits > 512)
+    throw InvalidArgumentError(
+        fmt::format("the check length {} is out of 0..512", o.min_check_bits));
+  const int inner = n_ - 1;  // shortened BCH length; the last bit is the overall parity
+  m_ = 3;
+  while ((1 << m_) - 1 < inner) ++m_;
+  // The largest t whose code leaves k >= id_bits + min_check_bits message bits (or the t asked
+  // for). 2t + 1 < 2^m - 1 keeps the code non-trivial.
+  const int k_needed = id_bits_ + o.min_check_bits;
+  t_ = -1;
+  if (o.correction >= 0) {
+    if (2 * o.correction + 1 < (1 << m_) - 1 &&
+        inner - bch_parity_bits(m_, o.correction) >= k_needed)
+      t_ = o.correction;
+  } else {
+    for (int t = 0; 2 * t + 1 < (1 << m_) - 1; ++t)
+      if (inner - bch_parity_bits(m_, t) >= k_needed) t_ = t;
+  }
+  // Acceptance rules (class comment): the widest first, (0 weak, e0 errors) with e0 <= t as
+  // large as the bound allows; then, for fewer errors e, as many weak bits s <= t - e as the
+  // remaining budget allows, when that accepts words the earlier rules do not (s + e > e0).
+  auto term = [&](int weak, int errors) {
+    return std::exp2(id_bits_ - (n_ - weak) + log2_hamming_ball(n_ - weak, errors));
+  };
+  // The retries' share is reserved first at their strictest rule (0, 0).
+  const double reserve = retries_ * term(0, 0);
+  const double main_budget = o.false_accept - reserve;
+  if (t_ >= 0) {
+    int e0 = -1;
+    for (int e = 0; e <= t_; ++e)
+      if (main_budget > 0 && std::log2(term(0, e)) <= std::log2(main_budget)) e0 = e;
+    if (e0 < 0) t_ = -1;
+    if (t_ >= 0) {
+      double budget = main_budget - term(0, e0);
+      rules_.push_back({0, e0});
+      int reach = e0;  // s + e of the widest rule so far
+      for (int e = e0 - 1; e >= 0; --e)
+        for (int s = t_ - e; s + e > reach; --s)
+          if (term(s, e) <= budget) {
+            rules_.push_back({s, e});
+            budget -= term(s, e);
+            reach = s + e;
+            break;
+          }
+      // The retry rule: as many errors as the rest of the budget allows.
+      double used = 0;
+      for (const DecodeRule& r : rules_) used += term(r.weak, r.errors);
+      retry_rule_ = {0, 0};
+      for (int e = 1; e <= t_; ++e)
+        if (used + retries_ * term(0, e) <= o.false_accept) retry_rule_.errors = e;
+    }
+  }
+  if (t_ < 0)
+    throw InvalidArgumentError(fmt::format(
+        "a {}-bit ID does not fit in {} payload bits{} at a false-accept bound of {:g}; use more "
+        "bits or a shorter ID",
+        id_bits_, n_,
+        o.correction >= 0 ? fmt::format(" with a code correcting {} errors", o.correction) : "",
+        o.false_accept));
+  const std::set<int> roots = generator_roots(m_, t_);
+  r_ = static_cast<int>(roots.size());
+  k_ = inner - r_;
+
+  const int N = (1 << m_) - 1;
+  exp_.assign(2 * N, 0);
+  log_.assign(N + 1, 0);
+  for (int i = 0, x = 1; i < N; ++i) {
+    exp_[i] = exp_[i + N] = x;
+    log_[x] = i;
+    x <<= 1;
+    if (x & (1 << m_)) x ^= kPrimitive[m_];
+  }
+  // g(x) = prod over the roots of (x - alpha^j), computed in GF(2^m); its coefficients are 0/1.
+  std::vector<int> g = {1};
+  for (const int j : roots) {
+    std::vector<int> next(g.size() + 1, 0);
+    for (std::size_t i = 0; i < g.size(); ++i) {
+      next[i + 1] ^= g[i];
+      if (g[i]) next[i] ^= exp_[(log_[g[i]] + j) % N];
+    }
+    g = std::move(next);
+  }
+  generator_.resize(g.size());
+  for (std::size_t i = 0; i < g.size(); ++i) {
+    if (g[i] > 1) throw Error("BCH generator has a coefficient outside GF(2) (a bug)");
+    generator_[i] = static_cast<std::uint8_t>(g[i]);
+  }
+}
+
+double IdCode::false_accept_bound() const {
+  double sum = 0;
+  for (const DecodeRule& r : rules_)
+    sum += std::exp2(id_bits_ - (n_ - r.weak) + log2_hamming_ball(n_ - r.weak, r.errors));
+  return sum + retries_ * std::exp2(id_bits_ - n_ + log2_hamming_ball(n_, retry_rule_.errors));
+}
+
+std::vector<std::uint8_t> IdCode::permute(std::vector<std::uint8_t> x, const Key& code_key,
+                                          bool inverse) const {
+  // Feistel network over x = L || R (|L| = k/2, |R| = k - k/2), 8 rounds; round i replaces one
+  // half by itself XOR F_i(the other half), alternately, so it is undone by the same rounds in
+  // reverse order. F_i = BLAKE2b keyed with the code key, of (i, k, id_bits, nb, the half).
+  constexpr int kRounds = 8;
+  const int a = k_ / 2;
+  std::vector<std::uint8_t> data;
+  for (int step = 0; step < kRounds; ++step) {
+    const int round = inverse ? kRounds - 1 - step : step;
+    const bool right = round % 2 == 0;  // even rounds change R from L, odd ones L from R
+    const int from = right ? 0 : a, from_len = right ? a : k_ - a;
+    const int to = right ? a : 0, to_len = right ? k_ - a : a;
+    if (to_len == 0) continue;
+    data.assign({static_cast<std::uint8_t>(round), static_cast<std::uint8_t>(k_ & 0xFF),
+                 static_cast<std::uint8_t>(k_ >> 8), static_cast<std::uint8_t>(id_bits_),
+                 static_cast<std::uint8_t>(n_ & 0xFF), static_cast<std::uint8_t>(n_ >> 8)});
+    data.resize(6 + (from_len + 7) / 8, 0);
+    for (int i = 0; i < from_len; ++i) data[6 + i / 8] |= x[from + i] << (7 - i % 8);
+    const std::vector<std::uint8_t> f = keyed_hash_bits(code_key, "id-feistel", data, to_len);
+    for (int i = 0; i < to_len; ++i) x[to + i] ^= f[i];
+  }
+  return x;
+}
+
+std::vector<std::uint8_t> IdCode::encode_message(const std::vector<std::uint8_t>& message) const {
+  // Systematic: message bit i is the coefficient of x^(inner - 1 - i); parity = m(x) x^r mod g.
+  const int inner = n_ - 1;
+  std::vector<std::uint8_t> c(inner, 0);
+  for (int i = 0; i < k_; ++i) c[inner - 1 - i] = message[i] & 1;
+  std::vector<std::uint8_t> a = c;
+  for (int d = inner - 1; d >= r_; --d)
+    if (a[d])
+      for (int i = 0; i <= r_; ++i) a[d - r_ + i] ^= generator_[i];
+  for (int i = 0; i < r_; ++i) c[i] = a[i];
+  std::vector<std::uint8_t> out(n_);
+  std::uint8_t parity = 0;
+  for (int j = 0; j < inner; ++j) parity ^= out[j] = c[inner - 1 - j];
+  out[inner] = parity;
+  return out;
+}
+
+Payload IdCode::encode(std::uint64_t id, const Key& key) const {
+  if (id_bits_ < 64 && (id >> id_bits_) != 0)
+    throw InvalidArgumentError(fmt::format("ID {} does not fit in {} bits", id, id_bits_));
+  std::vector<std::uint8_t> x(k_, 0);  // high k - id_bits bits zero, the ID MSB first
+  for (int i = 0; i < id_bits_; ++i) x[k_ - id_bits_ + i] = (id >> (id_bits_ - 1 - i)) & 1;
+  const Key code_key = derive_key(key, "id-code");
+  Payload out;
+  out.bits = encode_message(permute(std::move(x), code_key, false));
+  const std::vector<std::uint8_t> offset = mask(key);
+  for (int j = 0; j < n_; ++j) out.bits[j] ^= offset[j];
+  return out;
+}
+
+std::vector<std::uint8_t> IdCode::mask(const Key& key) const {
+  const std::vector<std::uint8_t> length = {static_cast<std::uint8_t>(n_ & 0xFF),
+                                            static_cast<std::uint8_t>(n_ >> 8)};
+  std::vector<std::uint8_t> out;
+  for (int done = 0; done < n_; done += 512) {  // keyed_hash_bits gives 512 bits at most
+    std::vector<std::uint8_t> data = length;
+    data.push_back(static_cast<std::uint8_t>(done / 512));
+    const std::vector<std::uint8_t> part =
+        keyed_hash_bits(derive_key(key, "id-code"), "id-mask", data, std::min(512, n_ - done));
+    out.insert(out.end(), part.begin(), part.end());
+  }
+  return out;
+}
+
+std::vector<std::vector<std::uint8_t>> IdCode::dual_basis() const {
+  // The generator in payload order is [I_k | P]; the dual is spanned by [P^T | I_(n-k)].
+  std::vector<std::vector<std::uint8_t>> rows(n_ - k_, std::vector<std::uint8_t>(n_, 0));
+  std::vector<std::uint8_t> unit(k_, 0);
+  for (int i = 0; i < k_; ++i) {
+    unit[i] = 1;
+    const std::vector<std::uint8_t> g = encode_message(unit);
+    unit[i] = 0;
+    for (int p = k_; p < n_; ++p) rows[p - k_][i] = g[p];
+  }
+  for (int p = k_; p < n_; ++p) rows[p - k_][p] = 1;
+  return rows;
+}
+
+int IdCode::decode_bch(std::vector<std::uint8_t>& c) const {
+  if (t_ == 0) return 0;
+  const int N = (1 << m_) - 1, inner = static_cast<int>(c.size());
+  std::vector<int> S(2 * t_ + 1, 0);
+  bool any = false;
+  for (int i = 1; i <= 2 * t_; ++i) {
+    int s = 0;
+    for (int j = 0; j < inner; ++j)
+      if (c[j]) s ^= exp_[(static_cast<long>(i) * j) % N];
+    S[i] = s;
+    any |= s != 0;
+  }
+  if (!any) return 0;
+  auto mul = [&](int a, int b) { return a && b ? exp_[log_[a] + log_[b]] : 0; };
+  auto div = [&](int a, int b) { return a ? exp_[(log_[a] - log_[b] + N) % N] : 0; };
+  // Berlekamp-Massey: the error locator sigma of least degree L.
+  std::vector<int> C(2 * t_ + 2, 0), B(2 * t_ + 2, 0);
+  C[0] = B[0] = 1;
+  int L = 0, shift = 1, b = 1;
+  for (int n = 0; n < 2 * t_; ++n) {
+    int d = S[n + 1];
+    for (int i = 1; i <= L; ++i) d ^= mul(C[i], S[n + 1 - i]);
+    if (d == 0) {
+      ++shift;
+      continue;
+    }
+    const std::vector<int> T = C;
+    const int coef = div(d, b);
+    for (std::size_t i = 0; i + shift < C.size(); ++i) C[i + shift] ^= mul(coef, B[i]);
+    if (2 * L <= n) {
+      L = n + 1 - L;
+      B = T;
+      b = d;
+      shift = 1;
+    } else {
+      ++shift;
+    }
+  }
+  if (L > t_) return -1;
+  // Chien search over the positions of the shortened code: error at j iff sigma(alpha^-j) = 0.
+  std::vector<int> errors;
+  for (int j = 0; j < inner; ++j) {
+    int v = 0;
+    for (int i = 0; i <= L; ++i)
+      if (C[i]) v ^= exp_[(log_[C[i]] + static_cast<long>(N - j % N) * i) % N];
+    if (v == 0) errors.push_back(j);
+  }
+  if (static_cast<int>(errors.size()) != L) return -1;  // roots outside the code: too many errors
+  for (const int j : errors) c[j] ^= 1;
+  return L;
+}
+
+IdDecodeResult IdCode::decode(const std::vector<std::uint8_t>& bits,
+                              const std::vector<double>& margins, const Key& key,
+                              bool retry) const {
+  if (static_cast<int>(bits.size()) != n_ || (!margins.empty() && margins.size() != bits.size()))
+    throw InvalidArgumentError(fmt::format("{} bits and {} margins read for a code of {} bits",
+                                           bits.size(), margins.size(), n_));
+  const int inner = n_ - 1;
+  IdDecodeResult result;
+  std::vector<std::uint8_t> hard(n_);
+  std::vector<double> reliability(n_, 1.0);
+  const std::vector<std::uint8_t> offset = mask(key);
+  for (int j = 0; j < n_; ++j) {
+    hard[j] = (bits[j] == 1) ^ offset[j];  // the mask removed: a word of the linear code
+    result.erasures += bits[j] > 1;
+    if (bits[j] > 1)
+      reliability[j] = -1.0;  // before every readable bit
+    else if (!margins.empty())
+      reliability[j] = std::isfinite(margins[j]) ? std::abs(margins[j]) : 0.0;
+  }
+  if (result.erasures > t_) {
+    result.status = IdDecodeStatus::Unreadable;
+    result.message = fmt::format(
+        "{} of {} bits are unreadable (empty bins), more than the {} the code can tolerate: the "
+        "mesh is collapsed, too coarse, or not this mesh",
+        result.erasures, n_, t_);
+    return result;
+  }
+  // The only codeword that can be accepted lies within t of the hard decisions (erasures read
+  // as 0 are at most as far as erasures counted as errors), and BCH decoding finds it.
+  std::vector<std::uint8_t> c(inner);
+  for (int j = 0; j < inner; ++j) c[j] = hard[inner - 1 - j];
+  if (decode_bch(c) < 0) {
+    result.message = "too many bit errors, or no watermark";
+    return result;
+  }
+  std::vector<std::uint8_t> codeword(n_);
+  std::uint8_t parity = 0;
+  for (int j = 0; j < inner; ++j) parity ^= codeword[j] = c[inner - 1 - j];
+  codeword[inner] = parity;
+  std::vector<int> order(n_);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return reliability[a] < reliability[b]; });
+  std::vector<std::uint8_t> differs(n_);
+  for (int j = 0; j < n_; ++j) {
+    differs[j] = bits[j] > 1 || codeword[j] != hard[j];
+    if (differs[j]) ++result.corrected, result.soft_distance += std::max(0.0, reliability[j]);
+  }
+  bool accepted = false;
+  const std::vector<DecodeRule> retry_rules = {retry_rule_};
+  for (const DecodeRule& rule : retry ? retry_rules : rules_) {
+    if (rule.weak > 0 && margins.empty()) continue;
+    int errors = 0;
+    for (int i = rule.weak; i < n_; ++i) errors += differs[order[i]];
+    accepted |= errors <= rule.errors && result.corrected <= t_;
+  }
+  if (!accepted) {
+    result.message = fmt::format(
+        "the nearest codeword differs in {} bits, too many of them reliable: too many bit "
+        "errors, or no watermark",
+        result.corrected);
+    return result;
+  }
+  std::vector<std::uint8_t> message(codeword.begin(), codeword.begin() + k_);
+  const std::vector<std::uint8_t> x = permute(std::move(message), derive_key(key, "id-code"), true);
+  for (int i = 0; i < k_ - id_bits_; ++i)
+    if (x[i]) {
+      result.status = IdDecodeStatus::NotUnderKey;
+      result.message = "a codeword, but of no ID under this key: another key, or damage";
+      return result;
+    }
+  for (int i = 0; i < id_bits_; ++i) result.id = result.id << 1 | x[k_ - id_bits_ + i];
+  result.status = IdDecodeStatus::Found;
+  result.valid = true;
+  result.message = fmt::format("ID found, {} of {} bits corrected", result.corrected, n_);
+  return result;
+}
+
+}  // namespace meshmark

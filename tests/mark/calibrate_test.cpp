@@ -1,0 +1,233 @@
+// Strength calibration: the strongest mark within the limits, for the payload given, measured
+// again here with the metrics' own entry points; the prepared embedder equal to embed(); the
+// causes named when nothing fits.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "meshmark/campaign/campaign.h"
+#include "meshmark/core/error.h"
+#include "meshmark/io/io.h"
+#include "meshmark/mark/calibrate.h"
+#include "meshmark/metrics/metrics.h"
+#include "meshmark/protocol/key.h"
+#include "meshmark/protocol/watermark.h"
+#include "test_data.h"
+
+namespace meshmark {
+namespace {
+
+// Tolerance of re-measuring a distortion the calibration measured: the same computation
+// through another entry point, so only rounding may differ.
+constexpr double kSameMeasure = 1e-9;
+
+struct Measured {
+  double rms = 0, msdm = 0;
+};
+
+// The distortion of embedding payload at the calibrated settings, from scratch.
+Measured measure_again(const Mesh& mesh, const Payload& payload, EmbedOptions eo,
+                       const CalibrateResult& r) {
+  eo.strength = r.strength;
+  eo.bin_offset = r.bin_offset;
+  eo.strengths = r.strengths;
+  const EmbedResult w = embed(mesh.V, mesh.F, payload, eo);
+  EXPECT_EQ(w.status, EmbedStatus::Embedded) << w.message;
+  return {vertex_rms_percent(mesh.V, w.V, mesh.F), msdm(mesh.V, w.V, mesh.F).global};
+}
+
+TEST(PreparedEmbedder, GivesWhatEmbedGivesForEveryPayloadAndStrength) {
+  const std::string path = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(path, "spot.obj");
+  const Mesh mesh = read_mesh(path);
+  for (const char* v : {"DRS", "VSS", "VRL"}) {
+    EmbedOptions eo;
+    eo.variant = parse_variant(v);
+    const PreparedEmbedder prepared(mesh.V, mesh.F, eo);
+    for (int p = 0; p < 3; ++p) {
+      eo.strength = 0.02 + 0.01 * p;
+      eo.bin_offset = 0.01 * p;
+      const Payload payload = calibration_payload(64, 100 + p);
+      const EmbedResult a = prepared.embed(payload, eo);
+      const EmbedResult b = embed(mesh.V, mesh.F, payload, eo);
+      ASSERT_EQ(a.status, b.status) << v;
+      EXPECT_EQ(a.rounds, b.rounds) << v;
+      EXPECT_TRUE(a.V == b.V) << v << ": the prepared embedding differs";
+    }
+    EmbedOptions other = eo;
+    other.variant = parse_variant("SRS");
+    EXPECT_FALSE(prepared.accepts(other));
+    EXPECT_THROW(prepared.embed(calibration_payload(64, 1), other), InvalidArgumentError);
+  }
+}
+
+TEST(Calibrate, EveryPayloadGetsItsStrongestMarkWithinBothLimits) {
+  // Per copy: ten coded buyers' words with keyed per-bit strengths, each calibrated for
+  // itself; re-measured, every copy meets both limits, and the next strength up (by the
+  // search's precision) breaks one unless the distortion already sits at a limit.
+  const std::string path = test::closed_binary_ply();
+  MESHMARK_REQUIRE(path, "bunny00.off");
+  const Mesh mesh = read_mesh(path);
+  const Key key = derive_key(public_key(), "calibrate-test");
+  const IdCode code;
+  EmbedOptions eo;
+  const PreparedEmbedder prepared(mesh.V, mesh.F, eo);
+  CalibrateOptions o;
+  o.strengths = [&](double alpha) { return mark_strengths(key, 64, true, alpha, 0.25); };
+  int at_limit = 0;
+  for (std::uint64_t id = 1000; id < 1010; ++id) {  // consecutive IDs
+    const Payload bins = id_bins(code, id, key);
+    const CalibrateResult r = calibrate_strength(prepared, bins, eo, o);
+    ASSERT_EQ(r.status, CalibrateStatus::Calibrated) << r.message;
+    EXPECT_LE(r.evaluations, 10) << "the search should need far fewer embeddings than 14";
+    EXPECT_DOUBLE_EQ(r.bin_offset, std::min(eo.bin_offset, r.strength));
+    const Measured m = measure_again(mesh, bins, eo, r);
+    EXPECT_NEAR(m.rms, r.rms_percent, kSameMeasure);
+    EXPECT_NEAR(m.msdm, r.msdm, kSameMeasure);
+    EXPECT_LE(m.rms, o.max_rms_percent);
+    EXPECT_LE(m.msdm, o.max_msdm);
+    const double ratio = std::max(m.rms / o.max_rms_percent, m.msdm / o.max_msdm);
+    if (ratio >= 1 - o.precision) {
+      ++at_limit;
+      continue;
+    }
+    CalibrateResult up = r;
+    up.strength = r.strength * (1 + o.precision);
+    up.bin_offset = std::min(eo.bin_offset, up.strength);
+    up.strengths = o.strengths(up.strength);
+    const Measured next = measure_again(mesh, bins, eo, up);
+    EXPECT_TRUE(next.rms > o.max_rms_percent || next.msdm > o.max_msdm)
+        << "ID " << id << ": strength " << up.strength << " still fits";
+  }
+  RecordProperty("at_limit", at_limit);
+}
+
+TEST(Calibrate, TheReturnedEmbeddingIsTheMeasuredOne) {
+  const std::string path = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(path, "spot.obj");
+  const Mesh mesh = read_mesh(path);
+  EmbedOptions eo;
+  eo.variant = parse_variant("VSS");
+  const Payload payload = calibration_payload(64, 7);
+  const CalibrateResult r = calibrate_strength(mesh.V, mesh.F, payload, eo);
+  ASSERT_NE(r.status, CalibrateStatus::BelowMinimum) << r.message;
+  EmbedOptions again = eo;
+  again.strength = r.strength;
+  again.bin_offset = r.bin_offset;
+  const EmbedResult w = embed(mesh.V, mesh.F, payload, again);
+  EXPECT_TRUE(w.V == r.embedding.V);
+  EXPECT_NEAR(vertex_rms_percent(mesh.V, r.embedding.V, mesh.F), r.rms_percent, kSameMeasure);
+}
+
+TEST(Calibrate, FixedRuleKeepsThePapersBinOffset) {
+  const std::string path = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(path, "spot.obj");
+  const Mesh mesh = read_mesh(path);
+  EmbedOptions eo;
+  eo.bin_offset = 0.05;
+  CalibrateOptions o;
+  o.bin_offset = BinOffsetRule::Fixed;
+  const Payload payload = calibration_payload(64, 3);
+  const CalibrateResult fixed = calibrate_strength(mesh.V, mesh.F, payload, eo, o);
+  ASSERT_EQ(fixed.status, CalibrateStatus::Calibrated) << fixed.message;
+  EXPECT_EQ(fixed.bin_offset, 0.05);
+  o.bin_offset = BinOffsetRule::AtMostStrength;
+  const CalibrateResult joint = calibrate_strength(mesh.V, mesh.F, payload, eo, o);
+  ASSERT_EQ(joint.status, CalibrateStatus::Calibrated) << joint.message;
+  // A narrower guard band costs less, so the strongest mark within the same limits is at
+  // least as strong (to the search's precision, on both sides).
+  if (fixed.strength < 0.05)
+    EXPECT_GE(joint.strength * (1 + o.precision) * (1 + o.precision), fixed.strength);
+}
+
+TEST(Calibrate, NamesTheLimitThatTheWeakestMarkBreaks) {
+  const std::string path = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(path, "spot.obj");
+  const Mesh mesh = read_mesh(path);
+  EmbedOptions eo;
+  const Payload payload = calibration_payload(64, 5);
+  CalibrateOptions o;
+  o.max_rms_percent = 1e-7;  // far below what any mark costs
+  CalibrateResult r = calibrate_strength(mesh.V, mesh.F, payload, eo, o);
+  ASSERT_EQ(r.status, CalibrateStatus::BelowMinimum);
+  EXPECT_EQ(r.cause, CalibrateCause::RmsLimit);
+  EXPECT_EQ(r.strength, 0);
+  // The figure reported is the weakest mark's, measured again here.
+  const EmbedOptions weakest = [&] {
+    EmbedOptions e = eo;
+    e.strength = o.min_strength;
+    e.bin_offset = std::min(eo.bin_offset, o.min_strength);
+    return e;
+  }();
+  const EmbedResult w = embed(mesh.V, mesh.F, payload, weakest);
+  ASSERT_EQ(w.status, EmbedStatus::Embedded);
+  EXPECT_NEAR(r.rms_percent, vertex_rms_percent(mesh.V, w.V, mesh.F), kSameMeasure);
+  ASSERT_FALSE(r.diagnostics.empty());
+  EXPECT_NE(r.diagnostics[0].find("RMS"), std::string::npos) << r.diagnostics[0];
+
+  o = {};
+  o.max_msdm = 1e-6;
+  r = calibrate_strength(mesh.V, mesh.F, payload, eo, o);
+  ASSERT_EQ(r.status, CalibrateStatus::BelowMinimum);
+  EXPECT_EQ(r.cause, CalibrateCause::MsdmLimit);
+  EXPECT_NEAR(r.msdm, msdm(mesh.V, w.V, mesh.F).global, kSameMeasure);
+  EXPECT_GT(r.msdm, o.max_msdm);
+}
+
+TEST(Calibrate, ACarrierTooSmallForThePayloadIsNamedWithFewerBitsThatFit) {
+  // CGAL's cross: 40 vertices, fewer than the 66 bins of 64 bits.
+  const std::string path = test::cgal_mesh("cross.off");
+  MESHMARK_REQUIRE(path, "cross.off");
+  const Mesh mesh = read_mesh(path);
+  const CalibrateResult r = calibrate_strength(mesh.V, mesh.F, calibration_payload(64, 1), {});
+  ASSERT_EQ(r.status, CalibrateStatus::BelowMinimum);
+  EXPECT_EQ(r.cause, CalibrateCause::Carrier);
+  EXPECT_EQ(r.evaluations, 1) << "nothing to search when the carrier cannot hold the bits";
+  bool fewer = false;
+  for (const std::string& line : r.diagnostics)
+    fewer |= line.find("bits give every bin enough positions") != std::string::npos;
+  EXPECT_TRUE(fewer) << r.message;
+  // The number suggested is right: that many bits pass the carrier check, one more does not
+  // (or the suggestion is the largest that does).
+  for (const std::string& line : r.diagnostics) {
+    const auto at = line.find(" bits give every bin enough positions");
+    if (at == std::string::npos) continue;
+    const int k = std::stoi(line.substr(line.rfind(' ', at - 1) + 1));
+    EXPECT_EQ(check_carrier(mesh.V, mesh.F, k).status, CarrierHealth::Healthy) << k;
+  }
+}
+
+TEST(Calibrate, EmptyBinsAreNamedAsTheCarriersAndFewerBitsSuggested) {
+  // featuretype.STL (a CAD part, 2,010 positions): 3 of its 64 bins are empty at 64 bits.
+  const std::string path = test::data_mesh("featuretype.STL");
+  MESHMARK_REQUIRE(path, "featuretype.STL");
+  const Mesh mesh = read_mesh(path);
+  const CarrierCheck check = check_carrier(mesh.V, mesh.F, 64);
+  ASSERT_GT(check.empty_bins, 0) << "the premise: some bin is empty";
+  const CalibrateResult r = calibrate_strength(mesh.V, mesh.F, calibration_payload(64, 2), {});
+  ASSERT_EQ(r.status, CalibrateStatus::BelowMinimum);
+  EXPECT_EQ(r.cause, CalibrateCause::Carrier);
+  EXPECT_NE(r.diagnostics.front().find("bins are empty"), std::string::npos) << r.message;
+  bool fewer = false;
+  for (const std::string& line : r.diagnostics) {
+    const auto at = line.find(" bits give every bin enough positions");
+    if (at == std::string::npos) continue;
+    fewer = true;
+    const int k = std::stoi(line.substr(line.rfind(' ', at - 1) + 1));
+    EXPECT_EQ(check_carrier(mesh.V, mesh.F, k).empty_bins, 0) << k;
+    // What it says of the limits holds: calibrating that many bits (the same payload's first
+    // ones) fits them, or does not, as said.
+    Payload prefix = calibration_payload(64, 2);
+    prefix.bits.resize(static_cast<std::size_t>(k));
+    const CalibrateResult fewer_result = calibrate_strength(mesh.V, mesh.F, prefix, {});
+    const bool said_fits = line.find("and fit the limits") != std::string::npos;
+    EXPECT_EQ(fewer_result.status != CalibrateStatus::BelowMinimum, said_fits)
+        << line << " | " << fewer_result.message;
+  }
+  EXPECT_TRUE(fewer) << r.message;
+}
+
+}  // namespace
+}  // namespace meshmark

@@ -1,0 +1,189 @@
+// Distortion metrics: zero for identical meshes, growing with the noise, Hausdorff against a
+// brute-force point-to-triangle computation, sampled RMS against vertex RMS, MSDM2 symmetric
+// and blind to vertex order.
+
+#include <gtest/gtest.h>
+
+#include "meshmark/attacks/attack.h"
+#include "meshmark/core/error.h"
+#include "meshmark/io/io.h"
+#include "meshmark/metrics/metrics.h"
+#include "test_data.h"
+
+using namespace meshmark;
+using namespace meshmark::test;
+
+namespace {
+
+// Closest point on triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5), written
+// out here independently of CGAL.
+Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                                    const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Eigen::Vector3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + d1 / (d1 - d3) * ab;
+  const Eigen::Vector3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + d2 / (d2 - d6) * ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+    return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
+  const double denom = 1 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+double brute_max_distance(const Eigen::MatrixX3d& S, const Eigen::MatrixX3d& V,
+                          const Eigen::MatrixX3i& F) {
+  double worst = 0;
+  for (Eigen::Index i = 0; i < S.rows(); ++i) {
+    double best = 1e300;
+    for (Eigen::Index f = 0; f < F.rows(); ++f) {
+      const Eigen::Vector3d q =
+          closest_on_triangle(S.row(i).transpose(), V.row(F(f, 0)).transpose(),
+                              V.row(F(f, 1)).transpose(), V.row(F(f, 2)).transpose());
+      best = std::min(best, (q - S.row(i).transpose()).norm());
+    }
+    worst = std::max(worst, best);
+  }
+  return worst;
+}
+
+}  // namespace
+
+TEST(Metrics, IdenticalMeshesScoreZero) {
+  const std::string path = data_mesh("spot.obj");
+  MESHMARK_REQUIRE(path, "spot.obj");
+  const Mesh m = read_mesh(path);
+  const double diag = bounding_box_diagonal(m.V);
+  EXPECT_EQ(vertex_rms_percent(m.V, m.V, m.F), 0.0);
+  const SurfaceDistance d = surface_distance(m.V, m.F, m.V, m.F);
+  EXPECT_LE(d.mrms, 1e-12 * diag);
+  EXPECT_LE(d.hausdorff, 1e-12 * diag);
+  EXPECT_LE(msdm(m.V, m.V, m.F).global, 1e-12)
+      << "zero up to rounding (sigma_X sigma_Y against sigma_XY)";
+  EXPECT_LE(msdm2(m.V, m.F, m.V, m.F).global, 1e-9);
+}
+
+TEST(Metrics, EveryMetricGrowsWithTheNoise) {
+  const std::string path = cgal_mesh("elephant.off");
+  MESHMARK_REQUIRE(path, "libcgal-demo elephant.off");
+  const Mesh m = read_mesh(path);
+  double last[5] = {0, 0, 0, 0, 0};
+  for (double amplitude : {0.0005, 0.002, 0.008}) {
+    const Mesh n = attack_noise(m, amplitude, NoiseReference::Diagonal, 3);
+    const SurfaceDistance d = surface_distance(m.V, m.F, n.V, n.F);
+    const double now[5] = {vertex_rms_percent(m.V, n.V, m.F), d.mrms, d.hausdorff,
+                           msdm(m.V, n.V, m.F).global, msdm2(m.V, m.F, n.V, n.F).global};
+    for (int k = 0; k < 5; ++k)
+      EXPECT_GT(now[k], last[k]) << "metric " << k << " at amplitude " << amplitude;
+    std::copy(now, now + 5, last);
+  }
+}
+
+TEST(Metrics, HausdorffMatchesBruteForceOnSmallMeshes) {
+  const Mesh a = bumpy_sphere(8, 10, 1), b = bumpy_sphere(9, 11, 2);
+  SurfaceDistanceOptions o;
+  o.samples = 300;
+  const SurfaceDistance d = surface_distance(a.V, a.F, b.V, b.F, o);
+  // The same samples (same seeds), distances by brute force over every triangle.
+  const double ab = brute_max_distance(sample_surface(a.V, a.F, o.samples, o.seed), b.V, b.F);
+  const double ba = brute_max_distance(sample_surface(b.V, b.F, o.samples, o.seed + 1), a.V, a.F);
+  EXPECT_NEAR(d.max_ab, ab, 1e-9 * ab);
+  EXPECT_NEAR(d.max_ba, ba, 1e-9 * ba);
+  EXPECT_NEAR(d.hausdorff, std::max(ab, ba), 1e-9 * std::max(ab, ba));
+}
+
+TEST(Metrics, SampledRmsAgreesWithVertexRmsForSmallSmoothDisplacements) {
+  Mesh m = bumpy_sphere(60, 90, 5);
+  for (Eigen::Index i = 0; i < m.V.rows(); ++i) m.V.row(i).normalize();  // a round sphere
+  Mesh moved = m;
+  for (Eigen::Index i = 0; i < m.V.rows(); ++i) {
+    const double z = m.V(i, 2);
+    moved.V.row(i) *= 1 + 1e-4 * (1 + 0.5 * std::sin(3 * z));  // smooth, along the normal
+  }
+  const double vertex = vertex_rms_percent(m.V, moved.V, m.F);
+  const SurfaceDistance d = surface_distance(m.V, m.F, moved.V, moved.F);
+  EXPECT_NEAR(d.mrms_percent(), vertex, 0.05 * vertex)
+      << "vertex RMS " << vertex << " %, MRMS " << d.mrms_percent() << " %";
+}
+
+TEST(Metrics, Msdm2IsSymmetricAndBlindToVertexOrder) {
+  const std::string path = data_mesh("spot.obj");
+  MESHMARK_REQUIRE(path, "spot.obj");
+  const Mesh m = read_mesh(path);
+  const Mesh n = attack_noise(m, 0.002, NoiseReference::Diagonal, 9);
+  const double ab = msdm2(m.V, m.F, n.V, n.F).global, ba = msdm2(n.V, n.F, m.V, m.F).global;
+  EXPECT_NEAR(ab, ba, 1e-12);
+  const Mesh shuffled = attack_reorder(n, 4);
+  EXPECT_NEAR(msdm2(m.V, m.F, shuffled.V, shuffled.F).global, ab, 1e-9);
+  EXPECT_GT(ab, 0.0);
+}
+
+TEST(Metrics, PreparedMsdmEqualsTheOneCall) {
+  const std::string path = data_mesh("spot.obj");
+  MESHMARK_REQUIRE(path, "spot.obj");
+  const Mesh m = read_mesh(path);
+  const MsdmReference reference(m.V, m.F);
+  for (double amplitude : {0.0005, 0.002}) {  // one reference, several candidates
+    const Mesh n = attack_noise(m, amplitude, NoiseReference::Diagonal, 5);
+    const PerceptualDistance once = msdm(m.V, n.V, m.F), prepared = reference.compare(n.V);
+    EXPECT_EQ(prepared.global, once.global) << amplitude;
+    EXPECT_EQ((prepared.local - once.local).cwiseAbs().maxCoeff(), 0.0) << amplitude;
+  }
+  EXPECT_THROW(reference.compare(m.V.topRows(10)), InvalidArgumentError);
+}
+
+// Every vertex's window is computed on its own and the pooling runs in vertex order: the
+// values do not depend on how many threads share the vertices (MESHMARK_THREADS, parallel.h).
+// Spot subdivided once (12k vertices) is above the size from which the work is split.
+TEST(Metrics, MsdmDoesNotDependOnTheThreadCount) {
+  const std::string path = data_mesh("spot.obj");
+  MESHMARK_REQUIRE(path, "spot.obj");
+  const Mesh m = attack_subdivide(read_mesh(path), Subdivision::Loop, 1);
+  const Mesh n = attack_noise(m, 0.001, NoiseReference::Diagonal, 3);
+  auto with_threads = [&](const char* threads) {
+    setenv("MESHMARK_THREADS", threads, 1);
+    PerceptualDistance d = MsdmReference(m.V, m.F).compare(n.V);
+    unsetenv("MESHMARK_THREADS");
+    return d;
+  };
+  const PerceptualDistance one = with_threads("1"), three = with_threads("3");
+  EXPECT_GT(one.global, 0.0);
+  EXPECT_EQ(one.global, three.global);
+  EXPECT_EQ((one.local - three.local).cwiseAbs().maxCoeff(), 0.0);
+}
+
+// MSDM's radii are fractions of the bounding box's longest side D and its curvature is scaled
+// by D: a scaling and a shift of both meshes leave every value unchanged (up to rounding,
+// which may move an edge across a window's sphere). A rotation would not: it changes the
+// axis-aligned box, hence D.
+TEST(Metrics, MsdmIsBlindToScaleAndShiftOfBothMeshes) {
+  const std::string path = cgal_mesh("cow.off");
+  MESHMARK_REQUIRE(path, "libcgal-demo cow.off");
+  const Mesh m = read_mesh(path);
+  const Mesh n = attack_noise(m, 0.001, NoiseReference::Diagonal, 2);
+  const Eigen::RowVector3d shift(4, -2, 9);
+  auto move = [&](const Eigen::MatrixX3d& V) {
+    return Eigen::MatrixX3d(((37.5 * V).rowwise() + shift).eval());
+  };
+  const double before = msdm(m.V, n.V, m.F).global, after = msdm(move(m.V), move(n.V), m.F).global;
+  EXPECT_GT(before, 0.0);
+  EXPECT_NEAR(after, before, 1e-6 * before);
+  const double before2 = msdm2(m.V, m.F, n.V, n.F).global;
+  EXPECT_NEAR(msdm2(move(m.V), m.F, move(n.V), n.F).global, before2, 1e-6 * before2);
+}
+
+TEST(Metrics, SurfaceDistanceRefusesAMeshWithoutFaces) {
+  // No triangle, no surface to sample: an error naming it, never a read past empty samples.
+  const Mesh m = bumpy_sphere(8, 8, 3);
+  const Eigen::MatrixX3i none(0, 3);
+  EXPECT_THROW(surface_distance(m.V, none, m.V, m.F), InvalidArgumentError);
+  EXPECT_THROW(surface_distance(m.V, m.F, m.V, none), InvalidArgumentError);
+}
