@@ -59,6 +59,9 @@ def build_wheel(wheel_directory, config_settings=None, metadata_directory=None):
     files = {
         module.name: module.read_bytes(),
         "meshmark.pyi": stubs.read_bytes(),
+        # PEP 561 covers packages, not a lone extension module: type checkers that ignore the
+        # stubs beside it read this stub-only package.
+        "meshmark-stubs/__init__.pyi": stubs.read_bytes(),
         f"{info}/METADATA": (
             f"Metadata-Version: 2.1\nName: meshmark\nVersion: {version}\n"
             "Summary: Blind, robust watermarking of triangle meshes, and tracing of leaks\n"

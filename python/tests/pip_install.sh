@@ -12,6 +12,8 @@ MESHMARK_PIP_BUILD_DIR="$build" "$python" -m pip install --no-index --no-deps --
 want="$(sed -n 's/^project(meshmark VERSION \([0-9.]*\).*/\1/p' "$checkout/CMakeLists.txt")"
 cd "$target"
 [ -f meshmark.pyi ] || { echo "pip_install: no meshmark.pyi installed" >&2; exit 1; }
+cmp -s meshmark.pyi meshmark-stubs/__init__.pyi ||
+  { echo "pip_install: no stub-only package meshmark-stubs holding the stubs" >&2; exit 1; }
 PYTHONPATH="$target" "$python" - "$want" "$checkout/data/meshes/spot.obj" <<'PY'
 import sys
 import meshmark
