@@ -1,6 +1,7 @@
 """The layout shows the architecture (docs/developing.md, "Stages"): every source and public
 header sits in the folder of its stage, src/, include/meshmark/ and tests/ use the same stage
-names, and a stage includes only headers of the stages before it in STAGES. Exits 1 naming
+names, a stage includes only headers of the stages before it in STAGES, and a public header
+includes only public headers. Exits 1 naming
 every file out of place and every include that goes the wrong way.
 
 Usage: python3 check_layout.py SOURCE_DIR"""
@@ -48,6 +49,12 @@ def main(root):
                 if stage not in STAGES:
                     continue
                 text = open(path, encoding="utf-8").read()
+                if base == public:  # installed: it may include only installed headers
+                    for m in re.finditer(r'^\s*#\s*include\s+"([^"]+)"', text, re.M):
+                        if not m.group(1).startswith("meshmark/"):
+                            line = text.count("\n", 0, m.start()) + 1
+                            problems.append(f"{path}:{line}: a public header includes "
+                                            f"{m.group(1)}, which is not installed")
                 for m in INCLUDE.finditer(text):
                     other = m.group(1)
                     if other in STAGES and STAGES.index(other) > STAGES.index(stage):
