@@ -1,0 +1,85 @@
+#pragma once
+/// \file fingerprint.h
+/// The fingerprint: a second, informed mark that issue_copies can add to a registered copy
+/// (IssueSettings::fingerprint) and that only trace reads, with the original in hand
+/// (docs/forensics.md, "The fingerprint"; docs/format.md section 8).
+///
+/// A copy's fingerprint is a smooth field of radial displacements, s = Phi g: Phi holds K
+/// Gaussian bumps spread over the original's surface (fingerprint_basis), g is K independent
+/// standard normal coefficients regenerated from the key and the buyer's ID
+/// (fingerprint_coefficients; the registry stores nothing of them). Smoothing and resampling
+/// keep such low frequencies; trace measures the leak's radial residual at the original's
+/// vertices, fits it with Phi (read_fingerprint: b), and scores a candidate by the normalized
+/// correlation z = g.b / |b|. For an innocent buyer, g is independent of b, and z is then
+/// exactly standard normal whatever b is: its p-value (the normal upper tail) is exact. An
+/// average of k copies keeps each colluder's coefficients at 1/k: z about sqrt(K / k).
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "meshmark/protocol/key.h"
+
+namespace meshmark {
+
+/// Settings of the fingerprint; part of mark format 3 (docs/format.md section 8).
+struct FingerprintOptions {
+  /// K, the number of basis functions: at most one per 16 counted carrier vertices.
+  int functions = 128;
+  /// The fingerprint's expected RMS radial displacement, as a fraction of the original's
+  /// bounding-box diagonal (1e-4: 0.01 %, a quarter of the paper's RMS limit of 0.04 %).
+  double rms = 1e-4;
+};
+
+/// The basis of an original: K Gaussian bumps exp(-|v - c_k|^2 / (2 w^2)), centered at K
+/// carrier vertices picked by farthest-point sampling and cut at 3 w, scaled together so that
+/// the mean over the counted carrier vertices of sum_k phi_k(v)^2 is 1 (then a field Phi g with
+/// standard normal g has an expected mean square of 1).
+struct FingerprintBasis {
+  int functions = 0;         ///< K
+  Eigen::Vector3d center;    ///< what the displacements point away from
+  double diagonal = 0;       ///< the original's bounding-box diagonal (model units)
+  double width = 0;          ///< w (model units)
+  std::vector<int> centers;  ///< the K vertices the bumps are centered at
+  /// Phi, row by row (compressed rows: vertex i's entries are index/value[row_start[i] ..
+  /// row_start[i + 1]]); no entries for vertices off the carrier or twins.
+  std::vector<int> row_start, index;
+  std::vector<double> value;
+
+  /// Phi a: the field of coefficients a (size K) at every vertex.
+  Eigen::VectorXd field(const Eigen::VectorXd& a) const;
+};
+
+/// The basis of (V, F) around center, over the carrier (histogram.h: carrier_vertices); w is
+/// the spacing sqrt(area / K) of K points over the carrier's surface. Deterministic: the first
+/// center is the counted vertex farthest from `center` (the smallest index among equals).
+/// \throw InvalidArgumentError for functions < 1, or fewer than 16 counted vertices a function.
+FingerprintBasis fingerprint_basis(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                                   const std::vector<std::uint8_t>& carrier,
+                                   const Eigen::Vector3d& center, int functions);
+
+/// The K coefficients of buyer `id` under key: independent standard normal values (Box-Muller
+/// on 53-bit uniforms from keyed_hash_bits under derive_key(key, "fingerprint")), the same on
+/// every machine.
+Eigen::VectorXd fingerprint_coefficients(const Key& key, std::uint64_t id, int functions);
+
+/// V with the fingerprint g added: vertex i moved by rms x diagonal x (Phi g)_i along the unit
+/// vector from the basis' center through VO_i (VO: the original's positions, on which the basis
+/// was built; V: the copy's, the same rows). Twins move like the vertex they sit on.
+Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX3d& VO,
+                                 const FingerprintBasis& basis, const Eigen::VectorXd& g,
+                                 double rms);
+
+/// b: the least-squares fit Phi b ~ residual over the vertices where measured[i] != 0 and the
+/// basis has entries (a tiny ridge keeps it defined where no vertex covers a bump).
+Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::VectorXd& residual,
+                                 const std::vector<std::uint8_t>& measured);
+
+/// A candidate's score: g.b / |b| (0 when b is 0). Exactly standard normal when g is a standard
+/// normal vector independent of b.
+double fingerprint_score(const Eigen::VectorXd& g, const Eigen::VectorXd& b);
+
+/// P(Z >= z) for a standard normal Z, accurate in the far tail (erfc).
+double normal_upper_tail(double z);
+
+}  // namespace meshmark

@@ -1,0 +1,198 @@
+// The fingerprint (fingerprint.h): its basis, its keyed coefficients, adding it, reading it.
+
+#include "meshmark/forensics/fingerprint.h"
+
+#include <fmt/format.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <map>
+
+#include "meshmark/core/error.h"
+#include "meshmark/core/mesh.h"
+
+namespace meshmark {
+
+namespace {
+
+double triangle_area_sum(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
+  double area = 0;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+    area += 0.5 * (b - a).cross(c - a).norm();
+  }
+  return area;
+}
+
+}  // namespace
+
+Eigen::VectorXd FingerprintBasis::field(const Eigen::VectorXd& a) const {
+  if (a.size() != functions)
+    throw InvalidArgumentError(
+        fmt::format("a fingerprint of {} coefficients for a basis of {}", a.size(), functions));
+  const Eigen::Index n = static_cast<Eigen::Index>(row_start.size()) - 1;
+  Eigen::VectorXd s = Eigen::VectorXd::Zero(n);
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (int e = row_start[i]; e < row_start[i + 1]; ++e) s(i) += value[e] * a(index[e]);
+  return s;
+}
+
+FingerprintBasis fingerprint_basis(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                                   const std::vector<std::uint8_t>& carrier,
+                                   const Eigen::Vector3d& center, int functions) {
+  if (functions < 1)
+    throw InvalidArgumentError(
+        fmt::format("a fingerprint needs at least 1 function, not {}", functions));
+  if (carrier.size() != static_cast<std::size_t>(V.rows()))
+    throw InvalidArgumentError("the carrier mask does not match the vertices");
+  std::vector<Eigen::Index> counted;
+  for (Eigen::Index i = 0; i < V.rows(); ++i)
+    if (carrier[i] == kCounted) counted.push_back(i);
+  if (counted.size() < 16 * static_cast<std::size_t>(functions))
+    throw InvalidArgumentError(fmt::format(
+        "a fingerprint of {} functions needs {} counted carrier vertices; the mesh has {}",
+        functions, 16 * functions, counted.size()));
+  FingerprintBasis b;
+  b.functions = functions;
+  b.center = center;
+  b.diagonal = bounding_box_diagonal(V, carrier);
+  const double area = triangle_area_sum(V, F);
+  if (!(area > 0)) throw InvalidArgumentError("the mesh has no area to spread a fingerprint on");
+  b.width = std::sqrt(area / functions);
+  // Farthest-point sampling: the first center the counted vertex farthest from `center`.
+  std::vector<double> nearest(counted.size(), std::numeric_limits<double>::infinity());
+  std::size_t pick = 0;
+  double far = -1;
+  for (std::size_t j = 0; j < counted.size(); ++j) {
+    const double d = (V.row(counted[j]).transpose() - center).squaredNorm();
+    if (d > far) far = d, pick = j;
+  }
+  for (int k = 0; k < functions; ++k) {
+    b.centers.push_back(static_cast<int>(counted[pick]));
+    const Eigen::RowVector3d c = V.row(counted[pick]);
+    std::size_t next = 0;
+    double best = -1;
+    for (std::size_t j = 0; j < counted.size(); ++j) {
+      nearest[j] = std::min(nearest[j], (V.row(counted[j]) - c).squaredNorm());
+      if (nearest[j] > best) best = nearest[j], next = j;
+    }
+    pick = next;
+  }
+  // The bumps, cut at 3 w, row by row.
+  const double cut2 = 9 * b.width * b.width, inv = 1 / (2 * b.width * b.width);
+  b.row_start.assign(1, 0);
+  double mean_square = 0;
+  for (Eigen::Index i = 0; i < V.rows(); ++i) {
+    if (carrier[i] == kCounted)
+      for (int k = 0; k < functions; ++k) {
+        const double d2 = (V.row(i) - V.row(b.centers[k])).squaredNorm();
+        if (d2 > cut2) continue;
+        const double phi = std::exp(-d2 * inv);
+        b.index.push_back(k), b.value.push_back(phi);
+        mean_square += phi * phi;
+      }
+    b.row_start.push_back(static_cast<int>(b.index.size()));
+  }
+  mean_square /= static_cast<double>(counted.size());
+  const double scale = 1 / std::sqrt(mean_square);
+  for (double& v : b.value) v *= scale;
+  return b;
+}
+
+Eigen::VectorXd fingerprint_coefficients(const Key& key, std::uint64_t id, int functions) {
+  const Key k = derive_key(key, "fingerprint");
+  Eigen::VectorXd g(functions);
+  const double two_pi = 6.283185307179586476925286766559;
+  int filled = 0;
+  for (std::uint32_t block = 0; filled < functions; ++block) {
+    std::vector<std::uint8_t> data;
+    for (int s = 0; s < 64; s += 8) data.push_back(static_cast<std::uint8_t>(id >> s));
+    for (int s = 0; s < 32; s += 8) data.push_back(static_cast<std::uint8_t>(block >> s));
+    const std::vector<std::uint8_t> bits = keyed_hash_bits(k, "fingerprint", data, 512);
+    // 8 words of 64 bits; each pair gives two normals (Box-Muller on uniforms in (0, 1)).
+    double u[8];
+    for (int w = 0; w < 8; ++w) {
+      std::uint64_t x = 0;
+      for (int i = 0; i < 64; ++i) x = x << 1 | bits[64 * w + i];
+      u[w] = (static_cast<double>(x >> 11) + 0.5) / 9007199254740992.0;  // (0, 1), 53 bits
+    }
+    for (int p = 0; p < 4 && filled < functions; ++p) {
+      const double r = std::sqrt(-2 * std::log(u[2 * p])), t = two_pi * u[2 * p + 1];
+      g(filled++) = r * std::cos(t);
+      if (filled < functions) g(filled++) = r * std::sin(t);
+    }
+  }
+  return g;
+}
+
+Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX3d& VO,
+                                 const FingerprintBasis& basis, const Eigen::VectorXd& g,
+                                 double rms) {
+  if (V.rows() != VO.rows() || static_cast<Eigen::Index>(basis.row_start.size()) != V.rows() + 1)
+    throw InvalidArgumentError("the copy, the original and the basis differ in vertex count");
+  if (!(rms >= 0 && rms < 0.01))
+    throw InvalidArgumentError(fmt::format("fingerprint RMS {} is outside [0, 0.01)", rms));
+  const Eigen::VectorXd s = basis.field(g) * (rms * basis.diagonal);
+  // Twins (bit-identical positions) take the displacement of the vertex with basis entries at
+  // their position; a vertex without one stays where it is.
+  const auto bits_of = [&](Eigen::Index i) {
+    std::array<std::uint64_t, 3> key;
+    for (int c = 0; c < 3; ++c) std::memcpy(&key[c], &VO(i, c), sizeof(double));
+    return key;
+  };
+  std::map<std::array<std::uint64_t, 3>, Eigen::Index> first;
+  for (Eigen::Index i = 0; i < VO.rows(); ++i)
+    if (basis.row_start[i + 1] > basis.row_start[i]) first.emplace(bits_of(i), i);
+  std::vector<Eigen::Index> owner(VO.rows(), -1);
+  for (Eigen::Index i = 0; i < VO.rows(); ++i) {
+    const auto it = first.find(bits_of(i));
+    if (it != first.end()) owner[i] = it->second;
+  }
+  Eigen::MatrixX3d out = V;
+  for (Eigen::Index i = 0; i < V.rows(); ++i) {
+    if (owner[i] < 0) continue;
+    const Eigen::Vector3d u = VO.row(owner[i]).transpose() - basis.center;
+    const double len = u.norm();
+    if (len > 0) out.row(i) += (s(owner[i]) / len) * u.transpose();
+  }
+  return out;
+}
+
+Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::VectorXd& residual,
+                                 const std::vector<std::uint8_t>& measured) {
+  const int K = basis.functions;
+  const Eigen::Index n = static_cast<Eigen::Index>(basis.row_start.size()) - 1;
+  if (residual.size() != n || measured.size() != static_cast<std::size_t>(n))
+    throw InvalidArgumentError("the residual, the measured mask and the basis differ in size");
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(K, K);
+  Eigen::VectorXd y = Eigen::VectorXd::Zero(K);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (!measured[i] || !std::isfinite(residual(i))) continue;
+    for (int e = basis.row_start[i]; e < basis.row_start[i + 1]; ++e) {
+      y(basis.index[e]) += basis.value[e] * residual(i);
+      for (int f = basis.row_start[i]; f < basis.row_start[i + 1]; ++f)
+        A(basis.index[e], basis.index[f]) += basis.value[e] * basis.value[f];
+    }
+  }
+  const double ridge = 1e-9 * std::max(A.trace() / K, 1e-300);
+  A.diagonal().array() += ridge;
+  return A.ldlt().solve(y);
+}
+
+double fingerprint_score(const Eigen::VectorXd& g, const Eigen::VectorXd& b) {
+  if (g.size() != b.size())
+    throw InvalidArgumentError("a fingerprint and a reading of different lengths");
+  const double norm = b.norm();
+  return norm > 0 ? g.dot(b) / norm : 0.0;
+}
+
+double normal_upper_tail(double z) {
+  return 0.5 * std::erfc(z / std::sqrt(2.0));
+}
+
+}  // namespace meshmark

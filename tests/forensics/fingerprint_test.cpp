@@ -1,0 +1,183 @@
+// The fingerprint (fingerprint.h) on a real mesh: an innocent's score is exactly standard
+// normal (Kolmogorov-Smirnov over 10^5 innocent IDs against a real reading), an unprocessed copy
+// scores at its full strength, an average of k copies keeps about 1/k of each colluder's raw
+// correlation, and the field is smooth and as strong as asked.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "meshmark/carrier/center.h"
+#include "meshmark/carrier/histogram.h"
+#include "meshmark/core/error.h"
+#include "meshmark/core/mesh.h"
+#include "meshmark/forensics/fingerprint.h"
+#include "meshmark/io/io.h"
+#include "test_data.h"
+
+namespace meshmark {
+namespace {
+
+struct Scene {
+  Mesh original;
+  std::vector<std::uint8_t> carrier;
+  FingerprintBasis basis;
+  Key key = key_from_passphrase_v1("fingerprint test key");
+};
+
+Scene setup(const std::string& name, int functions = 128) {
+  Scene s;
+  s.original = read_mesh(test::cgal_mesh(name));
+  s.carrier = carrier_vertices(s.original.V, s.original.F);
+  const Center c = center_of_mass(s.original.V, s.original.F, s.carrier, CenterKind::Discrete);
+  s.basis = fingerprint_basis(s.original.V, s.original.F, s.carrier, c.point, functions);
+  return s;
+}
+
+// The radial residual of positions P against the original, at the counted vertices.
+Eigen::VectorXd residual(const Scene& s, const Eigen::MatrixX3d& P) {
+  Eigen::VectorXd r(P.rows());
+  for (Eigen::Index i = 0; i < P.rows(); ++i) {
+    const Eigen::Vector3d u = s.original.V.row(i).transpose() - s.basis.center;
+    r(i) = (P.row(i).transpose() - s.basis.center).dot(u.normalized()) - u.norm();
+  }
+  return r;
+}
+
+std::vector<std::uint8_t> counted(const Scene& s) {
+  std::vector<std::uint8_t> m(s.carrier.size());
+  for (std::size_t i = 0; i < m.size(); ++i) m[i] = s.carrier[i] == kCounted;
+  return m;
+}
+
+TEST(Fingerprint, CoefficientsAreKeyedStandardNormalAndReproducible) {
+  const Key k = key_from_passphrase_v1("fingerprint test key");
+  const Eigen::VectorXd g = fingerprint_coefficients(k, 42, 128);
+  EXPECT_EQ(g, fingerprint_coefficients(k, 42, 128));  // regenerated, never stored
+  EXPECT_NE(g, fingerprint_coefficients(k, 43, 128));
+  EXPECT_NE(g, fingerprint_coefficients(key_from_passphrase_v1("another key"), 42, 128));
+  // The first K of a longer draw are the same: K only cuts the stream.
+  EXPECT_EQ(g, fingerprint_coefficients(k, 42, 200).head(128));
+  // Moments over 10^4 IDs x 128: mean 0, variance 1, kurtosis 3 (standard errors 0.0009,
+  // 0.0013, 0.005; tolerance about 5 of them).
+  double m1 = 0, m2 = 0, m4 = 0, n = 0;
+  for (std::uint64_t id = 1; id <= 10000; ++id) {
+    const Eigen::VectorXd x = fingerprint_coefficients(k, id, 128);
+    m1 += x.sum(), m2 += x.squaredNorm(), m4 += x.array().pow(4).sum(), n += 128;
+  }
+  EXPECT_NEAR(m1 / n, 0.0, 0.005);
+  EXPECT_NEAR(m2 / n, 1.0, 0.007);
+  EXPECT_NEAR(m4 / n, 3.0, 0.03);
+}
+
+TEST(Fingerprint, TheFieldIsAsStrongAsAsked) {
+  const Scene s = setup("elephant.off");
+  const double rms = 1e-4;
+  double sum = 0;
+  int copies = 0;
+  for (std::uint64_t id = 1; id <= 20; ++id, ++copies) {
+    const Eigen::MatrixX3d P = add_fingerprint(s.original.V, s.original.V, s.basis,
+                                               fingerprint_coefficients(s.key, id, 128), rms);
+    double sq = 0, n = 0;
+    for (Eigen::Index i = 0; i < P.rows(); ++i)
+      if (s.carrier[i] == kCounted) sq += (P.row(i) - s.original.V.row(i)).squaredNorm(), ++n;
+    sum += std::sqrt(sq / n) / s.basis.diagonal;
+  }
+  // The basis is scaled so that the expected mean square is rms^2: the mean RMS over 20 copies
+  // lies within 10 % of it (each copy's RMS varies with its 128 coefficients).
+  EXPECT_NEAR(sum / copies / rms, 1.0, 0.1);
+}
+
+TEST(Fingerprint, AnUnprocessedCopyScoresAtFullStrength) {
+  const Scene s = setup("elephant.off");
+  const Eigen::VectorXd g = fingerprint_coefficients(s.key, 1500, 128);
+  const Eigen::MatrixX3d P = add_fingerprint(s.original.V, s.original.V, s.basis, g, 1e-4);
+  const Eigen::VectorXd b = read_fingerprint(s.basis, residual(s, P), counted(s));
+  // b is the coefficients themselves, scaled by rms x diagonal: the score is |g| (about
+  // sqrt(128) = 11.3), within 1 % (the radial residual of a radial move is exact).
+  EXPECT_NEAR(fingerprint_score(g, b) / g.norm(), 1.0, 0.01);
+  EXPECT_LT(normal_upper_tail(fingerprint_score(g, b)), 1e-25);
+}
+
+TEST(Fingerprint, InnocentScoresAreStandardNormal) {
+  // A real reading: an average of three copies, so that b holds other buyers' fingerprints.
+  const Scene s = setup("elephant.off");
+  Eigen::MatrixX3d P = Eigen::MatrixX3d::Zero(s.original.V.rows(), 3);
+  for (const std::uint64_t id : {7, 8, 9})
+    P += add_fingerprint(s.original.V, s.original.V, s.basis,
+                         fingerprint_coefficients(s.key, id, 128), 1e-4) /
+         3.0;
+  const Eigen::VectorXd b = read_fingerprint(s.basis, residual(s, P), counted(s));
+  std::vector<double> z;
+  for (std::uint64_t id = 1000; id < 101000; ++id)
+    z.push_back(fingerprint_score(fingerprint_coefficients(s.key, id, 128), b));
+  std::sort(z.begin(), z.end());
+  // Kolmogorov-Smirnov against the standard normal: D below the 0.1 % critical value
+  // 1.95 / sqrt(n) for n = 10^5.
+  double D = 0;
+  const double n = static_cast<double>(z.size());
+  for (std::size_t i = 0; i < z.size(); ++i) {
+    const double F = 1 - normal_upper_tail(z[i]);
+    D = std::max({D, std::abs(F - i / n), std::abs(F - (i + 1) / n)});
+  }
+  EXPECT_LT(D, 1.95 / std::sqrt(n)) << "KS distance of 10^5 innocent scores";
+  // The tail: the count beyond z = 3.09 (p = 1e-3) is binomial(10^5, 1e-3): 100 +- 10.
+  const auto beyond = std::count_if(z.begin(), z.end(), [](double x) { return x > 3.0902; });
+  EXPECT_NEAR(static_cast<double>(beyond), 100.0, 40.0);
+  RecordProperty("ks_distance", std::to_string(D));
+}
+
+TEST(Fingerprint, AnAverageOfKCopiesKeepsAboutOneKthOfEachColluder) {
+  const Scene s = setup("elephant.off");
+  const int K = s.basis.functions;
+  std::vector<Eigen::VectorXd> g, single;  // each colluder's coefficients and lone reading
+  for (int j = 0; j < 8; ++j) {
+    g.push_back(fingerprint_coefficients(s.key, 100 + j, K));
+    single.push_back(read_fingerprint(
+        s.basis, residual(s, add_fingerprint(s.original.V, s.original.V, s.basis, g[j], 1e-4)),
+        counted(s)));
+  }
+  for (const int k : {2, 3, 5, 8}) {
+    Eigen::MatrixX3d P = Eigen::MatrixX3d::Zero(s.original.V.rows(), 3);
+    Eigen::VectorXd mean_single = Eigen::VectorXd::Zero(K);
+    for (int j = 0; j < k; ++j) {
+      P += add_fingerprint(s.original.V, s.original.V, s.basis, g[j], 1e-4) / k;
+      mean_single += single[j] / k;
+    }
+    const Eigen::VectorXd b = read_fingerprint(s.basis, residual(s, P), counted(s));
+    // The reading is linear: the average's reading is the average of the lone readings.
+    EXPECT_LT((b - mean_single).norm(), 1e-9 * mean_single.norm()) << k << " copies";
+    // Colluder 0's raw correlation is 1/k of its lone copy's, plus the others' g_0.g_j / k,
+    // each of standard deviation sqrt(K) against |g_0|^2 of about K: within 4 standard
+    // deviations, 4 sqrt((k - 1) / K) / k.
+    const double ratio = g[0].dot(b) / g[0].dot(single[0]);
+    EXPECT_NEAR(ratio, 1.0 / k, 4 * std::sqrt((k - 1.0) / K) / k) << k << " copies";
+    // The colluders' normalized scores average about sqrt(K / k) (4 for k = 8, K = 128);
+    // within 3 times their spread, sqrt((k - 1) / k).
+    double mean_z = 0;
+    for (int j = 0; j < k; ++j) mean_z += fingerprint_score(g[j], b) / k;
+    EXPECT_NEAR(mean_z, std::sqrt(K / static_cast<double>(k)), 3 * std::sqrt((k - 1.0) / k))
+        << k << " copies";
+  }
+}
+
+TEST(Fingerprint, RefusesWhatItCannotDo) {
+  const Scene s = setup("elephant.off");
+  EXPECT_THROW(fingerprint_basis(s.original.V, s.original.F, s.carrier, s.basis.center, 0),
+               InvalidArgumentError);
+  // 16 counted vertices a function at least.
+  EXPECT_THROW(fingerprint_basis(s.original.V, s.original.F, s.carrier, s.basis.center,
+                                 static_cast<int>(s.original.V.rows())),
+               InvalidArgumentError);
+  EXPECT_THROW(add_fingerprint(s.original.V, s.original.V, s.basis,
+                               fingerprint_coefficients(s.key, 1, 64), 1e-4),
+               InvalidArgumentError);
+  EXPECT_THROW(add_fingerprint(s.original.V, s.original.V, s.basis,
+                               fingerprint_coefficients(s.key, 1, 128), 0.5),
+               InvalidArgumentError);
+}
+
+}  // namespace
+}  // namespace meshmark
