@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+
 #include <algorithm>
 
 #include <filesystem>
@@ -123,10 +125,13 @@ int run(const TraceArgs& a) {
     return false;
   };
   auto score = [](const CandidateScore& s) {
-    return nlohmann::json{
+    nlohmann::json j{
         {"buyer", s.copy.buyer},      {"id", s.copy.id},      {"matches", s.matches},
         {"bits", s.compared},         {"p_value", s.p_value}, {"corrected_p", s.corrected_p},
         {"copy", s.copy.output_path}, {"row", s.copy.row},    {"row_auth", enum_name(s.auth)}};
+    if (std::isfinite(s.fingerprint_z))  // a copy issued with the fingerprint
+      j["fingerprint"] = {{"z", s.fingerprint_z}, {"p_value", s.fingerprint_p}};
+    return j;
   };
   if (a.json) {
     nlohmann::json named = nlohmann::json::array(), top = nlohmann::json::array();
@@ -169,9 +174,14 @@ int run(const TraceArgs& a) {
                r.candidates);
     for (std::size_t i = 0; i < r.ranking.size() && i < 3; ++i) {
       const CandidateScore& s = r.ranking[i];
-      fmt::print("  {:<16} ID {} '{}': {} of {} bits, p = {:.3g}, corrected {:.3g}{}\n",
+      fmt::print("  {:<16} ID {} '{}': {} of {} bits{}, p = {:.3g}, corrected {:.3g}{}\n",
                  i == 0 ? "best" : (i == 1 ? "runner-up" : ""), s.copy.id, printable(s.copy.buyer),
-                 s.matches, s.compared, s.p_value, s.corrected_p,
+                 s.matches, s.compared,
+                 std::isfinite(s.fingerprint_z)
+                     ? fmt::format(", fingerprint z = {:.2f} (p = {:.3g})", s.fingerprint_z,
+                                   s.fingerprint_p)
+                     : "",
+                 s.p_value, s.corrected_p,
                  is_named(s) ? "  NAMED" : (s.auth == RowAuth::Edited ? "  EDITED ROW" : ""));
     }
     if (!a.report.empty()) fmt::print("  report           {}\n", printable(a.report));

@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <map>
 #include <memory>
 
@@ -102,6 +103,10 @@ py::dict score_dict(const CandidateScore& s) {
   d["copy"] = s.copy.output_path;
   d["row"] = s.copy.row;
   d["row_auth"] = enum_name(s.auth);
+  // For a copy issued with the fingerprint: its score (standard normal for an innocent) and
+  // p-value; None otherwise.
+  d["fingerprint_z"] = std::isfinite(s.fingerprint_z) ? py::cast(s.fingerprint_z) : py::none();
+  d["fingerprint_p"] = std::isfinite(s.fingerprint_z) ? py::cast(s.fingerprint_p) : py::none();
   return d;
 }
 
@@ -112,9 +117,10 @@ void init_issue(py::module_& m) {
       "issue",
       [](py::iterable copies, const std::string& registry, py::handle key, py::handle key_file,
          int bits, int id_bits, double strength_spread, py::handle options, int threads,
-         bool resume, bool public_key, const py::kwargs& kwargs) {
+         bool resume, bool public_key, bool fingerprint, const py::kwargs& kwargs) {
         IssueSettings s;
         s.allow_public_key = public_key;
+        s.fingerprint = fingerprint;
         std::vector<CopyRequest> requests;
         std::size_t k = 0;
         MeshCache seen;
@@ -143,7 +149,7 @@ void init_issue(py::module_& m) {
       py::arg("copies"), py::kw_only(), py::arg("registry") = "", py::arg("key") = py::none(),
       py::arg("key_file") = py::none(), py::arg("bits") = 64, py::arg("id_bits") = 32,
       py::arg("strength_spread") = 0.25, py::arg("options") = py::none(), py::arg("threads") = 0,
-      py::arg("resume") = true, py::arg("public_key") = false,
+      py::arg("resume") = true, py::arg("public_key") = false, py::arg("fingerprint") = false,
       "Issues watermarked copies as the CLI's embed --batch does: copies is a list of dicts "
       "{input (a path, or a meshmark.Mesh or (V, F) pair in memory: the registry then "
       "knows the original by its geometry), output, id (a coded buyer ID, or 'auto': the "
@@ -152,7 +158,9 @@ void init_issue(py::module_& m) {
       "issued before, given twice or with codewords too close are refused and the copies "
       "reserved in one transaction before any is written, and the rows of those written "
       "completed in another; coded IDs without a key are refused unless "
-      "public_key=True (anyone can read, remove or forge them). options: an EmbedOptions "
+      "public_key=True (anyone can read, remove or forge them); fingerprint=True adds each "
+      "buyer's fingerprint, which trace reads with the original (mark format 3). options: an "
+      "EmbedOptions "
       "(strength, variant, method); further keywords set its fields, as embed() takes them "
       "(variant='VRS', strength=0.05, ...). Returns one dict per copy: id, status, ok, "
       "message, warnings, strength, bin_offset, "

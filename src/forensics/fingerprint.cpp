@@ -29,7 +29,31 @@ double triangle_area_sum(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
   return area;
 }
 
+// The radial classes a histogram mark moves together: each bin cut into kSlices slices of
+// equal width (the mark's displacement is, but for the center's small motion, a function of a
+// vertex's distance to the center: the bin it lies in and where in the bin). -1: none.
+constexpr int kSlices = 8;
+
+int radial_class(const Histogram& h, Eigen::Index i) {
+  if (h.bin[i] < 0 || !std::isfinite(h.t(i))) return -1;
+  const int slice = std::clamp(static_cast<int>(std::floor(h.t(i) * kSlices)), 0, kSlices - 1);
+  return h.bin[i] * kSlices + slice;
+}
+
+// The coefficients (a, b) of the least-squares line through a class's values, from its Gram
+// matrix G = sum x x^T and moments m = sum x v (x = (1, t)); a constant when t does not vary.
+Eigen::Vector2d fit_line(const Eigen::Matrix2d& G, const Eigen::Vector2d& m) {
+  const double det = G.determinant();
+  if (G(0, 0) > 0 && det > 1e-12 * G(0, 0) * G(0, 0)) return G.inverse() * m;
+  return G(0, 0) > 0 ? Eigen::Vector2d(m(0) / G(0, 0), 0) : Eigen::Vector2d::Zero();
+}
+
 }  // namespace
+
+int fingerprint_functions(std::size_t counted, const FingerprintOptions& options) {
+  const int k = static_cast<int>(std::min<std::size_t>(options.functions, counted / 16));
+  return k >= 8 ? k : 0;
+}
 
 Eigen::VectorXd FingerprintBasis::field(const Eigen::VectorXd& a) const {
   if (a.size() != functions)
@@ -132,12 +156,31 @@ Eigen::VectorXd fingerprint_coefficients(const Key& key, std::uint64_t id, int f
 
 Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX3d& VO,
                                  const FingerprintBasis& basis, const Eigen::VectorXd& g,
-                                 double rms) {
+                                 double rms, const Histogram* keep) {
   if (V.rows() != VO.rows() || static_cast<Eigen::Index>(basis.row_start.size()) != V.rows() + 1)
     throw InvalidArgumentError("the copy, the original and the basis differ in vertex count");
   if (!(rms >= 0 && rms < 0.01))
     throw InvalidArgumentError(fmt::format("fingerprint RMS {} is outside [0, 0.01)", rms));
-  const Eigen::VectorXd s = basis.field(g) * (rms * basis.diagonal);
+  Eigen::VectorXd s = basis.field(g) * (rms * basis.diagonal);
+  if (keep) {
+    if (keep->bin.size() != static_cast<std::size_t>(VO.rows()))
+      throw InvalidArgumentError("the histogram to keep is of another mesh");
+    // Per class, the least-squares fit a + b t of the field (t: the position in the bin) is
+    // taken out.
+    const int classes = keep->bins * kSlices;
+    std::vector<Eigen::Matrix2d> G(classes, Eigen::Matrix2d::Zero());
+    std::vector<Eigen::Vector2d> m(classes, Eigen::Vector2d::Zero());
+    for (Eigen::Index i = 0; i < s.size(); ++i)
+      if (const int c = radial_class(*keep, i); c >= 0) {
+        const Eigen::Vector2d x(1, keep->t(i));
+        G[c] += x * x.transpose(), m[c] += x * s(i);
+      }
+    for (Eigen::Index i = 0; i < s.size(); ++i)
+      if (const int c = radial_class(*keep, i); c >= 0)
+        s(i) -= Eigen::Vector2d(1, keep->t(i)).dot(fit_line(G[c], m[c]));
+    for (const int extreme : {keep->argmin, keep->argmax})
+      if (extreme >= 0) s(extreme) = 0;
+  }
   // Twins (bit-identical positions) take the displacement of the vertex with basis entries at
   // their position; a vertex without one stays where it is.
   const auto bits_of = [&](Eigen::Index i) {
@@ -164,20 +207,51 @@ Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX
 }
 
 Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::VectorXd& residual,
-                                 const std::vector<std::uint8_t>& measured) {
+                                 const std::vector<std::uint8_t>& measured, const Histogram* keep) {
   const int K = basis.functions;
   const Eigen::Index n = static_cast<Eigen::Index>(basis.row_start.size()) - 1;
   if (residual.size() != n || measured.size() != static_cast<std::size_t>(n))
     throw InvalidArgumentError("the residual, the measured mask and the basis differ in size");
+  if (keep && keep->bin.size() != static_cast<std::size_t>(n))
+    throw InvalidArgumentError("the histogram to keep is of another mesh");
+  std::vector<std::uint8_t> used(n, 0);
+  for (Eigen::Index i = 0; i < n; ++i)
+    used[i] = measured[i] && std::isfinite(residual(i)) &&
+              basis.row_start[i + 1] > basis.row_start[i] && (!keep || radial_class(*keep, i) >= 0);
+  // Normal equations of Phi b ~ residual, with both taken out of the span of (1, t) in each
+  // radial class (with `keep`): A = Phi^T Phi - sum_c M_c G_c^-1 M_c^T and
+  // y = Phi^T r - sum_c M_c G_c^-1 R_c, where per class G_c = sum x x^T, M_c = sum phi_i x^T
+  // (K x 2) and R_c = sum x r_i, x = (1, t_i).
   Eigen::MatrixXd A = Eigen::MatrixXd::Zero(K, K);
   Eigen::VectorXd y = Eigen::VectorXd::Zero(K);
+  const int classes = keep ? keep->bins * kSlices : 0;
+  std::vector<Eigen::Matrix2d> G(classes, Eigen::Matrix2d::Zero());
+  std::vector<Eigen::Vector2d> R(classes, Eigen::Vector2d::Zero());
+  std::vector<Eigen::MatrixX2d> M(classes, Eigen::MatrixX2d::Zero(K, 2));
   for (Eigen::Index i = 0; i < n; ++i) {
-    if (!measured[i] || !std::isfinite(residual(i))) continue;
+    if (!used[i]) continue;
     for (int e = basis.row_start[i]; e < basis.row_start[i + 1]; ++e) {
       y(basis.index[e]) += basis.value[e] * residual(i);
       for (int f = basis.row_start[i]; f < basis.row_start[i + 1]; ++f)
         A(basis.index[e], basis.index[f]) += basis.value[e] * basis.value[f];
     }
+    if (!keep) continue;
+    const int c = radial_class(*keep, i);
+    const Eigen::Vector2d x(1, keep->t(i));
+    G[c] += x * x.transpose(), R[c] += x * residual(i);
+    for (int e = basis.row_start[i]; e < basis.row_start[i + 1]; ++e)
+      M[c].row(basis.index[e]) += basis.value[e] * x.transpose();
+  }
+  for (int c = 0; c < classes; ++c) {
+    if (G[c](0, 0) == 0) continue;
+    const double det = G[c].determinant();
+    // A class whose t does not vary is taken out by its mean alone.
+    const Eigen::Matrix2d Ginv =
+        det > 1e-12 * G[c](0, 0) * G[c](0, 0)
+            ? Eigen::Matrix2d(G[c].inverse())
+            : Eigen::Matrix2d((Eigen::Matrix2d() << 1 / G[c](0, 0), 0, 0, 0).finished());
+    A.noalias() -= M[c] * Ginv * M[c].transpose();
+    y.noalias() -= M[c] * (Ginv * R[c]);
   }
   const double ridge = 1e-9 * std::max(A.trace() / K, 1e-300);
   A.diagonal().array() += ridge;

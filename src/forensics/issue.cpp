@@ -6,7 +6,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -14,7 +16,10 @@
 
 #include "core/parallel.h"
 #include "core/progress_counter.h"
+#include "meshmark/carrier/center.h"
+#include "meshmark/carrier/histogram.h"
 #include "meshmark/core/error.h"
+#include "meshmark/forensics/fingerprint.h"
 #include "meshmark/forensics/spacing.h"
 #include "meshmark/protocol/coding.h"
 #include "meshmark/protocol/watermark.h"
@@ -143,6 +148,7 @@ void check_registry(const Registry& registry, std::vector<CopyRequest>& requests
       out[k].record = it->second;
       out[k].record.buyer = requests[k].buyer;
       out[k].record.id = requests[k].id.value_or(0);
+      if (settings.fingerprint) out[k].record.mark_format = kFingerprintMarkFormat;
       candidates.push_back(k);
       if (requests[k].auto_id)
         automatic.push_back(k), chosen.push_back(out[k].record);
@@ -234,6 +240,11 @@ void check_registry(const Registry& registry, std::vector<CopyRequest>& requests
 struct Original {
   Mesh mesh;
   PreparedEmbedder embedder;
+  /// The fingerprint's basis (IssueSettings::fingerprint); none without, or for an original
+  /// too small for one (fingerprint_functions()).
+  std::optional<FingerprintBasis> fingerprint;
+  Histogram histogram;      ///< the original's, around the fingerprint's center (settings.bits)
+  std::size_t counted = 0;  ///< counted carrier vertices
 };
 
 // Embeds and writes one copy (out[k] pending).
@@ -283,6 +294,26 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   Mesh copy = original.mesh;
   copy.V = std::move(out.result.V);
   out.result.V.resize(0, 3);
+  double fingerprint_rms = 0;  // as a fraction of the diagonal
+  if (settings.fingerprint) {
+    if (!coded) {
+      refuse(out, "a fingerprint goes with a coded ID, not a raw payload");
+      return;
+    }
+    if (!original.fingerprint) {
+      refuse(out, fmt::format("{}: {} counted carrier vertices are too few for a fingerprint "
+                              "({} at least); issue it without one",
+                              request.input, original.counted, 16 * 8));
+      return;
+    }
+    const FingerprintBasis& b = *original.fingerprint;
+    const Eigen::MatrixX3d before = copy.V;
+    copy.V =
+        add_fingerprint(copy.V, original.mesh.V, b,
+                        fingerprint_coefficients(id_key(settings.key), *request.id, b.functions),
+                        FingerprintOptions().rms, &original.histogram);
+    fingerprint_rms = std::sqrt((copy.V - before).rowwise().squaredNorm().mean()) / b.diagonal;
+  }
   ExtractOptions eo;
   eo.center = o.variant.center;
   eo.method = o.method;
@@ -297,12 +328,14 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
     out.status = CopyStatus::WriteFailed, out.message = e.what();
     return;
   }
-  out.message =
-      fmt::format("{} rounds, RMS {:.5f} %{}, {:.1f} ms", out.result.rounds, out.result.rms_percent,
-                  out.calibration ? fmt::format(", strength {:.5f}, MSDM {:.4f}",
-                                                out.calibration->strength, out.calibration->msdm)
-                                  : "",
-                  1e3 * out.result.seconds);
+  out.message = fmt::format(
+      "{} rounds, RMS {:.5f} %{}{}, {:.1f} ms", out.result.rounds, out.result.rms_percent,
+      fingerprint_rms > 0 ? fmt::format(" and fingerprint RMS {:.5f} %", 100 * fingerprint_rms)
+                          : "",
+      out.calibration ? fmt::format(", strength {:.5f}, MSDM {:.4f}", out.calibration->strength,
+                                    out.calibration->msdm)
+                      : "",
+      1e3 * out.result.seconds);
   if (request.auto_id) out.message = fmt::format("ID {}, {}", *request.id, out.message);
   if (out.result.check.status == CarrierHealth::Weak)
     out.message += fmt::format(" (warning: {})", out.result.check.summary());
@@ -496,8 +529,22 @@ IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings&
           requests[k].mesh ? *requests[k].mesh : read_mesh(requests[k].input, settings.read);
       if (requests[k].mesh) validate_mesh(mesh.V, mesh.F, requests[k].input);
       PreparedEmbedder embedder(mesh.V, mesh.F, settings.embedding);
-      originals[input] =
-          std::make_shared<const Original>(Original{std::move(mesh), std::move(embedder)});
+      std::optional<FingerprintBasis> basis;
+      Histogram histogram;
+      std::size_t counted = 0;
+      if (settings.fingerprint) {
+        const std::vector<std::uint8_t> carrier = carrier_vertices(mesh.V, mesh.F);
+        counted = static_cast<std::size_t>(std::count(carrier.begin(), carrier.end(), kCounted));
+        const int functions = fingerprint_functions(counted);
+        if (functions > 0) {
+          const Center c =
+              center_of_mass(mesh.V, mesh.F, carrier, settings.embedding.variant.center);
+          basis = fingerprint_basis(mesh.V, mesh.F, carrier, c.point, functions);
+          histogram = build_histogram(mesh.V, carrier, c.point, settings.bits);
+        }
+      }
+      originals[input] = std::make_shared<const Original>(Original{
+          std::move(mesh), std::move(embedder), std::move(basis), std::move(histogram), counted});
     } catch (const IOError& e) {
       failed[input] = {CopyStatus::Unreadable, e.what()};
     } catch (const InvalidInputError& e) {

@@ -7,6 +7,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <string>
 #include <vector>
 
 #include "meshmark/carrier/center.h"
@@ -14,6 +16,9 @@
 #include "meshmark/core/error.h"
 #include "meshmark/core/mesh.h"
 #include "meshmark/forensics/fingerprint.h"
+#include "meshmark/forensics/issue.h"
+#include "meshmark/forensics/registry.h"
+#include "meshmark/forensics/trace.h"
 #include "meshmark/io/io.h"
 #include "test_data.h"
 
@@ -161,6 +166,86 @@ TEST(Fingerprint, AnAverageOfKCopiesKeepsAboutOneKthOfEachColluder) {
     EXPECT_NEAR(mean_z, std::sqrt(K / static_cast<double>(k)), 3 * std::sqrt((k - 1.0) / k))
         << k << " copies";
   }
+}
+
+TEST(Fingerprint, KeepingAHistogramLeavesItsBinMeansAndRangeAndReadsBackWhole) {
+  const Scene s = setup("elephant.off");
+  const Histogram h = build_histogram(s.original.V, s.carrier, s.basis.center, 64);
+  const Eigen::VectorXd g = fingerprint_coefficients(s.key, 77, s.basis.functions);
+  const Eigen::MatrixX3d P = add_fingerprint(s.original.V, s.original.V, s.basis, g, 1e-4, &h);
+  // Each bin's mean distance to the center, computed here from the positions: unchanged to
+  // 1e-9 of the bin width (the field's line in t over each slice of a bin is taken out).
+  std::vector<double> before(h.bins, 0), after(h.bins, 0), count(h.bins, 0);
+  for (Eigen::Index i = 0; i < P.rows(); ++i) {
+    if (h.bin[i] < 0) continue;
+    before[h.bin[i]] += (s.original.V.row(i).transpose() - h.center).norm();
+    after[h.bin[i]] += (P.row(i).transpose() - h.center).norm();
+    count[h.bin[i]] += 1;
+  }
+  for (int b = 0; b < h.bins; ++b)
+    if (count[b] > 0)
+      EXPECT_NEAR((after[b] - before[b]) / count[b] / h.step, 0.0, 1e-9) << "bin " << b;
+  // The vertices that set the range stay.
+  EXPECT_EQ(P.row(h.argmin), s.original.V.row(h.argmin));
+  EXPECT_EQ(P.row(h.argmax), s.original.V.row(h.argmax));
+  // Read with the same histogram, the field comes back whole: the score is |g| within 1 %.
+  const Eigen::VectorXd b = read_fingerprint(s.basis, residual(s, P), counted(s), &h);
+  EXPECT_NEAR(fingerprint_score(g, b) / g.norm(), 1.0, 0.01);
+  // What depends on the distance to the center alone drops out of the reading: a smooth radial
+  // profile 10 times the fingerprint's size (a shrinkage, a histogram mark) changes the score
+  // by under 2 %.
+  Eigen::VectorXd profile = residual(s, P);
+  for (Eigen::Index i = 0; i < profile.size(); ++i) {
+    const double rho = (s.original.V.row(i).transpose() - h.center).norm();
+    profile(i) += 1e-3 * s.basis.diagonal * std::sin(40 * rho / s.basis.diagonal);
+  }
+  const Eigen::VectorXd b2 = read_fingerprint(s.basis, profile, counted(s), &h);
+  EXPECT_NEAR(fingerprint_score(g, b2) / g.norm(), 1.0, 0.02);
+}
+
+// Issued and traced through the library as the CLI does: 20 consecutive IDs of bunny00 with
+// the fingerprint (a real scan, 37,706 vertices). An unprocessed copy names its buyer with the
+// fingerprint at about its full strength; the vertex-wise average of three copies, which the
+// histogram mark alone does not survive (issue 30), names colluders and never anyone else.
+TEST(Fingerprint, IssuedCopiesTraceAndAnAverageOfThreeNamesOnlyColluders) {
+  const std::string original = test::cgal_mesh("bunny00.off");
+  MESHMARK_REQUIRE(original, "libcgal-demo's bunny00.off");
+  const std::string dir = test::scratch_dir() + "/fingerprint-issue";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  IssueSettings settings;
+  settings.key = key_from_passphrase_v1("fingerprint shop key");
+  settings.registry = dir + "/shop.db";
+  settings.fingerprint = true;
+  std::vector<CopyRequest> requests;
+  for (std::uint64_t id = 1001; id <= 1020; ++id) {
+    CopyRequest r;
+    r.input = original;
+    r.output = dir + "/copy-" + std::to_string(id) + ".ply";
+    r.id = id;
+    r.buyer = "buyer " + std::to_string(id);
+    requests.push_back(r);
+  }
+  const IssueResult issued = issue_copies(requests, settings);
+  ASSERT_EQ(issued.count(CopyStatus::Written), requests.size()) << issued.copies[0].message;
+  const Mesh O = read_mesh(original);
+  const auto trace_of = [&](const Mesh& leak) {
+    return trace_issued(leak, O, content_hash(read_file(original)), settings.registry,
+                        *settings.key);
+  };
+  const TraceResult one = trace_of(read_mesh(requests[6].output));
+  ASSERT_EQ(one.status, TraceStatus::Named) << one.message;
+  ASSERT_EQ(one.named.size(), 1u);
+  EXPECT_EQ(one.named[0].copy.id, 1007u);
+  EXPECT_GT(one.named[0].fingerprint_z, 0.8 * std::sqrt(128.0)) << "full strength: |g|";
+  for (const CandidateScore& c : one.ranking) EXPECT_EQ(c.copy.mark_format, kFingerprintMarkFormat);
+  Mesh average = read_mesh(requests[2].output);
+  for (const int k : {3, 4}) average.V += read_mesh(requests[k].output).V;
+  average.V /= 3;
+  const TraceResult avg = trace_of(average);
+  ASSERT_EQ(avg.status, TraceStatus::Named) << avg.message;
+  for (const CandidateScore& n : avg.named)
+    EXPECT_TRUE(n.copy.id >= 1003 && n.copy.id <= 1005) << "an innocent named: " << n.copy.id;
 }
 
 TEST(Fingerprint, RefusesWhatItCannotDo) {

@@ -18,9 +18,15 @@
 #include <cstdint>
 #include <vector>
 
+#include "meshmark/carrier/histogram.h"
 #include "meshmark/protocol/key.h"
 
 namespace meshmark {
+
+/// The mark format of a copy issued with the fingerprint (IssuedCopy::mark_format): format 2's
+/// histogram mark and ID code (the same keys), plus the fingerprint with FingerprintOptions'
+/// defaults.
+inline constexpr int kFingerprintMarkFormat = 3;
 
 /// Settings of the fingerprint; part of mark format 3 (docs/format.md section 8).
 struct FingerprintOptions {
@@ -30,6 +36,10 @@ struct FingerprintOptions {
   /// bounding-box diagonal (1e-4: 0.01 %, a quarter of the paper's RMS limit of 0.04 %).
   double rms = 1e-4;
 };
+
+/// K for an original with `counted` counted carrier vertices: options.functions, or one per 16
+/// vertices when there are fewer; 0 (no fingerprint) below 8 functions (128 vertices).
+int fingerprint_functions(std::size_t counted, const FingerprintOptions& options = {});
 
 /// The basis of an original: K Gaussian bumps exp(-|v - c_k|^2 / (2 w^2)), centered at K
 /// carrier vertices picked by farthest-point sampling and cut at 3 w, scaled together so that
@@ -66,14 +76,23 @@ Eigen::VectorXd fingerprint_coefficients(const Key& key, std::uint64_t id, int f
 /// V with the fingerprint g added: vertex i moved by rms x diagonal x (Phi g)_i along the unit
 /// vector from the basis' center through VO_i (VO: the original's positions, on which the basis
 /// was built; V: the copy's, the same rows). Twins move like the vertex they sit on.
+/// With `keep` (the original's histogram, built around the basis' center), the field's mean
+/// over each radial class of it (each bin cut into 8 slices of equal width) is taken out and
+/// the vertices that set its range do not move: the bins' mean distances, which a histogram
+/// mark sets, stay as they are, and the field is orthogonal to any function of the distance to
+/// the center alone, which is what a histogram mark's displacement nearly is.
 Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX3d& VO,
                                  const FingerprintBasis& basis, const Eigen::VectorXd& g,
-                                 double rms);
+                                 double rms, const Histogram* keep = nullptr);
 
 /// b: the least-squares fit Phi b ~ residual over the vertices where measured[i] != 0 and the
-/// basis has entries (a tiny ridge keeps it defined where no vertex covers a bump).
+/// basis has entries (a tiny ridge keeps it defined where no vertex covers a bump). With `keep`
+/// (the histogram add_fingerprint kept), the residual and every column of Phi lose their mean
+/// over each radial class first: what a histogram mark moved (a function of the distance to the
+/// center) drops out, and a field added with the same `keep` reads back whole.
 Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::VectorXd& residual,
-                                 const std::vector<std::uint8_t>& measured);
+                                 const std::vector<std::uint8_t>& measured,
+                                 const Histogram* keep = nullptr);
 
 /// A candidate's score: g.b / |b| (0 when b is 0). Exactly standard normal when g is a standard
 /// normal vector independent of b.

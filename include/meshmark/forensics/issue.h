@@ -56,6 +56,12 @@ struct IssueSettings {
   /// Fidelity limits: each copy gets the strongest mark within them; none: every copy at
   /// embedding.strength.
   std::optional<CalibrateOptions> limits;
+  /// Coded IDs: also add the buyer's fingerprint (fingerprint.h), which only trace reads,
+  /// with the original; such copies are recorded as mark format 3 (kFingerprintMarkFormat).
+  /// It moves the vertices by a further RMS of FingerprintOptions::rms (0.01 %) of the
+  /// diagonal, outside the fidelity limits' search. A raw payload, or an original with fewer
+  /// than 128 counted carrier vertices, is refused with it.
+  bool fingerprint = false;
   std::string registry;  ///< record coded copies there (SQLite file or postgresql:// URI); "" none
   bool resume = true;    ///< skip copies an earlier run issued and recorded, their files intact
   int threads = 0;       ///< copies embedded at once; 0: one per hardware thread

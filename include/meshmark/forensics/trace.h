@@ -21,6 +21,7 @@
 /// named; two or more are reported together (collusion: both colluders of an average of two
 /// copies match every bit outside the band).
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -69,8 +70,13 @@ struct CandidateScore {
   int matches = 0;         ///< bits read equal to its codeword's (best reading)
   int compared = 0;        ///< bits compared (not erased) in that reading
   double p_value = 1;      ///< this candidate alone: the smallest exact p over the readings
-                           ///< times their number
+                           ///< times their number; for a copy with a fingerprint (mark format
+                           ///< 3), twice the smaller of that and fingerprint_p
   double corrected_p = 1;  ///< min(1, p_value x candidates)
+  /// The fingerprint's score (fingerprint.h: standard normal for an innocent) and its p-value
+  /// (the normal upper tail), for a copy issued with one; NaN and 1 otherwise.
+  double fingerprint_z = std::numeric_limits<double>::quiet_NaN();
+  double fingerprint_p = 1;
   /// The row's authentication code under the trace's key (check_row): an Edited row is
   /// scored and counted but never named.
   RowAuth auth = RowAuth::Unauthenticated;
