@@ -205,9 +205,9 @@ TEST(Fingerprint, KeepingAHistogramLeavesItsBinMeansAndRangeAndReadsBackWhole) {
 
 // Issued and traced through the library as the CLI does: 20 consecutive IDs of bunny00 with
 // the fingerprint (a real scan, 37,706 vertices). An unprocessed copy names its buyer with the
-// fingerprint at about its full strength; the vertex-wise average of three copies, which the
-// histogram mark alone does not survive (issue 30), names colluders and never anyone else.
-TEST(Fingerprint, IssuedCopiesTraceAndAnAverageOfThreeNamesOnlyColluders) {
+// fingerprint at about its full strength; vertex-wise averages of three and five copies, which
+// the histogram mark alone does not survive (issue 30), name colluders and nobody else.
+TEST(Fingerprint, IssuedCopiesTraceAndAveragesOfThreeAndFiveNameOnlyColluders) {
   const std::string original = test::cgal_mesh("bunny00.off");
   MESHMARK_REQUIRE(original, "libcgal-demo's bunny00.off");
   const std::string dir = test::scratch_dir() + "/fingerprint-issue";
@@ -237,15 +237,25 @@ TEST(Fingerprint, IssuedCopiesTraceAndAnAverageOfThreeNamesOnlyColluders) {
   ASSERT_EQ(one.status, TraceStatus::Named) << one.message;
   ASSERT_EQ(one.named.size(), 1u);
   EXPECT_EQ(one.named[0].copy.id, 1007u);
-  EXPECT_GT(one.named[0].fingerprint_z, 0.8 * std::sqrt(128.0)) << "full strength: |g|";
+  // Full strength: z about |g|, sqrt(K) (K = 512 on bunny00); within 20 %.
+  const std::vector<std::uint8_t> carrier = carrier_vertices(O.V, O.F);
+  const int K = fingerprint_functions(
+      static_cast<std::size_t>(std::count(carrier.begin(), carrier.end(), kCounted)));
+  EXPECT_EQ(K, FingerprintOptions().functions);
+  EXPECT_GT(one.named[0].fingerprint_z, 0.8 * std::sqrt(static_cast<double>(K)));
   for (const CandidateScore& c : one.ranking) EXPECT_EQ(c.copy.mark_format, kFingerprintMarkFormat);
-  Mesh average = read_mesh(requests[2].output);
-  for (const int k : {3, 4}) average.V += read_mesh(requests[k].output).V;
-  average.V /= 3;
-  const TraceResult avg = trace_of(average);
-  ASSERT_EQ(avg.status, TraceStatus::Named) << avg.message;
-  for (const CandidateScore& n : avg.named)
-    EXPECT_TRUE(n.copy.id >= 1003 && n.copy.id <= 1005) << "an innocent named: " << n.copy.id;
+  // Averages of 3 and 5 copies (IDs 1003 to 1005, 1003 to 1007): colluders named, only them.
+  for (const int k : {3, 5}) {
+    Mesh average = read_mesh(requests[2].output);
+    for (int j = 1; j < k; ++j) average.V += read_mesh(requests[2 + j].output).V;
+    average.V /= k;
+    const TraceResult avg = trace_of(average);
+    ASSERT_EQ(avg.status, TraceStatus::Named) << k << " copies: " << avg.message;
+    for (const CandidateScore& n : avg.named)
+      EXPECT_TRUE(n.copy.id >= 1003 && n.copy.id < 1003u + k)
+          << k << " copies: an innocent named: " << n.copy.id;
+    RecordProperty("colluders_named_of_" + std::to_string(k), std::to_string(avg.named.size()));
+  }
 }
 
 TEST(Fingerprint, RefusesWhatItCannotDo) {
