@@ -140,3 +140,28 @@ def test_issue_and_trace_take_meshes_in_memory(fandisk, tmp_path):
         meshmark.issue([{"input": (V, bad), "output": tmp_path / "bad.ply", "id": 40}],
                        registry=db, key=KEY)
     assert not (tmp_path / "bad.ply").exists()
+
+
+def test_the_fingerprint_is_issued_and_scored(fandisk, tmp_path):
+    """issue(fingerprint=True) records mark format 3; trace scores every such candidate's
+    fingerprint (a float z), names the buyer, and keeps None for copies without one."""
+    db = str(tmp_path / "shop.db")
+    copies = [{"input": fandisk, "output": tmp_path / f"f-{i}.ply", "id": i,
+               "buyer": f"fp {i}"} for i in (61, 62, 63)]
+    out = meshmark.issue(copies, registry=db, key=KEY, fingerprint=True)
+    assert [o["status"] for o in out] == ["written"] * 3, out
+    rows = [json.loads(line) for line in run_cli(
+        "registry", "export", db, "--format", "jsonl").splitlines()]
+    assert sorted(r["mark_format"] for r in rows) == [3, 3, 3]
+    found = meshmark.trace(tmp_path / "f-62.ply", fandisk, db, key=KEY)
+    assert [n["id"] for n in found["named"]] == [62], found
+    # A copy's own fingerprint at full strength: z near sqrt(K), far above any innocent's.
+    assert found["named"][0]["fingerprint_z"] > 8
+    others = [c for c in found["ranking"] if c["id"] != 62]
+    assert all(isinstance(c["fingerprint_z"], float) and c["fingerprint_z"] < 5 for c in others)
+    # The same copy traced against a registry issued without the fingerprint: no score.
+    plain = str(tmp_path / "plain.db")
+    meshmark.issue([{"input": fandisk, "output": tmp_path / "p-62.ply", "id": 62}],
+                   registry=plain, key=KEY)
+    nofp = meshmark.trace(tmp_path / "p-62.ply", fandisk, plain, key=KEY)
+    assert nofp["named"][0]["fingerprint_z"] is None and nofp["named"][0]["fingerprint_p"] is None
