@@ -11,7 +11,15 @@ namespace {
 
 struct Data {
   const GeneralQp* qp;
+  int iterations = 0;  // the last iteration Ipopt reported
 };
+
+// Ipopt's intermediate callback: records the iteration count, never stops the solve.
+Bool count_iterations(Index, Index iter_count, Number, Number, Number, Number, Number, Number,
+                      Number, Number, Index, UserDataPtr user) {
+  static_cast<Data*>(user)->iterations = static_cast<int>(iter_count);
+  return 1;
+}
 
 Eigen::VectorXd quadratic_part(const GeneralQp& qp, const Number* x) {
   const Eigen::Map<const Eigen::VectorXd> xv(x, qp.c.size());
@@ -103,6 +111,7 @@ GeneralQpSolution solve_general_qp_with_ipopt(const GeneralQp& qp, const IpoptOp
   GeneralQpSolution sol;
   sol.x = (qp.x_lo + qp.x_hi) / 2;
   Data data{&qp};
+  SetIntermediateCallback(problem, count_iterations);
   Number obj = 0;
   const auto status =
       IpoptSolve(problem, sol.x.data(), nullptr, &obj, nullptr, nullptr, nullptr, &data);
@@ -110,6 +119,7 @@ GeneralQpSolution solve_general_qp_with_ipopt(const GeneralQp& qp, const IpoptOp
   sol.status = static_cast<int>(status);
   sol.ok = status == Solve_Succeeded || status == Solved_To_Acceptable_Level;
   sol.objective = obj;
+  sol.iterations = data.iterations;
   return sol;
 }
 
@@ -147,6 +157,7 @@ QpResult solve_round_with_ipopt(const SeparableQp& qp, const Eigen::SparseMatrix
   QpResult r;
   r.x = s.x.cwiseMax(qp.lo).cwiseMin(qp.hi);
   r.objective = s.objective;
+  r.iterations = s.iterations;
   r.status = s.ok ? QpStatus::Solved : QpStatus::IterationLimit;
   Eigen::VectorXd rows = Eigen::VectorXd::Zero(m);
   Eigen::Vector3d ex = -qp.c;

@@ -28,6 +28,7 @@ struct GeneralQpSolution {
   int status = 0;  ///< Ipopt's ApplicationReturnStatus
   Eigen::VectorXd x;
   double objective = 0;
+  int iterations = 0;  ///< Ipopt's iterations (its intermediate callback's last iter_count)
 };
 
 /// Solves with Ipopt (no bound relaxation, exact constant Hessian and Jacobian).

@@ -4,8 +4,11 @@
 #include <gtest/gtest.h>
 
 #include "meshmark/core/random.h"
+#include "meshmark/io/io.h"
+#include "meshmark/mark/embed.h"
 #include "meshmark/solve/separable_qp.h"
 #include "solve/ipopt_reference.h"
+#include "test_data.h"
 
 using namespace meshmark;
 
@@ -134,4 +137,25 @@ TEST(SeparableQp, RowWithoutVariablesIsInfeasibleOnlyWhenItAsksForSomething) {
   const QpResult r = solve_separable_qp(qp);
   EXPECT_EQ(r.status, QpStatus::Infeasible);
   EXPECT_EQ(r.infeasible_rows, std::vector<int>{2});
+}
+
+// Ipopt's iteration count comes from its own intermediate callback: a solve cut at N iterations
+// by Ipopt's max_iter reports N, and an embedding with the Ipopt backend counts its rounds'
+// iterations (it reported 0 before).
+TEST(SeparableQp, IpoptReportsTheIterationsItRan) {
+  const SeparableQp qp = random_problem(400, 12, 3);
+  const auto full = solve_general_qp_with_ipopt(as_reference(qp));
+  ASSERT_TRUE(full.ok) << "Ipopt status " << full.status;
+  ASSERT_GT(full.iterations, 2);
+  IpoptOptions cut_short;
+  cut_short.max_iterations = full.iterations / 2;
+  const auto cut = solve_general_qp_with_ipopt(as_reference(qp), cut_short);
+  EXPECT_FALSE(cut.ok);
+  EXPECT_EQ(cut.iterations, cut_short.max_iterations);
+  const Mesh spot = read_mesh(test::data_mesh("spot.obj"));
+  EmbedOptions o;
+  o.backend = SolverBackend::Ipopt;
+  const EmbedResult r = embed(spot.V, spot.F, random_payload(64, 5), o);
+  ASSERT_EQ(r.status, EmbedStatus::Embedded) << r.message;
+  EXPECT_GE(r.solver_iterations, r.rounds);
 }

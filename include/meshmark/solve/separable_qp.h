@@ -70,7 +70,7 @@ struct QpResult {
   double primal_residual = 0;
   double complementarity = 0;        ///< this solver only: max_j |min(y_j, slack_j)|; 0 otherwise
   double dual_residual = 0;          ///< ADMM only: rho |z - z_prev|_inf; 0 otherwise
-  int iterations = 0;                ///< Newton iterations (ADMM: ADMM steps; Ipopt: 0)
+  int iterations = 0;                ///< Newton iterations (ADMM: ADMM steps; Ipopt: its own)
   std::vector<int> infeasible_rows;  ///< rows that cannot reach their right-hand side
 };
 
