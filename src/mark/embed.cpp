@@ -155,7 +155,11 @@ CarrierCheck PreparedEmbedder::check(int nb) const {
 EmbedResult embed(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Payload& payload,
                   const EmbedOptions& options) {
   check_options(payload, options);
-  return PreparedEmbedder(V, F, options).embed(payload, options);
+  // The time covers the preparation too (VSS's roughness field is most of a one-shot embed).
+  const auto start = std::chrono::steady_clock::now();
+  EmbedResult res = PreparedEmbedder(V, F, options).embed(payload, options);
+  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return res;
 }
 
 EmbedResult PreparedEmbedder::embed(const Payload& payload, const EmbedOptions& options) const {

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <set>
 
 #include "mark/embed_problem.h"
@@ -251,4 +252,20 @@ TEST(LaplacianCost, CholeskyFactorsAreKeptForAnUnchangedHessian) {
   H2.diagonal().array() += 0.25;
   solver.set_hessian(H2, s);
   EXPECT_EQ(solver.factorizations(), 2);
+}
+
+// A one-shot embed() reports the time of the whole computation, the preparation included (VSS's
+// roughness field was left out of its seconds): at least 80 % of the wall time measured around
+// the call, and no more than it.
+TEST(EmbedTiming, AOneShotEmbedCountsItsPreparation) {
+  const Mesh m = read_mesh(test::cgal_mesh("elephant.off"));
+  EmbedOptions o;
+  o.variant = parse_variant("VSS");
+  const auto start = std::chrono::steady_clock::now();
+  const EmbedResult r = embed(m.V, m.F, random_payload(64, 3), o);
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_EQ(r.status, EmbedStatus::Embedded) << r.message;
+  EXPECT_GE(r.seconds, 0.8 * wall);
+  EXPECT_LE(r.seconds, wall);
 }

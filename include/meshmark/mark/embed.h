@@ -93,7 +93,9 @@ struct EmbedResult {
   double rms_percent = 0;           ///< rms_displacement as % of the bounding-box diagonal
   double center_drift = 0;          ///< |C^w - C| in bin widths
   double bin_width = 0;             ///< s of the original histogram (model units)
-  double seconds = 0;               ///< wall time of the computation (no file I/O)
+  /// Wall time of the computation (no file I/O), in seconds: embed() counts the preparation
+  /// (carrier, center, VSS's roughness field), PreparedEmbedder::embed the embedding alone.
+  double seconds = 0;
   /// The input's carrier checked for nb bits before embedding (carrier_check.h): Weak is a
   /// warning (bits that one vertex decides, or empty bins); Unusable stops with InvalidMesh.
   CarrierCheck check;
