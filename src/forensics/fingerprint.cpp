@@ -40,12 +40,17 @@ int radial_class(const Histogram& h, Eigen::Index i) {
   return h.bin[i] * kSlices + slice;
 }
 
-// The coefficients (a, b) of the least-squares line through a class's values, from its Gram
-// matrix G = sum x x^T and moments m = sum x v (x = (1, t)); a constant when t does not vary.
+// What maps a class's moments m = sum x v (x = (1, t)) to the coefficients (a, b) of the
+// least-squares line through its values, from its Gram matrix G = sum x x^T: G^-1, or the mean
+// alone (a constant) when t does not vary; zero for an empty class.
+Eigen::Matrix2d line_fit_operator(const Eigen::Matrix2d& G) {
+  if (!(G(0, 0) > 0)) return Eigen::Matrix2d::Zero();
+  if (G.determinant() > 1e-12 * G(0, 0) * G(0, 0)) return G.inverse();
+  return (Eigen::Matrix2d() << 1 / G(0, 0), 0, 0, 0).finished();
+}
+
 Eigen::Vector2d fit_line(const Eigen::Matrix2d& G, const Eigen::Vector2d& m) {
-  const double det = G.determinant();
-  if (G(0, 0) > 0 && det > 1e-12 * G(0, 0) * G(0, 0)) return G.inverse() * m;
-  return G(0, 0) > 0 ? Eigen::Vector2d(m(0) / G(0, 0), 0) : Eigen::Vector2d::Zero();
+  return line_fit_operator(G) * m;
 }
 
 }  // namespace
@@ -244,12 +249,7 @@ Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::Vec
   }
   for (int c = 0; c < classes; ++c) {
     if (G[c](0, 0) == 0) continue;
-    const double det = G[c].determinant();
-    // A class whose t does not vary is taken out by its mean alone.
-    const Eigen::Matrix2d Ginv =
-        det > 1e-12 * G[c](0, 0) * G[c](0, 0)
-            ? Eigen::Matrix2d(G[c].inverse())
-            : Eigen::Matrix2d((Eigen::Matrix2d() << 1 / G[c](0, 0), 0, 0, 0).finished());
+    const Eigen::Matrix2d Ginv = line_fit_operator(G[c]);
     A.noalias() -= M[c] * Ginv * M[c].transpose();
     y.noalias() -= M[c] * (Ginv * R[c]);
   }
