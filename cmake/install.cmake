@@ -1,7 +1,7 @@
 # Installation and the CMake package: `cmake --install build --prefix P` puts the library, its
 # public headers, the generated version header and the CLI (bin/meshmark) under P, and a package
-# that another project finds with find_package(meshmark) and links as meshmark::meshmark
-# (P/lib/cmake/meshmark).
+# that another project finds with find_package(meshmark [COMPONENTS core draco ...]) and links
+# as meshmark::core, meshmark::NAME, or meshmark::meshmark for all (P/lib/cmake/meshmark).
 include(CMakePackageConfigHelpers)
 
 # A sanitized library needs its runtime at the consumer's link, and the consumer compiled with
@@ -10,32 +10,53 @@ include(CMakePackageConfigHelpers)
 # malloc and the library frees with Eigen's own aligned free (or the reverse) is a
 # heap-buffer-overflow (the package test's first run under ASan found it).
 if(MESHMARK_SANITIZE)
-  target_compile_options(meshmark INTERFACE -fsanitize=address,undefined)
-  target_link_options(meshmark INTERFACE -fsanitize=address,undefined)
+  target_compile_options(meshmark_core INTERFACE -fsanitize=address,undefined)
+  target_link_options(meshmark_core INTERFACE -fsanitize=address,undefined)
 endif()
 
+# One export set per library: meshmarkCoreTargets.cmake for meshmark::core, and
+# meshmark_NAMETargets.cmake for each component, which the package config includes only when
+# asked for the component (so that a consumer of the core needs none of the components'
+# dependencies).
 set(MESHMARK_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/meshmark)
-install(TARGETS meshmark EXPORT meshmarkTargets
+set_target_properties(meshmark_core PROPERTIES EXPORT_NAME core)
+install(TARGETS meshmark_core EXPORT meshmarkCoreTargets
   ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
   LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
   RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
-# The installed CLI finds a shared libmeshmark beside it (prefix/lib) wherever the prefix is.
+install(EXPORT meshmarkCoreTargets NAMESPACE meshmark:: DESTINATION ${MESHMARK_CMAKE_DIR})
+foreach(component IN LISTS MESHMARK_COMPONENTS)
+  # A shared component finds the core beside it, wherever the prefix is.
+  set_target_properties(meshmark_${component} PROPERTIES EXPORT_NAME ${component}
+                        INSTALL_RPATH "$ORIGIN")
+  install(TARGETS meshmark_${component} EXPORT meshmark_${component}Targets
+    ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+    LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
+    RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+  install(EXPORT meshmark_${component}Targets NAMESPACE meshmark:: DESTINATION ${MESHMARK_CMAKE_DIR})
+endforeach()
+# The installed CLI finds the shared libmeshmark_* beside it (prefix/lib) wherever the prefix is.
 set_target_properties(meshmark_cli PROPERTIES INSTALL_RPATH "$ORIGIN/../${CMAKE_INSTALL_LIBDIR}")
 install(TARGETS meshmark_cli RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/include/meshmark ${PROJECT_BINARY_DIR}/include/meshmark
   DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} FILES_MATCHING PATTERN "*.h")
-install(EXPORT meshmarkTargets NAMESPACE meshmark:: DESTINATION ${MESHMARK_CMAKE_DIR})
 
-# The config finds the dependencies the exported target names: Eigen3 (public: the headers use
-# it) always, and the private ones too when the library is static (its link interface lists them
-# as $<LINK_ONLY:...>).
-get_target_property(MESHMARK_LIBRARY_TYPE meshmark TYPE)
-# The pkg-config modules meshmark links (PREFIX:module, PkgConfig::PREFIX in the export).
-set(MESHMARK_PKG_MODULES SODIUM:libsodium PQ:libpq DRACO:draco LIB3MF:lib3MF)
-if(MESHMARK_WITH_IPOPT)
-  list(APPEND MESHMARK_PKG_MODULES IPOPT:ipopt)
-endif()
-list(JOIN MESHMARK_PKG_MODULES " " MESHMARK_PKG_MODULES)
+# The config finds the dependencies the exported targets name: Eigen3 (public: the headers use
+# it) always, and, when the libraries are static, the private ones of the core and of each
+# component asked for (their link interfaces list them as $<LINK_ONLY:...>).
+get_target_property(MESHMARK_LIBRARY_TYPE meshmark_core TYPE)
+# The pkg-config modules each component links (PREFIX:module, PkgConfig::PREFIX in the export).
+set(MESHMARK_PKG_draco DRACO:draco)
+set(MESHMARK_PKG_3mf LIB3MF:lib3MF)
+set(MESHMARK_PKG_postgres PQ:libpq)
+set(MESHMARK_PKG_ipopt IPOPT:ipopt)
+set(MESHMARK_PKG_cgal "")
+set(MESHMARK_COMPONENT_MODULES "")
+foreach(component IN LISTS MESHMARK_COMPONENTS)
+  list(APPEND MESHMARK_COMPONENT_MODULES "${component}=${MESHMARK_PKG_${component}}")
+endforeach()
+list(JOIN MESHMARK_COMPONENT_MODULES " " MESHMARK_COMPONENT_MODULES)
+list(JOIN MESHMARK_COMPONENTS " " MESHMARK_COMPONENT_LIST)
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/meshmarkConfig.cmake.in
   ${PROJECT_BINARY_DIR}/meshmarkConfig.cmake INSTALL_DESTINATION ${MESHMARK_CMAKE_DIR})
 write_basic_package_version_file(${PROJECT_BINARY_DIR}/meshmarkConfigVersion.cmake

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <string>
 
+#include "campaign/campaign_parts.h"
 #include "meshmark/campaign/campaign.h"
 #include "meshmark/core/error.h"
 

@@ -8,6 +8,7 @@
 
 #include "meshmark/attacks/attack.h"             // attacks and chains of attacks
 #include "meshmark/carrier/variant.h"            // the framework's variants (DRS, VRS, ...)
+#include "meshmark/core/components.h"            // the optional components linked
 #include "meshmark/core/error.h"                 // the exceptions every call throws
 #include "meshmark/core/mesh.h"                  // the triangle mesh
 #include "meshmark/forensics/evidence_report.h"  // the HTML evidence report

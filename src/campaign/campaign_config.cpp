@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "campaign/campaign_parts.h"
 #include "meshmark/attacks/attack.h"
 #include "meshmark/campaign/campaign.h"
 #include "meshmark/carrier/method.h"

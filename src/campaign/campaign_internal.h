@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "meshmark/campaign/campaign.h"
+#include "campaign/campaign_parts.h"
 #include "meshmark/mark/embed.h"
 
 namespace meshmark::detail {

@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "campaign/campaign_parts.h"
 #include "meshmark/campaign/campaign.h"
 #include "meshmark/core/error.h"
 

@@ -6,6 +6,7 @@
 #include <algorithm>
 
 #include "campaign/campaign_internal.h"
+#include "campaign/campaign_parts.h"
 #include "meshmark/attacks/attack.h"
 #include "meshmark/campaign/campaign.h"
 #include "meshmark/carrier/method.h"

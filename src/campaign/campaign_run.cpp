@@ -14,6 +14,7 @@
 #include <set>
 
 #include "campaign/campaign_journal.h"
+#include "campaign/campaign_parts.h"
 #include "core/parallel.h"
 #include "core/progress_counter.h"
 #include "meshmark/core/error.h"

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <map>
 
+#include "campaign/campaign_parts.h"
 #include "meshmark/campaign/campaign.h"
 
 namespace meshmark {

@@ -9,6 +9,7 @@
 #include <map>
 
 #include "campaign/campaign_internal.h"
+#include "campaign/campaign_parts.h"
 #include "meshmark/campaign/campaign.h"
 #include "meshmark/carrier/variant.h"
 #include "meshmark/core/error.h"

@@ -9,6 +9,7 @@
 #include <filesystem>
 
 #include "campaign/campaign_internal.h"
+#include "campaign/campaign_parts.h"
 #include "meshmark/campaign/campaign.h"
 #include "meshmark/io/io.h"
 #include "plot/svg_markup.h"

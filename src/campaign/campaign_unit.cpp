@@ -7,6 +7,7 @@
 #include <map>
 
 #include "campaign/campaign_internal.h"
+#include "campaign/campaign_parts.h"
 #include "meshmark/attacks/attack.h"
 #include "meshmark/campaign/campaign.h"
 #include "meshmark/core/error.h"

@@ -6,13 +6,14 @@
 
 #include <fmt/format.h>
 
+#include "attacks/cgal_attacks.h"
 #include "cgal_mesh.h"
 #include "meshmark/attacks/attack.h"
 #include "meshmark/core/error.h"
 
 namespace meshmark {
 
-Mesh attack_remesh(const Mesh& mesh, double edge_factor, int iterations) {
+Mesh detail::cgal_remesh(const Mesh& mesh, double edge_factor, int iterations) {
   if (!(edge_factor >= 0.05 && edge_factor <= 20))
     throw InvalidArgumentError(
         fmt::format("remeshing edge length {} x the mean is outside [0.05, 20]", edge_factor));

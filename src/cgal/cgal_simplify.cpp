@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include "attacks/cgal_attacks.h"
 #include "cgal_mesh.h"
 #include "meshmark/attacks/attack.h"
 #include "meshmark/core/error.h"
@@ -77,15 +78,15 @@ void check_ratio(double ratio) {
 
 }  // namespace
 
-Mesh attack_simplify(const Mesh& mesh, double ratio, SimplifyCost cost) {
+Mesh detail::cgal_simplify(const Mesh& mesh, double ratio, SimplifyCost cost) {
   check_ratio(ratio);
   detail::SurfaceMesh sm = detail::to_surface_mesh(mesh);
   collapse(sm, OneTargetStop{&sm, face_target(sm, ratio)}, cost);
   return detail::from_surface_mesh(sm, mesh);
 }
 
-std::vector<Mesh> attack_simplify_levels(const Mesh& mesh, const std::vector<double>& ratios,
-                                         SimplifyCost cost) {
+std::vector<Mesh> detail::cgal_simplify_levels(const Mesh& mesh, const std::vector<double>& ratios,
+                                               SimplifyCost cost) {
   for (const double r : ratios) check_ratio(r);
   if (ratios.empty()) return {};
   detail::SurfaceMesh sm = detail::to_surface_mesh(mesh);

@@ -84,4 +84,7 @@ Error::Error(const char* message) : Error(std::string(message)) {}
 InvalidInputError::InvalidInputError(std::string file, std::size_t line, const std::string& message)
     : Error(compose(file, line, message)), file_(std::move(file)), line_(line), detail_(message) {}
 
+MissingComponentError::MissingComponentError(std::string component, const std::string& message)
+    : InvalidArgumentError(message), component_(std::move(component)) {}
+
 }  // namespace meshmark

@@ -12,6 +12,7 @@
 #include <set>
 #include <tuple>
 
+#include "core/component.h"
 #include "forensics/registry_backend.h"
 #include "meshmark/core/error.h"
 
@@ -198,6 +199,21 @@ struct Registry::Impl {
   std::string location;
   std::unique_ptr<detail::RegistryBackend> store;
 };
+
+namespace detail {
+
+const PostgresConnector*& postgres_connector_slot() {
+  static const PostgresConnector* connector = nullptr;
+  return connector;
+}
+
+std::unique_ptr<RegistryBackend> open_postgres_registry(const std::string& uri) {
+  return require_component(postgres_connector_slot(), "postgres",
+                           "a registry at a postgresql:// address")
+      .open(uri);
+}
+
+}  // namespace detail
 
 Registry::Registry(const std::string& location, bool read_only) : impl_(std::make_unique<Impl>()) {
   impl_->location = registry_display_name(location);  // for messages: no password

@@ -43,6 +43,13 @@ std::unique_ptr<RegistryBackend> open_sqlite_registry(const std::string& path, b
 
 /// Connects to the PostgreSQL registry at uri (postgresql://...), creating its schema.
 std::unique_ptr<RegistryBackend> open_postgres_registry(const std::string& uri);
+/// The postgres component's entry point (registry_postgres.cpp), which open_postgres_registry
+/// calls; without the component it throws MissingComponentError.
+struct PostgresConnector {
+  std::unique_ptr<RegistryBackend> (*open)(const std::string& uri);
+};
+/// The core's slot for it (core/component.h).
+const PostgresConnector*& postgres_connector_slot();
 
 /// The columns after row, in the order every backend lists them.
 inline constexpr const char* kRegistryColumns =

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <regex>
 
+#include "core/component.h"
 #include "forensics/registry_backend.h"
 #include "meshmark/core/error.h"
 
@@ -241,10 +242,14 @@ class PostgresRegistry final : public RegistryBackend {
   PGconn* conn_ = nullptr;
 };
 
-}  // namespace
-
-std::unique_ptr<RegistryBackend> open_postgres_registry(const std::string& uri) {
+std::unique_ptr<RegistryBackend> open(const std::string& uri) {
   return std::make_unique<PostgresRegistry>(uri);
 }
+
+}  // namespace
+
+// The postgres component: Registry opens postgresql:// addresses with this.
+const PostgresConnector kPostgresConnector{&open};
+MESHMARK_COMPONENT(postgres, postgres_connector_slot(), kPostgresConnector)
 
 }  // namespace meshmark::detail

@@ -17,6 +17,7 @@
 #include <draco/metadata/metadata_decoder.h>
 #include <fmt/format.h>
 
+#include "core/component.h"
 #include "meshmark/core/error.h"
 
 namespace meshmark::detail {
@@ -133,9 +134,7 @@ std::string encode(draco::ExpertEncoder& encoder) {
   return std::string(out.data(), out.size());
 }
 
-}  // namespace
-
-DracoMesh decode_draco(std::string_view bytes, const std::string& name) {
+DracoMesh decode(std::string_view bytes, const std::string& name) {
   // The header: "DRACO", version, geometry type (1: triangular mesh), method, flags.
   if (bytes.size() < kHeaderSize || bytes.substr(0, 5) != "DRACO")
     fail_draco(name, "not a Draco file (it does not start with 'DRACO' and an 11-byte header)");
@@ -165,7 +164,7 @@ DracoMesh decode_draco(std::string_view bytes, const std::string& name) {
   return out;
 }
 
-std::string encode_draco(const DracoMesh& mesh, const std::vector<double>& new_positions) {
+std::string encode(const DracoMesh& mesh, const std::vector<double>& new_positions) {
   if (!mesh.mesh || new_positions.size() != 3ull * mesh.mesh->num_points())
     throw InvalidArgumentError(fmt::format("{} new coordinates for a Draco mesh of {} points",
                                            new_positions.size(),
@@ -193,8 +192,8 @@ std::string encode_draco(const DracoMesh& mesh, const std::vector<double>& new_p
   return encode(encoder);
 }
 
-std::string encode_new_draco(const std::vector<double>& positions,
-                             const std::vector<std::uint32_t>& triangles, int position_bits) {
+std::string encode_new(const std::vector<double>& positions,
+                       const std::vector<std::uint32_t>& triangles, int position_bits) {
   if (positions.size() % 3 != 0 || triangles.size() % 3 != 0 || position_bits < 0 ||
       position_bits > 30)
     throw InvalidArgumentError(fmt::format(
@@ -227,5 +226,11 @@ std::string encode_new_draco(const std::vector<double>& positions,
   if (position_bits > 0) encoder.SetAttributeQuantization(id, position_bits);
   return encode(encoder);
 }
+
+}  // namespace
+
+// The draco component: the core's Draco entry points (io_draco.cpp) call these.
+const DracoCodec kDracoCodec{&decode, &encode, &encode_new};
+MESHMARK_COMPONENT(draco, draco_codec_slot(), kDracoCodec)
 
 }  // namespace meshmark::detail

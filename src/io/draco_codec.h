@@ -1,7 +1,8 @@
 #pragma once
 // Internal: Draco mesh decoding, and re-encoding with new positions and every other attribute
 // and setting kept. Used by the .drc reader and writer (io_draco.cpp) and by glTF's
-// KHR_draco_mesh_compression (io_gltf.cpp). Draco's headers stay in draco_codec.cpp.
+// KHR_draco_mesh_compression (io_gltf.cpp). Draco's headers stay in draco_codec.cpp, the draco
+// component; the core holds only the dispatch (io_draco.cpp).
 
 #include <cstdint>
 #include <memory>
@@ -54,5 +55,16 @@ std::string encode_draco(const DracoMesh& mesh, const std::vector<double>& new_p
 /// \throw InvalidArgumentError on a bad argument; Error when Draco fails to encode.
 std::string encode_new_draco(const std::vector<double>& positions,
                              const std::vector<std::uint32_t>& triangles, int position_bits);
+
+/// The draco component's entry points (draco_codec.cpp), which the three functions above call;
+/// without the component they throw MissingComponentError.
+struct DracoCodec {
+  DracoMesh (*decode)(std::string_view bytes, const std::string& name);
+  std::string (*encode)(const DracoMesh& mesh, const std::vector<double>& new_positions);
+  std::string (*encode_new)(const std::vector<double>& positions,
+                            const std::vector<std::uint32_t>& triangles, int position_bits);
+};
+/// The core's slot for them (core/component.h).
+const DracoCodec*& draco_codec_slot();
 
 }  // namespace meshmark::detail

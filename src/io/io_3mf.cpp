@@ -15,6 +15,7 @@
 
 #include <Model/COM/NMR_DLLInterfaces.h>
 
+#include "core/component.h"
 #include "io/io_formats.h"
 #include "meshmark/core/error.h"
 
@@ -329,9 +330,7 @@ std::string write_from_scratch(const Mesh& mesh) {
   return write_model(model);
 }
 
-}  // namespace
-
-Mesh read_3mf(std::string bytes, const std::string& name, const ReadOptions& options) {
+Mesh read(std::string bytes, const std::string& name, const ReadOptions& options) {
   auto image = std::make_shared<ThreeMfImage>();
   Parsed parsed;
   {
@@ -346,7 +345,7 @@ Mesh read_3mf(std::string bytes, const std::string& name, const ReadOptions& opt
   return mesh;
 }
 
-std::string write_3mf(const Mesh& mesh, const WriteOptions& options) {
+std::string write(const Mesh& mesh, const WriteOptions& options) {
   const auto* image =
       mesh.image ? dynamic_cast<const ThreeMfImage*>(mesh.image->extra.get()) : nullptr;
   if (options.keep_source && image &&
@@ -354,5 +353,11 @@ std::string write_3mf(const Mesh& mesh, const WriteOptions& options) {
     return write_back(mesh, *image);
   return write_from_scratch(mesh);
 }
+
+}  // namespace
+
+// The 3mf component: the core's read_mesh and write_mesh call these.
+const ThreeMfCodec kThreeMfCodec{&read, &write};
+MESHMARK_COMPONENT(3mf, three_mf_codec_slot(), kThreeMfCodec)
 
 }  // namespace meshmark::detail

@@ -65,6 +65,14 @@ Mesh read_3mf(std::string bytes, const std::string& name, const ReadOptions& opt
 /// \throw InvalidArgumentError for a coordinate that is not a finite float32 (3MF's vertex
 /// type in lib3mf); Error when lib3mf fails to write.
 std::string write_3mf(const Mesh& mesh, const WriteOptions& options);
+/// The 3mf component's entry points (io_3mf.cpp), which read_3mf and write_3mf call; without
+/// the component they throw MissingComponentError.
+struct ThreeMfCodec {
+  Mesh (*read)(std::string bytes, const std::string& name, const ReadOptions& options);
+  std::string (*write)(const Mesh& mesh, const WriteOptions& options);
+};
+/// The core's slot for them (core/component.h).
+const ThreeMfCodec*& three_mf_codec_slot();
 
 /// The files a glTF mesh's source read besides itself (its external buffers); empty for
 /// other meshes.

@@ -1,7 +1,8 @@
 #pragma once
 /// \file closest_point.h
-/// Closest points on a triangle mesh for many query points, on CGAL's AABB tree: what surface
-/// distances (MRMS, Hausdorff) and MSDM2's matching of vertices to the other surface need.
+/// Closest points on a triangle mesh for many query points, on the project's own bounding volume
+/// hierarchy (closest_point.cpp): what surface distances (MRMS, Hausdorff), MSDM2's matching of
+/// vertices to the other surface, registration and trace need.
 
 #include <Eigen/Core>
 #include <memory>
@@ -18,8 +19,8 @@ struct ClosestPoints {
   Eigen::VectorXd distance;      ///< #Q
 };
 
-/// An AABB tree over the triangles F of V (degenerate triangles skipped), built once and
-/// queried many times (registration queries one surface at every step).
+/// A tree of axis-aligned boxes over the triangles F of V (degenerate triangles skipped), built
+/// once and queried many times (registration queries one surface at every step).
 class SurfaceIndex {
  public:
   /// \throw InvalidArgumentError when F has no usable triangle. V and F must outlive it.
@@ -28,6 +29,7 @@ class SurfaceIndex {
   SurfaceIndex(const SurfaceIndex&) = delete;
   SurfaceIndex& operator=(const SurfaceIndex&) = delete;
   /// The closest points to every row of Q (queries on all cores).
+  /// \throw InvalidArgumentError for a row that is not a finite point.
   ClosestPoints query(const Eigen::MatrixX3d& Q) const;
 
  private:

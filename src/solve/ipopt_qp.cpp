@@ -1,4 +1,5 @@
 #include "solve/ipopt_qp.h"
+#include "core/component.h"
 
 #include <IpStdCInterface.h>
 
@@ -88,9 +89,7 @@ Bool eval_h(Index n, Number*, Bool, Number obj_factor, Index, Number*, Bool, Ind
   return 1;
 }
 
-}  // namespace
-
-GeneralQpSolution solve_general_qp_with_ipopt(const GeneralQp& qp, const IpoptOptions& options) {
+GeneralQpSolution solve_general(const GeneralQp& qp, const IpoptOptions& options) {
   const auto n = static_cast<Index>(qp.c.size());
   const auto m = static_cast<Index>(qp.row_lo.size());
   Eigen::VectorXd xl = qp.x_lo, xu = qp.x_hi, gl = qp.row_lo, gu = qp.row_hi;
@@ -123,8 +122,8 @@ GeneralQpSolution solve_general_qp_with_ipopt(const GeneralQp& qp, const IpoptOp
   return sol;
 }
 
-QpResult solve_round_with_ipopt(const SeparableQp& qp, const Eigen::SparseMatrix<double>* H,
-                                const IpoptOptions& options) {
+QpResult solve_round(const SeparableQp& qp, const Eigen::SparseMatrix<double>* H,
+                     const IpoptOptions& options) {
   const Eigen::Index n = qp.lo.size(), m = qp.b.size();
   GeneralQp g;
   g.c = H ? Eigen::VectorXd::Zero(n) : qp.h;
@@ -153,7 +152,7 @@ QpResult solve_round_with_ipopt(const SeparableQp& qp, const Eigen::SparseMatrix
     if (qp.row[i] >= 0) g.A.emplace_back(qp.row[i], i, qp.a(i) * scale(qp.row[i]));
     for (int k = 0; k < 3; ++k) g.A.emplace_back(m + k, i, qp.e(k, i) * scale(m + k));
   }
-  const GeneralQpSolution s = solve_general_qp_with_ipopt(g, options);
+  const GeneralQpSolution s = solve_general(g, options);
   QpResult r;
   r.x = s.x.cwiseMax(qp.lo).cwiseMin(qp.hi);
   r.objective = s.objective;
@@ -170,5 +169,12 @@ QpResult solve_round_with_ipopt(const SeparableQp& qp, const Eigen::SparseMatrix
     r.primal_residual = std::max(r.primal_residual, qp.b(j) - rows(j));
   return r;
 }
+
+}  // namespace
+
+// The ipopt component: the core's solve_general_qp_with_ipopt and solve_round_with_ipopt
+// (ipopt_dispatch.cpp) call these.
+const detail::IpoptSolver kIpoptSolver{&solve_general, &solve_round};
+MESHMARK_COMPONENT(ipopt, detail::ipopt_solver_slot(), kIpoptSolver)
 
 }  // namespace meshmark

@@ -41,4 +41,16 @@ GeneralQpSolution solve_general_qp_with_ipopt(const GeneralQp& qp,
 QpResult solve_round_with_ipopt(const SeparableQp& qp, const Eigen::SparseMatrix<double>* H,
                                 const IpoptOptions& options = {});
 
+namespace detail {
+/// The ipopt component's entry points (ipopt_qp.cpp), which the two functions above call;
+/// without the component they throw MissingComponentError.
+struct IpoptSolver {
+  GeneralQpSolution (*solve_general)(const GeneralQp& qp, const IpoptOptions& options);
+  QpResult (*solve_round)(const SeparableQp& qp, const Eigen::SparseMatrix<double>* H,
+                          const IpoptOptions& options);
+};
+/// The core's slot for them (core/component.h).
+const IpoptSolver*& ipopt_solver_slot();
+}  // namespace detail
+
 }  // namespace meshmark

@@ -13,6 +13,7 @@
 #include <set>
 #include <thread>
 
+#include "campaign/campaign_parts.h"
 #include "meshmark/campaign/campaign.h"
 #include "meshmark/campaign/campaign_run.h"
 #include "meshmark/core/error.h"

@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "campaign/campaign_internal.h"
+#include "campaign/campaign_parts.h"
 #include "meshmark/campaign/campaign.h"
 #include "meshmark/core/error.h"
 #include "meshmark/io/io.h"

@@ -58,8 +58,10 @@
 /// least one colluder named and no innocent. Rows carry both outcomes; keys of averaged trials
 /// end in "|avg2". bits and the 32-bit ID must make an IdCode (coding.h).
 ///
-/// This header holds the parts (configuration, planning, one unit's trials, rows, statistics,
-/// report); run_campaign (campaign_run.h) runs a whole campaign into a results directory.
+/// This header holds what a user of campaigns calls: the configuration, the rows and
+/// calibrations a run writes (and their JSON lines), the statistics and the report;
+/// run_campaign (campaign_run.h) runs a whole campaign into a results directory. The planning
+/// and one unit's trials are the library's own (src/campaign/campaign_parts.h).
 
 #include <cstdint>
 #include <functional>
@@ -125,28 +127,6 @@ struct CampaignConfig {
 /// IOError when it cannot be read.
 CampaignConfig load_campaign(const std::string& path);
 
-/// True for "none" and for attacks (or chains, every step) whose output does not depend on the
-/// seed (AttackKind::seeded). \throw InvalidArgumentError for an unknown kind or bad strength.
-bool attack_is_deterministic(const std::string& kind);
-
-/// The attack chain a series runs at strength x ("similarity:2,simplify" at 0.3:
-/// "similarity:2,simplify:0.3"). \throw InvalidArgumentError naming a bad step.
-std::vector<AttackStep> series_chain(const std::string& kind, double x);
-
-/// The same with the series' parameters set on the steps that read them.
-std::vector<AttackStep> series_chain(const AttackSeries& series, double x);
-
-/// An embedding of the campaign: model, variant, payload and protocol indices.
-struct CampaignUnit {
-  int model = 0, variant = 0, payload = 0, protocol = 0;
-};
-
-/// The units in a fixed order (model-major, protocol-minor).
-std::vector<CampaignUnit> campaign_units(const CampaignConfig& config);
-
-/// The payload of index p (random, from the campaign's seed).
-Payload campaign_payload(const CampaignConfig& config, int p);
-
 /// The payload calibrations use (one per length and seed; `meshmark calibrate` uses seed 1).
 Payload calibration_payload(int bits, std::uint64_t seed);
 
@@ -179,26 +159,6 @@ struct EnumTable<TraceOutcome> {
 /// "right", "none", "wrong".
 const char* trace_outcome_name(TraceOutcome outcome);
 
-/// The outcome of naming `named` when `leakers` leaked.
-TraceOutcome trace_outcome(const std::vector<std::uint64_t>& named,
-                           const std::vector<std::uint64_t>& leakers);
-
-/// Trace mode: the key copies are issued under (from the campaign's seed).
-Key campaign_key(const CampaignConfig& config);
-
-/// Trace mode: the first of the consecutive IDs issued (from the seed, below 2^31).
-std::uint64_t campaign_first_id(const CampaignConfig& config);
-
-/// Trace mode: the leaker of payload index p, one of the issued IDs (from the seed).
-std::uint64_t campaign_leaker(const CampaignConfig& config, int p);
-
-/// Trace mode: the records of the copies issued from a model in variant at strength (alpha)
-/// and bin offset G, as a registry would list them: config.copies consecutive IDs from
-/// campaign_first_id, keyed with campaign_key, config.bits bits, 32-bit IDs, config.spread.
-std::vector<IssuedCopy> campaign_copies(const CampaignConfig& config, const std::string& model,
-                                        const std::string& variant, double strength,
-                                        double bin_offset = 0.05);
-
 /// One trial.
 struct TrialRow {
   std::string key;  ///< model|variant|payload|attack|attack strength|draw[|protocol]
@@ -227,37 +187,11 @@ struct TrialRow {
   double trace_seconds = 0;   ///< trace(), registration included
 };
 
-/// The key of a trial; colluders 2 (an averaged trial in trace mode) appends "|avg2", a named
-/// protocol "|" and its name.
-std::string trial_key(const std::string& model, const std::string& variant, int payload,
-                      const std::string& attack, double attack_strength, int draw,
-                      int colluders = 0, const std::string& protocol = "");
-
-/// The keys of a unit's trials, in canonical order (attacks, strengths, draws).
-std::vector<std::string> unit_trial_keys(const CampaignConfig& config, const CampaignUnit& unit);
-
-/// Runs every trial of one unit not already done, calling emit for each row (from the calling
-/// thread). mesh is the unit's model, record its calibration.
-void run_campaign_unit(const CampaignConfig& config, const CampaignUnit& unit, const Mesh& mesh,
-                       const CalibrationRecord& record,
-                       const std::function<bool(const std::string& key)>& done,
-                       const std::function<void(const TrialRow&)>& emit);
-
-/// Calibrates one (model, variant) to the limits of protocol (an index into config.protocols),
-/// or records the fixed strength.
-CalibrationRecord calibrate_for_campaign(const CampaignConfig& config, int model, int variant,
-                                         const Mesh& mesh, int protocol = 0);
-
 /// One JSON line (no newline) and back. from_json throws InvalidInputError on a bad line.
 std::string row_to_json(const TrialRow& row);
 TrialRow row_from_json(const std::string& line);
 std::string calibration_to_json(const CalibrationRecord& record);
 CalibrationRecord calibration_from_json(const std::string& line);
-
-/// CSV header and one CSV line (no newline) of a row (its protocol last); trace adds the trace
-/// mode's columns.
-std::string csv_header(bool trace = false);
-std::string row_to_csv(const TrialRow& row, bool trace = false);
 
 /// The median bit error rate of one variant, attack and strength, as the paper reports it.
 struct SummaryRow {

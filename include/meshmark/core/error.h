@@ -76,4 +76,17 @@ class InvalidArgumentError : public Error {
   using Error::Error;
 };
 
+/// What was asked needs an optional component of meshmark (draco, 3mf, postgres, ipopt, cgal:
+/// meshmark/core/components.h) that the program was linked without. Its message names the
+/// component and the CMake target that brings it (meshmark::draco, ...).
+class MissingComponentError : public InvalidArgumentError {
+ public:
+  MissingComponentError(std::string component, const std::string& message);
+  /// The component's name ("draco", "cgal", ...).
+  const std::string& component() const { return component_; }
+
+ private:
+  std::string component_;
+};
+
 }  // namespace meshmark
