@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <string>
 
 #include "meshmark/core/progress.h"
@@ -15,7 +16,7 @@ namespace meshmark::cli {
 
 inline std::string format_duration(double s) {
   if (!(s >= 0) || s > 1e7) return "?";
-  const long t = static_cast<long>(s + 0.5);
+  const long t = std::lround(s);
   return t >= 3600 ? fmt::format("{}h{:02}m", t / 3600, t / 60 % 60)
                    : fmt::format("{}m{:02}s", t / 60, t % 60);
 }

@@ -2,7 +2,7 @@
 # The shared-library build, checked by hand (CI builds only the library and the CLI as a shared
 # library, in the test Package.SharedLibraryBuildsInstallsAndServesTheExternalProject): configures
 # meshmark with -DBUILD_SHARED_LIBS=ON in build-shared (MESHMARK_SHARED_BUILD_DIR), builds
-# everything, runs the whole test suite against libmeshmark.so, installs into a fresh prefix and
+# everything, runs the whole test suite against the shared libmeshmark_*.so, installs into a fresh prefix and
 # runs the installed CLI there (--version, then embed and extract on fandisk), printing ldd's
 # view of it and the sizes. Exits non-zero at the first failure.
 set -euo pipefail
@@ -24,13 +24,16 @@ trap 'rm -rf "$prefix" "$work"' EXIT
 echo "== install into $prefix"
 cmake --install "$build_dir" --prefix "$prefix" >/dev/null
 cli="$prefix/bin/meshmark"
-lib="$(find "$prefix" -name 'libmeshmark.so.*.*.*' | head -n 1)"  # the real file, not a link
+# Every library the CLI loads from the prefix: the core and each component, the real files.
 ldd "$cli" | grep -E 'libmeshmark|not found' || true
-loaded="$(ldd "$cli" | awk '/libmeshmark/ { print $3 }')"
-if [ -z "$lib" ] || [ -z "$loaded" ] || [ "$(realpath "$loaded")" != "$lib" ]; then
-  echo "check-shared: the installed CLI does not load libmeshmark from $prefix ('$lib')" >&2
-  exit 1
-fi
+for lib in $(find "$prefix" -name 'libmeshmark_*.so.*.*.*'); do
+  loaded="$(ldd "$cli" | awk -v name="$(basename "$lib" | sed 's/\.so\..*//')" \
+    '$1 ~ "^" name "\\.so" { print $3 }')"
+  if [ -z "$loaded" ] || [ "$(realpath "$loaded")" != "$lib" ]; then
+    echo "check-shared: the installed CLI does not load $(basename "$lib") from $prefix" >&2
+    exit 1
+  fi
+done
 "$cli" --version
 mesh="$build_dir/cgal-data/data/meshes/fandisk.off"
 payload=c0ffee0123456789

@@ -20,6 +20,7 @@ packages=(
   gltfpack draco assimp-testmodels                 # third-party tools and glTF sample files for the format tests
   libcgal-dev libcgal-demo                         # CGAL, and its real meshes (data.tar.gz)
   clang libclang-rt-14-dev                         # libFuzzer and sanitizers (scripts/fuzz.sh)
+  clang-tidy                                       # the checks of .clang-tidy (scripts/tidy.sh)
   python3 python3-cryptography python3-argon2     # helper scripts; ChaCha20, Argon2id: format vectors
   doxygen groff-base                               # the documentation site (meshmark_doc); the man page test
   python3-dev pybind11-dev python3-numpy python3-pytest python3-pip   # the Python module, its tests, pip install .

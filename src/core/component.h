@@ -34,7 +34,7 @@ const Table& require_component(const Table* table, std::string_view name, std::s
   extern "C" void meshmark_component_##name() {}                          \
   namespace {                                                             \
   [[maybe_unused]] const bool meshmark_component_registered_##name = [] { \
-    slot = &(table);                                                      \
+    (slot) = &(table);                                                    \
     ::meshmark::detail::note_component(#name);                            \
     return true;                                                          \
   }();                                                                    \

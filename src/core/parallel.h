@@ -131,6 +131,7 @@ int parallel_for(std::int64_t n, int threads, Body&& body) {
     }
   };
   std::vector<std::thread> pool;
+  pool.reserve(static_cast<std::size_t>(std::max(helpers, 0)));
   for (int t = 0; t < helpers; ++t)
     pool.emplace_back([&] {
       thread_budget_slot() = &budget;

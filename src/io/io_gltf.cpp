@@ -495,40 +495,42 @@ struct Reader {
 
 namespace {
 
-Mesh read_gltf_document(std::string bytes, FileFormat format, const std::string& name,
-                        const ReadOptions& options) {
-  auto image = std::make_shared<GltfImage>();
-  GltfImage& img = *image;
-  img.binary = format == FileFormat::Glb;
+// Where the GLB container keeps its chunks: the JSON text and buffer 0 (the BIN chunk).
+struct GlbChunks {
+  std::string json;
   std::size_t bin_offset = 0, bin_length = 0;
-  if (img.binary) {
-    if (bytes.size() < 20 || u32(bytes, 0) != kGlbMagic)
-      fail(name, 0, "not a GLB file (no 'glTF' magic and header)");
-    if (u32(bytes, 4) != 2)
-      fail(name, 0, fmt::format("GLB version {} (only 2 is read)", u32(bytes, 4)));
-    if (u32(bytes, 8) != bytes.size())
-      fail(name, 0,
-           fmt::format("the header says {} bytes, the file has {}", u32(bytes, 8), bytes.size()));
-    const std::size_t json_length = u32(bytes, 12);
-    if (u32(bytes, 16) != kChunkJson || json_length > bytes.size() - 20)
-      fail(name, 0, "the first chunk is not a JSON chunk that fits in the file");
-    img.json = bytes.substr(20, json_length);
-    std::size_t at = 20 + json_length;
-    if (at < bytes.size()) {
-      if (bytes.size() - at < 8) fail(name, 0, "a truncated chunk header after the JSON chunk");
-      bin_length = u32(bytes, at);
-      if (u32(bytes, at + 4) != kChunkBin || bin_length > bytes.size() - at - 8)
-        fail(name, 0, "the second chunk is not a BIN chunk that fits in the file");
-      bin_offset = at + 8;
-    }
-  } else {
-    img.json = bytes;
+};
+
+// The chunks of a GLB file (header, JSON chunk, optional BIN chunk), each checked to fit.
+GlbChunks read_glb_chunks(const std::string& bytes, const std::string& name) {
+  GlbChunks out;
+  if (bytes.size() < 20 || u32(bytes, 0) != kGlbMagic)
+    fail(name, 0, "not a GLB file (no 'glTF' magic and header)");
+  if (u32(bytes, 4) != 2)
+    fail(name, 0, fmt::format("GLB version {} (only 2 is read)", u32(bytes, 4)));
+  if (u32(bytes, 8) != bytes.size())
+    fail(name, 0,
+         fmt::format("the header says {} bytes, the file has {}", u32(bytes, 8), bytes.size()));
+  const std::size_t json_length = u32(bytes, 12);
+  if (u32(bytes, 16) != kChunkJson || json_length > bytes.size() - 20)
+    fail(name, 0, "the first chunk is not a JSON chunk that fits in the file");
+  out.json = bytes.substr(20, json_length);
+  const std::size_t at = 20 + json_length;
+  if (at < bytes.size()) {
+    if (bytes.size() - at < 8) fail(name, 0, "a truncated chunk header after the JSON chunk");
+    out.bin_length = u32(bytes, at);
+    if (u32(bytes, at + 4) != kChunkBin || out.bin_length > bytes.size() - at - 8)
+      fail(name, 0, "the second chunk is not a BIN chunk that fits in the file");
+    out.bin_offset = at + 8;
   }
-  img.file = std::move(bytes);  // buffer 0 of a GLB is read in place
-  std::vector<std::string> notes;
-  Reader r{name, options, Json(), img, notes};
+  return out;
+}
+
+// The document's JSON parsed and checked to be glTF 2.0 whose required extensions are read.
+void parse_document(Reader& r) {
+  const std::string& name = r.name;
   try {
-    r.doc = Json::parse(img.json);
+    r.doc = Json::parse(r.img.json);
   } catch (const Json::parse_error& e) {
     fail(name, 0, fmt::format("the JSON does not parse: {}", e.what()));
   }
@@ -545,108 +547,155 @@ Mesh read_gltf_document(std::string bytes, FileFormat format, const std::string&
         e != "EXT_texture_webp")
       fail(name, 0, fmt::format("required extension '{}' is not supported", e));
   }
-  r.read_buffers(img.file, img.binary, bin_offset, bin_length);
-  r.read_views();
-  const Json& accessors = r.array("accessors");
-  const Json& meshes = r.array("meshes");
-  const Json& nodes = r.array("nodes");
-  img.accessor_counts.assign(accessors.size(), 0);
-  for (std::size_t a = 0; a < accessors.size(); ++a)
-    if (accessors[a].is_object())
-      img.accessor_counts[a] = r.size(accessors[a], "count", fmt::format("accessors[{}]", a), 0);
+}
 
-  Parsed parsed;
-  // Each POSITION accessor (or Draco view) is read once, in the frame of the first node that
-  // draws it: a scene drawing one mesh a thousand times is not a thousand times larger, and a
-  // marked copy moves the stored vertices every instance shares. Each primitive (positions,
-  // indices, mode) is read once too.
-  std::map<int, std::size_t> instance_of;  // accessor, or -1 - Draco view -> instance
-  std::map<int, std::set<int>> nodes_of_accessor;
-  std::set<std::tuple<int, int, std::size_t>> primitives_read;
-  std::size_t skipped_primitives = 0;
+// Gathers the triangles of the default scene into one vertex list. Each POSITION accessor (or
+// Draco view) is read once, in the frame of the first node that draws it: a scene drawing one
+// mesh a thousand times is not a thousand times larger, and a marked copy moves the stored
+// vertices every instance shares. Each primitive (positions, indices, mode) is read once too.
+class SceneGatherer {
+ public:
+  explicit SceneGatherer(Reader& r)
+      : r_(r),
+        name_(r.name),
+        img_(r.img),
+        accessors_(r.array("accessors")),
+        meshes_(r.array("meshes")),
+        nodes_(r.array("nodes")),
+        seen_(nodes_.size(), 0) {}
+
+  // Every node tree of the default scene, or every mesh untransformed when there is no scene.
+  void gather() {
+    const Json& scenes = r_.array("scenes");
+    if (scenes.empty()) {
+      for (std::size_t m = 0; m < meshes_.size(); ++m) add_mesh(-1, Eigen::Matrix4d::Identity(), m);
+      return;
+    }
+    const std::size_t s =
+        r_.doc.contains("scene")
+            ? static_cast<std::size_t>(r_.index(r_.doc, "scene", "the root", scenes.size()))
+            : 0;
+    const Json& scene = scenes[s];
+    if (!scene.is_object()) fail(name_, 0, fmt::format("scenes[{}] is not an object", s));
+    if (!scene.contains("nodes")) return;
+    if (!scene["nodes"].is_array())
+      fail(name_, 0, fmt::format("scenes[{}].nodes is not an array", s));
+    for (const Json& n : scene["nodes"]) {
+      if (!n.is_number_unsigned() || n.get<std::size_t>() >= nodes_.size())
+        fail(name_, 0, fmt::format("scenes[{}]: a node index names no node", s));
+      visit(n.get<std::size_t>(), Eigen::Matrix4d::Identity(), 0);
+    }
+  }
+
+  // Notes on instancing and skipped primitives; refuses a scene without triangles.
+  void finish(std::vector<std::string>& notes) const {
+    std::size_t instanced = 0, most = 0;
+    int example = -1;
+    for (const auto& [a, users] : nodes_of_accessor_)
+      if (users.size() > 1) {
+        ++instanced;
+        if (users.size() > most) most = users.size(), example = a;
+      }
+    if (instanced > 0)
+      notes.push_back(
+          fmt::format("{} position accessors are drawn by several nodes (instanced; "
+                      "accessors[{}] by {}): each is read and marked once, in the "
+                      "frame of the first node drawing it",
+                      instanced, example, most));
+    if (skipped_primitives_ > 0)
+      notes.push_back(fmt::format("{} point or line primitives skipped", skipped_primitives_));
+    if (parsed_.faces.size() == 0)
+      fail(name_, 0,
+           fmt::format("no triangle primitive in the default scene ({} point or line "
+                       "primitives)",
+                       skipped_primitives_));
+  }
+
+  Parsed& parsed() { return parsed_; }
+
+ private:
+  // A node and its children, parents before children; every node at most once.
+  void visit(std::size_t n, const Eigen::Matrix4d& parent, int depth) {
+    const std::string where = fmt::format("nodes[{}]", n);
+    if (seen_[n]) fail(name_, 0, where + " is reached twice (the node graph is not a forest)");
+    if (depth > 256) fail(name_, 0, where + ": node tree deeper than 256");
+    seen_[n] = 1;
+    const Json& node = nodes_[n];
+    if (!node.is_object()) fail(name_, 0, where + " is not an object");
+    const Eigen::Matrix4d world = parent * Reader::local_transform(node, r_, n);
+    if (node.contains("mesh")) {
+      const int m = r_.index(node, "mesh", where, meshes_.size());
+      add_mesh(static_cast<int>(n), mesh_transform(node, world, where),
+               static_cast<std::size_t>(m));
+    }
+    if (node.contains("children")) {
+      if (!node["children"].is_array()) fail(name_, 0, where + ": 'children' is not an array");
+      for (const Json& c : node["children"]) {
+        if (!c.is_number_unsigned() || c.get<std::size_t>() >= nodes_.size())
+          fail(name_, 0, where + ": a child index names no node");
+        visit(c.get<std::size_t>(), world, depth + 1);
+      }
+    }
+  }
+
+  // The transform a node's mesh is read in: its world transform, or the identity when skinned
+  // (glTF draws a skinned mesh in its bind pose); refused when singular, noted when it scales
+  // non-uniformly.
+  Eigen::Matrix4d mesh_transform(const Json& node, const Eigen::Matrix4d& world,
+                                 const std::string& where) {
+    Eigen::Matrix4d used = world;
+    if (node.contains("skin")) {
+      used.setIdentity();
+      r_.notes.push_back(
+          fmt::format("{} is skinned: its mesh is read in its bind pose (mesh "
+                      "space), as glTF ignores a skinned node's transform",
+                      where));
+    }
+    const Eigen::Matrix3d lin = used.topLeftCorner<3, 3>();
+    const Eigen::Vector3d sv = Eigen::JacobiSVD<Eigen::Matrix3d>(lin).singularValues();
+    if (!(sv[2] > 1e-12 * std::max(sv[0], 1e-300)) || !used.allFinite())
+      fail(name_, 0, where + ": its transform is singular; positions cannot be written back");
+    if (sv[0] > sv[2] * (1 + 1e-6))
+      r_.notes.push_back(
+          fmt::format("{} scales non-uniformly ({:.6g} to {:.6g}): the mark is "
+                      "embedded in world space and written back through the "
+                      "inverse transform",
+                      where, sv[2], sv[0]));
+    return used;
+  }
+
+  void add_mesh(int n, const Eigen::Matrix4d& world, std::size_t m) {
+    const Json& mesh = meshes_[m];
+    const auto prims = mesh.find("primitives");
+    if (!mesh.is_object() || prims == mesh.end() || !prims->is_array())
+      fail(name_, 0, fmt::format("meshes[{}] has no primitives array", m));
+    for (std::size_t p = 0; p < prims->size(); ++p)
+      add_primitive(n, world, (*prims)[p], fmt::format("meshes[{}].primitives[{}]", m, p));
+  }
 
   // File vertex f at world position w: its coordinates, and a slot per axis for the writer.
-  auto add_vertex = [&](std::size_t f, const Eigen::Vector4d& w) {
-    for (int c = 0; c < 3; ++c) parsed.xyz.push_back(w[c]);
+  void add_vertex(std::size_t f, const Eigen::Vector4d& w) {
+    for (int c = 0; c < 3; ++c) parsed_.xyz.push_back(w[c]);
     CoordSlot slot;  // only to learn f's row once welded
     slot.offset = f;
     slot.vertex = static_cast<std::int32_t>(f);
-    parsed.slots.push_back(slot);
-  };
+    parsed_.slots.push_back(slot);
+  }
 
-  // A Draco-compressed primitive: its points in world space, its triangles.
-  std::map<int, int> draco_of_view;
-  auto add_draco = [&](int n, const Eigen::Matrix4d& world, const Json& prim, const Json& ext,
-                       int a, std::size_t mode, const std::string& where) {
-    const std::string w = where + ".extensions.KHR_draco_mesh_compression";
-    if (!ext.is_object()) fail(name, 0, w + " is not an object");
-    if (mode != 4) fail(name, 0, w + ": Draco primitives must be triangles (mode 4)");
-    const int v = r.index(ext, "bufferView", w, img.views.size());
-    const auto ids = ext.find("attributes");
-    if (ids == ext.end() || !ids->is_object() || !ids->contains("POSITION"))
-      fail(name, 0, w + ": no POSITION attribute id");
-    auto [found, fresh_view] = draco_of_view.try_emplace(v, static_cast<int>(img.dracos.size()));
-    if (fresh_view) {
-      GltfDraco d;
-      d.view = v;
-      const GltfView& view = img.views[static_cast<std::size_t>(v)];
-      d.mesh = decode_draco(r.view_bytes(view).substr(r.view_start(view), view.length),
-                            name + " (" + w + ")");
-      if ((*ids)["POSITION"] != d.mesh.attribute_id_of_position)
-        fail(name, 0,
-             fmt::format("{}: POSITION is attribute {} in the JSON, {} in the Draco data", w,
-                         (*ids)["POSITION"].dump(), d.mesh.attribute_id_of_position));
-      d.position_accessor = a;
-      for (const auto& [key, acc] : prim["attributes"].items())
-        d.attribute_accessors.push_back(
-            r.index(prim["attributes"], key.c_str(), where, accessors.size()));
-      if (prim.contains("indices"))
-        d.indices_accessor = r.index(prim, "indices", where, accessors.size());
-      img.dracos.push_back(std::move(d));
-    }
-    nodes_of_accessor[a].insert(n);
-    if (!primitives_read.insert({-1 - v, -1, mode}).second) return;
-    auto [it, fresh] = instance_of.try_emplace(-1 - v, img.instances.size());
-    const GltfDraco& d = img.dracos[static_cast<std::size_t>(found->second)];
-    if (fresh) {
-      GltfInstance inst;
-      inst.node = n;
-      inst.accessor = a;
-      inst.count = d.mesh.positions.size() / 3;
-      inst.world = world;
-      inst.first = parsed.xyz.size() / 3;
-      inst.draco = found->second;
-      for (std::size_t k = 0; k < inst.count; ++k) {
-        const Eigen::Vector4d p =
-            world * Eigen::Vector4d(d.mesh.positions[3 * k], d.mesh.positions[3 * k + 1],
-                                    d.mesh.positions[3 * k + 2], 1.0);
-        add_vertex(inst.first + k, p);
-      }
-      img.instances.push_back(inst);
-    }
-    const GltfInstance& inst = img.instances[it->second];
-    for (std::size_t t = 0; t + 2 < d.mesh.triangles.size(); t += 3) {
-      const int tri[3] = {static_cast<int>(inst.first + d.mesh.triangles[t]),
-                          static_cast<int>(inst.first + d.mesh.triangles[t + 1]),
-                          static_cast<int>(inst.first + d.mesh.triangles[t + 2])};
-      parsed.faces.push_back(tri, 3);
-    }
-  };
-
-  auto add_primitive = [&](int n, const Eigen::Matrix4d& world, const Json& prim,
-                           const std::string& where) {
-    if (!prim.is_object()) fail(name, 0, where + " is not an object");
-    const std::size_t mode = r.size(prim, "mode", where, 4);
+  void add_primitive(int n, const Eigen::Matrix4d& world, const Json& prim,
+                     const std::string& where) {
+    if (!prim.is_object()) fail(name_, 0, where + " is not an object");
+    const std::size_t mode = r_.size(prim, "mode", where, 4);
     if (mode < 4 || mode > 6) {
-      ++skipped_primitives;
+      ++skipped_primitives_;
       return;
     }
     const auto attrs = prim.find("attributes");
     if (attrs == prim.end() || !attrs->is_object() || !attrs->contains("POSITION"))
-      fail(name, 0, where + ": no POSITION attribute");
-    const int a = r.index(*attrs, "POSITION", where + ".attributes", accessors.size());
+      fail(name_, 0, where + ": no POSITION attribute");
+    const int a = r_.index(*attrs, "POSITION", where + ".attributes", accessors_.size());
     if (prim.contains("targets"))
-      notes.push_back(
+      r_.notes.push_back(
           fmt::format("{} has morph targets: they keep their displacements, the mark "
                       "is in the base shape",
                       where));
@@ -655,75 +704,91 @@ Mesh read_gltf_document(std::string bytes, FileFormat format, const std::string&
       add_draco(n, world, prim, (*ext)["KHR_draco_mesh_compression"], a, mode, where);
       return;
     }
-    nodes_of_accessor[a].insert(n);
+    nodes_of_accessor_[a].insert(n);
     const int indices =
-        prim.contains("indices") ? r.index(prim, "indices", where, accessors.size()) : -1;
-    if (!primitives_read.insert({a, indices, mode}).second) return;
-    auto [it, fresh] = instance_of.try_emplace(a, img.instances.size());
-    if (fresh) {
-      const Reader::Access acc = r.accessor(a, "VEC3", 3);
-      if (acc.component == kGltfUnsignedInt ||
-          (acc.component != kGltfFloat && !r.uses("KHR_mesh_quantization")))
-        fail(name, 0,
-             fmt::format("accessors[{}]: POSITION of componentType {} (integers need "
-                         "KHR_mesh_quantization; unsigned int is never allowed)",
-                         a, acc.component));
-      GltfInstance inst;
-      inst.node = n;
-      inst.accessor = a;
-      inst.view = acc.view;
-      inst.stride = acc.stride;
-      inst.count = acc.count;
-      inst.component = acc.component;
-      inst.normalized = acc.normalized;
-      inst.world = world;
-      inst.first = parsed.xyz.size() / 3;
-      inst.offset = acc.offset;
-      const std::size_t csize = gltf_component_size(acc.component);
-      parsed.xyz.reserve(parsed.xyz.size() + 3 * acc.count);
-      parsed.slots.reserve(parsed.slots.size() + acc.count);
-      for (std::size_t k = 0; k < acc.count; ++k) {
-        const char* e = acc.data + k * acc.stride;
-        Eigen::Vector4d p(gltf_component_value(e, acc.component, acc.normalized),
-                          gltf_component_value(e + csize, acc.component, acc.normalized),
-                          gltf_component_value(e + 2 * csize, acc.component, acc.normalized), 1.0);
-        if (!p.allFinite())
-          fail(name, 0, fmt::format("accessors[{}]: element {} is not finite", a, k));
-        const Eigen::Vector4d w = world * p;
-        add_vertex(inst.first + k, w);
-      }
-      img.instances.push_back(inst);
+        prim.contains("indices") ? r_.index(prim, "indices", where, accessors_.size()) : -1;
+    if (!primitives_read_.insert({a, indices, mode}).second) return;
+    auto [it, fresh] = instance_of_.try_emplace(a, img_.instances.size());
+    if (fresh) img_.instances.push_back(read_positions(n, world, a));
+    const GltfInstance& inst = img_.instances[it->second];
+    add_triangles(inst.first, primitive_indices(prim, inst.count, where), mode, where);
+  }
+
+  // The instance of POSITION accessor a, drawn by node n: its vertices added in world space.
+  GltfInstance read_positions(int n, const Eigen::Matrix4d& world, int a) {
+    const Reader::Access acc = r_.accessor(a, "VEC3", 3);
+    if (acc.component == kGltfUnsignedInt ||
+        (acc.component != kGltfFloat && !r_.uses("KHR_mesh_quantization")))
+      fail(name_, 0,
+           fmt::format("accessors[{}]: POSITION of componentType {} (integers need "
+                       "KHR_mesh_quantization; unsigned int is never allowed)",
+                       a, acc.component));
+    GltfInstance inst;
+    inst.node = n;
+    inst.accessor = a;
+    inst.view = acc.view;
+    inst.stride = acc.stride;
+    inst.count = acc.count;
+    inst.component = acc.component;
+    inst.normalized = acc.normalized;
+    inst.world = world;
+    inst.first = parsed_.xyz.size() / 3;
+    inst.offset = acc.offset;
+    const std::size_t csize = gltf_component_size(acc.component);
+    parsed_.xyz.reserve(parsed_.xyz.size() + 3 * acc.count);
+    parsed_.slots.reserve(parsed_.slots.size() + acc.count);
+    for (std::size_t k = 0; k < acc.count; ++k) {
+      const char* e = acc.data + k * acc.stride;
+      const Eigen::Vector4d p(gltf_component_value(e, acc.component, acc.normalized),
+                              gltf_component_value(e + csize, acc.component, acc.normalized),
+                              gltf_component_value(e + 2 * csize, acc.component, acc.normalized),
+                              1.0);
+      if (!p.allFinite())
+        fail(name_, 0, fmt::format("accessors[{}]: element {} is not finite", a, k));
+      add_vertex(inst.first + k, world * p);
     }
-    const GltfInstance& inst = img.instances[it->second];
+    return inst;
+  }
+
+  // The primitive's vertex indices (its indices accessor, checked against the instance's
+  // `count` vertices, or 0 .. count - 1 without one).
+  std::vector<std::uint32_t> primitive_indices(const Json& prim, std::size_t count,
+                                               const std::string& where) {
     std::vector<std::uint32_t> idx;
-    if (prim.contains("indices")) {
-      const int ia = r.index(prim, "indices", where, accessors.size());
-      const Reader::Access acc = r.accessor(ia, "SCALAR", 1);
-      if (acc.component != kGltfUnsignedByte && acc.component != kGltfUnsignedShort &&
-          acc.component != kGltfUnsignedInt)
-        fail(name, 0, fmt::format("accessors[{}]: indices of componentType {}", ia, acc.component));
-      idx.resize(acc.count);
-      for (std::size_t k = 0; k < acc.count; ++k) {
-        const double v = gltf_component_value(acc.data + k * acc.stride, acc.component, false);
-        if (v >= static_cast<double>(inst.count))
-          fail(name, 0,
-               fmt::format("accessors[{}]: index {} at element {} is out of range (the "
-                           "primitive has {} vertices)",
-                           ia, v, k, inst.count));
-        idx[k] = static_cast<std::uint32_t>(v);
-      }
-    } else {
-      idx.resize(inst.count);
-      for (std::size_t k = 0; k < inst.count; ++k) idx[k] = static_cast<std::uint32_t>(k);
+    if (!prim.contains("indices")) {
+      idx.resize(count);
+      for (std::size_t k = 0; k < count; ++k) idx[k] = static_cast<std::uint32_t>(k);
+      return idx;
     }
+    const int ia = r_.index(prim, "indices", where, accessors_.size());
+    const Reader::Access acc = r_.accessor(ia, "SCALAR", 1);
+    if (acc.component != kGltfUnsignedByte && acc.component != kGltfUnsignedShort &&
+        acc.component != kGltfUnsignedInt)
+      fail(name_, 0, fmt::format("accessors[{}]: indices of componentType {}", ia, acc.component));
+    idx.resize(acc.count);
+    for (std::size_t k = 0; k < acc.count; ++k) {
+      const double v = gltf_component_value(acc.data + k * acc.stride, acc.component, false);
+      if (v >= static_cast<double>(count))
+        fail(name_, 0,
+             fmt::format("accessors[{}]: index {} at element {} is out of range (the "
+                         "primitive has {} vertices)",
+                         ia, v, k, count));
+      idx[k] = static_cast<std::uint32_t>(v);
+    }
+    return idx;
+  }
+
+  // The triangles of a list (mode 4), strip (5) or fan (6) of indices from vertex `first`.
+  void add_triangles(std::size_t first, const std::vector<std::uint32_t>& idx, std::size_t mode,
+                     const std::string& where) {
     auto triangle = [&](std::uint32_t a0, std::uint32_t a1, std::uint32_t a2) {
-      const int t[3] = {static_cast<int>(inst.first + a0), static_cast<int>(inst.first + a1),
-                        static_cast<int>(inst.first + a2)};
-      parsed.faces.push_back(t, 3);
+      const int t[3] = {static_cast<int>(first + a0), static_cast<int>(first + a1),
+                        static_cast<int>(first + a2)};
+      parsed_.faces.push_back(t, 3);
     };
     if (mode == 4) {
       if (idx.size() % 3 != 0)
-        fail(name, 0,
+        fail(name_, 0,
              fmt::format("{}: {} indices is not a whole number of triangles", where, idx.size()));
       for (std::size_t k = 0; k + 2 < idx.size(); k += 3) triangle(idx[k], idx[k + 1], idx[k + 2]);
     } else if (mode == 5) {
@@ -732,106 +797,112 @@ Mesh read_gltf_document(std::string bytes, FileFormat format, const std::string&
     } else {
       for (std::size_t k = 1; k + 1 < idx.size(); ++k) triangle(idx[0], idx[k], idx[k + 1]);
     }
-  };
+  }
 
-  // The default scene's node trees, parents before children; every node at most once.
-  std::vector<std::uint8_t> seen(nodes.size(), 0);
-  std::function<void(std::size_t, const Eigen::Matrix4d&, int)> visit =
-      [&](std::size_t n, const Eigen::Matrix4d& parent, int depth) {
-        const std::string where = fmt::format("nodes[{}]", n);
-        if (seen[n]) fail(name, 0, where + " is reached twice (the node graph is not a forest)");
-        if (depth > 256) fail(name, 0, where + ": node tree deeper than 256");
-        seen[n] = 1;
-        const Json& node = nodes[n];
-        if (!node.is_object()) fail(name, 0, where + " is not an object");
-        Eigen::Matrix4d world = parent * Reader::local_transform(node, r, n);
-        if (node.contains("mesh")) {
-          const int m = r.index(node, "mesh", where, meshes.size());
-          Eigen::Matrix4d used = world;
-          if (node.contains("skin")) {
-            used.setIdentity();
-            notes.push_back(
-                fmt::format("{} is skinned: its mesh is read in its bind pose (mesh "
-                            "space), as glTF ignores a skinned node's transform",
-                            where));
-          }
-          const Eigen::Matrix3d lin = used.topLeftCorner<3, 3>();
-          const Eigen::Vector3d sv = Eigen::JacobiSVD<Eigen::Matrix3d>(lin).singularValues();
-          if (!(sv[2] > 1e-12 * std::max(sv[0], 1e-300)) || !used.allFinite())
-            fail(name, 0, where + ": its transform is singular; positions cannot be written back");
-          if (sv[0] > sv[2] * (1 + 1e-6))
-            notes.push_back(
-                fmt::format("{} scales non-uniformly ({:.6g} to {:.6g}): the mark is "
-                            "embedded in world space and written back through the "
-                            "inverse transform",
-                            where, sv[2], sv[0]));
-          const Json& mesh = meshes[static_cast<std::size_t>(m)];
-          const auto prims = mesh.find("primitives");
-          if (!mesh.is_object() || prims == mesh.end() || !prims->is_array())
-            fail(name, 0, fmt::format("meshes[{}] has no primitives array", m));
-          for (std::size_t p = 0; p < prims->size(); ++p)
-            add_primitive(static_cast<int>(n), used, (*prims)[p],
-                          fmt::format("meshes[{}].primitives[{}]", m, p));
-        }
-        if (node.contains("children")) {
-          if (!node["children"].is_array()) fail(name, 0, where + ": 'children' is not an array");
-          for (const Json& c : node["children"]) {
-            if (!c.is_number_unsigned() || c.get<std::size_t>() >= nodes.size())
-              fail(name, 0, where + ": a child index names no node");
-            visit(c.get<std::size_t>(), world, depth + 1);
-          }
-        }
-      };
-  const Json& scenes = r.array("scenes");
-  if (!scenes.empty()) {
-    const std::size_t s =
-        r.doc.contains("scene")
-            ? static_cast<std::size_t>(r.index(r.doc, "scene", "the root", scenes.size()))
-            : 0;
-    const Json& scene = scenes[s];
-    if (!scene.is_object()) fail(name, 0, fmt::format("scenes[{}] is not an object", s));
-    if (scene.contains("nodes")) {
-      if (!scene["nodes"].is_array())
-        fail(name, 0, fmt::format("scenes[{}].nodes is not an array", s));
-      for (const Json& n : scene["nodes"]) {
-        if (!n.is_number_unsigned() || n.get<std::size_t>() >= nodes.size())
-          fail(name, 0, fmt::format("scenes[{}]: a node index names no node", s));
-        visit(n.get<std::size_t>(), Eigen::Matrix4d::Identity(), 0);
-      }
+  // A Draco-compressed primitive: its points in world space, its triangles.
+  void add_draco(int n, const Eigen::Matrix4d& world, const Json& prim, const Json& ext, int a,
+                 std::size_t mode, const std::string& where) {
+    const std::string w = where + ".extensions.KHR_draco_mesh_compression";
+    if (!ext.is_object()) fail(name_, 0, w + " is not an object");
+    if (mode != 4) fail(name_, 0, w + ": Draco primitives must be triangles (mode 4)");
+    const int v = r_.index(ext, "bufferView", w, img_.views.size());
+    const auto ids = ext.find("attributes");
+    if (ids == ext.end() || !ids->is_object() || !ids->contains("POSITION"))
+      fail(name_, 0, w + ": no POSITION attribute id");
+    auto [found, fresh_view] = draco_of_view_.try_emplace(v, static_cast<int>(img_.dracos.size()));
+    if (fresh_view) img_.dracos.push_back(decode_view(v, prim, (*ids)["POSITION"], a, w, where));
+    nodes_of_accessor_[a].insert(n);
+    if (!primitives_read_.insert({-1 - v, -1, mode}).second) return;
+    auto [it, fresh] = instance_of_.try_emplace(-1 - v, img_.instances.size());
+    const GltfDraco& d = img_.dracos[static_cast<std::size_t>(found->second)];
+    if (fresh) {
+      GltfInstance inst;
+      inst.node = n;
+      inst.accessor = a;
+      inst.count = d.mesh.positions.size() / 3;
+      inst.world = world;
+      inst.first = parsed_.xyz.size() / 3;
+      inst.draco = found->second;
+      for (std::size_t k = 0; k < inst.count; ++k)
+        add_vertex(inst.first + k,
+                   world * Eigen::Vector4d(d.mesh.positions[3 * k], d.mesh.positions[3 * k + 1],
+                                           d.mesh.positions[3 * k + 2], 1.0));
+      img_.instances.push_back(inst);
     }
-  } else {
-    for (std::size_t m = 0; m < meshes.size(); ++m) {
-      const Json& mesh = meshes[m];
-      if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array())
-        fail(name, 0, fmt::format("meshes[{}] has no primitives array", m));
-      for (std::size_t p = 0; p < mesh["primitives"].size(); ++p)
-        add_primitive(-1, Eigen::Matrix4d::Identity(), mesh["primitives"][p],
-                      fmt::format("meshes[{}].primitives[{}]", m, p));
+    const GltfInstance& inst = img_.instances[it->second];
+    for (std::size_t t = 0; t + 2 < d.mesh.triangles.size(); t += 3) {
+      const int tri[3] = {static_cast<int>(inst.first + d.mesh.triangles[t]),
+                          static_cast<int>(inst.first + d.mesh.triangles[t + 1]),
+                          static_cast<int>(inst.first + d.mesh.triangles[t + 2])};
+      parsed_.faces.push_back(tri, 3);
     }
   }
-  std::size_t instanced = 0, most = 0;
-  int example = -1;
-  for (const auto& [a, users] : nodes_of_accessor)
-    if (users.size() > 1) {
-      ++instanced;
-      if (users.size() > most) most = users.size(), example = a;
-    }
-  if (instanced > 0)
-    notes.push_back(
-        fmt::format("{} position accessors are drawn by several nodes (instanced; "
-                    "accessors[{}] by {}): each is read and marked once, in the "
-                    "frame of the first node drawing it",
-                    instanced, example, most));
-  if (skipped_primitives > 0)
-    notes.push_back(fmt::format("{} point or line primitives skipped", skipped_primitives));
-  if (parsed.faces.size() == 0)
-    fail(name, 0,
-         fmt::format("no triangle primitive in the default scene ({} point or line "
-                     "primitives)",
-                     skipped_primitives));
-  if (options.weld_tolerance > 0) img.world_as_read = parsed.xyz;
-  Mesh mesh = assemble(std::move(parsed), std::string(), format, Encoding::BinaryLittleEndian, name,
-                       options, std::move(image));
+
+  // Buffer view v decoded as Draco, its POSITION attribute id checked against the JSON's.
+  GltfDraco decode_view(int v, const Json& prim, const Json& position_id, int a,
+                        const std::string& w, const std::string& where) {
+    GltfDraco d;
+    d.view = v;
+    const GltfView& view = img_.views[static_cast<std::size_t>(v)];
+    d.mesh = decode_draco(r_.view_bytes(view).substr(r_.view_start(view), view.length),
+                          name_ + " (" + w + ")");
+    if (position_id != d.mesh.attribute_id_of_position)
+      fail(name_, 0,
+           fmt::format("{}: POSITION is attribute {} in the JSON, {} in the Draco data", w,
+                       position_id.dump(), d.mesh.attribute_id_of_position));
+    d.position_accessor = a;
+    for (const auto& [key, acc] : prim["attributes"].items())
+      d.attribute_accessors.push_back(
+          r_.index(prim["attributes"], key.c_str(), where, accessors_.size()));
+    if (prim.contains("indices"))
+      d.indices_accessor = r_.index(prim, "indices", where, accessors_.size());
+    return d;
+  }
+
+  Reader& r_;
+  const std::string& name_;
+  GltfImage& img_;
+  const Json& accessors_;
+  const Json& meshes_;
+  const Json& nodes_;
+  std::vector<std::uint8_t> seen_;
+  Parsed parsed_;
+  std::map<int, std::size_t> instance_of_;  // accessor, or -1 - Draco view -> instance
+  std::map<int, std::set<int>> nodes_of_accessor_;
+  std::set<std::tuple<int, int, std::size_t>> primitives_read_;
+  std::map<int, int> draco_of_view_;
+  std::size_t skipped_primitives_ = 0;
+};
+
+Mesh read_gltf_document(std::string bytes, FileFormat format, const std::string& name,
+                        const ReadOptions& options) {
+  auto image = std::make_shared<GltfImage>();
+  GltfImage& img = *image;
+  img.binary = format == FileFormat::Glb;
+  GlbChunks chunks;
+  if (img.binary)
+    chunks = read_glb_chunks(bytes, name);
+  else
+    chunks.json = bytes;
+  img.json = std::move(chunks.json);
+  img.file = std::move(bytes);  // buffer 0 of a GLB is read in place
+  std::vector<std::string> notes;
+  Reader r{name, options, Json(), img, notes};
+  parse_document(r);
+  r.read_buffers(img.file, img.binary, chunks.bin_offset, chunks.bin_length);
+  r.read_views();
+  const Json& accessors = r.array("accessors");
+  img.accessor_counts.assign(accessors.size(), 0);
+  for (std::size_t a = 0; a < accessors.size(); ++a)
+    if (accessors[a].is_object())
+      img.accessor_counts[a] = r.size(accessors[a], "count", fmt::format("accessors[{}]", a), 0);
+
+  SceneGatherer scene(r);
+  scene.gather();
+  scene.finish(notes);
+  if (options.weld_tolerance > 0) img.world_as_read = scene.parsed().xyz;
+  Mesh mesh = assemble(std::move(scene.parsed()), std::string(), format,
+                       Encoding::BinaryLittleEndian, name, options, std::move(image));
   mesh.notes = std::move(notes);
   return mesh;
 }
