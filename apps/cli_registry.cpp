@@ -49,7 +49,7 @@ nlohmann::json to_json(const IssuedCopy& c) {
 
 // A CSV field: quoted when it holds a comma, a quote or a line break.
 std::string csv(const std::string& raw) {
-  const std::string s = printable(raw);
+  std::string s = printable(raw);
   if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
   std::string out = "\"";
   for (const char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);

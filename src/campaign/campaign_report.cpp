@@ -100,36 +100,26 @@ std::string left_out(const std::vector<TrialRow>& rows) {
   return md + ").";
 }
 
-}  // namespace
+// What the report's parts read: the campaign, its rows and calibrations, the summary and the
+// columns (a variant under a protocol) of its tables.
+struct Report {
+  const CampaignConfig& c;
+  const std::vector<CalibrationRecord>& calibrations;
+  const std::vector<TrialRow>& rows;
+  std::vector<SummaryRow> summary;
+  std::vector<Column> columns;
 
-std::string write_campaign_report(const std::string& out_dir, const CampaignConfig& c,
-                                  const std::vector<CalibrationRecord>& calibrations,
-                                  const std::vector<TrialRow>& rows, double wall_seconds) {
-  if (c.trace) return detail::write_trace_report(out_dir, c, calibrations, rows, wall_seconds);
-  const fs::path dir(out_dir);
-  const std::vector<SummaryRow> summary = summarize(c, rows);
-  std::string csv = "variant,attack,attack_strength,median_ber,mean_ber,trials,protocol,excluded\n";
-  auto quote = [](const std::string& t) { return fmt::format("\"{}\"", t); };
-  for (const SummaryRow& s : summary)
-    csv += fmt::format("{},{},{},{},{},{},{},{}\n", s.variant, quote(s.attack), s.attack_strength,
-                       s.median_ber, s.mean_ber, s.trials, s.protocol, s.excluded);
-  write_file_atomically((dir / "summary.csv").string(), csv);
-  const std::vector<Column> columns = columns_of(c);
-  auto lookup = [&](const Column& col, const std::string& a, double x) -> const SummaryRow* {
+  const SummaryRow* lookup(const Column& col, const std::string& a, double x) const {
     for (const SummaryRow& s : summary)
       if (s.protocol == col.protocol && s.variant == col.variant && s.attack == a &&
           s.attack_strength == x)
         return &s;
     return nullptr;
-  };
+  }
 
-  // Figures: one per attack with more than one strength (a curve per variant), a panel figure
-  // of them all, and the paper's Figs. 1 and 2 (its variants, its five attacks) when the
-  // campaign has them.
-  std::vector<const AttackSeries*> plotted;
-  for (const AttackSeries& a : c.attacks)
-    if (a.kind != "none" && a.strengths.size() > 1) plotted.push_back(&a);
-  auto curves_of = [&](const AttackSeries& a, const std::vector<std::string>& variants) {
+  // The median BER curves of attack a, one per column whose variant is in `variants`.
+  std::vector<PlotCurve> curves_of(const AttackSeries& a,
+                                   const std::vector<std::string>& variants) const {
     std::vector<PlotCurve> curves;
     std::vector<double> xs = a.strengths;
     std::sort(xs.begin(), xs.end());
@@ -142,9 +132,29 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
       curves.push_back(curve);
     }
     return curves;
-  };
+  }
+};
+
+void write_summary_csv(const fs::path& dir, const std::vector<SummaryRow>& summary) {
+  std::string csv = "variant,attack,attack_strength,median_ber,mean_ber,trials,protocol,excluded\n";
+  auto quote = [](const std::string& t) { return fmt::format("\"{}\"", t); };
+  for (const SummaryRow& s : summary)
+    csv += fmt::format("{},{},{},{},{},{},{},{}\n", s.variant, quote(s.attack), s.attack_strength,
+                       s.median_ber, s.mean_ber, s.trials, s.protocol, s.excluded);
+  write_file_atomically((dir / "summary.csv").string(), csv);
+}
+
+// The figures: one per attack with more than one strength (a curve per variant), a panel
+// figure of them all, and the paper's Figs. 1 and 2 (its variants, its five attacks) when the
+// campaign has them. Returns the report's paragraphs that show them; `png` says whether PNG
+// copies were written too.
+std::string write_figures(const fs::path& dir, const Report& rep, bool& png) {
+  const CampaignConfig& c = rep.c;
+  std::vector<const AttackSeries*> plotted;
+  for (const AttackSeries& a : c.attacks)
+    if (a.kind != "none" && a.strengths.size() > 1) plotted.push_back(&a);
   const double pw = 420, ph = 300;
-  bool png = false;
+  png = false;
   // A grid of panels, three per row; returns the file's name, or "" when nothing to plot.
   auto grid = [&](const std::string& name, const std::vector<const AttackSeries*>& attacks,
                   const std::vector<std::string>& variants) -> std::string {
@@ -152,29 +162,31 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
     std::string panels;
     double extra = 0;  // every panel's legend as tall as the tallest
     for (const AttackSeries* a : attacks)
-      extra = std::max(extra, plot_legend_extra(curves_of(*a, variants), pw));
+      extra = std::max(extra, plot_legend_extra(rep.curves_of(*a, variants), pw));
     for (std::size_t i = 0; i < attacks.size(); ++i) {
-      const std::vector<PlotCurve> curves = curves_of(*attacks[i], variants);
+      const std::vector<PlotCurve> curves = rep.curves_of(*attacks[i], variants);
       panels += detail::plot_panel(
-          (i % 3) * pw, (i / 3) * (ph + extra), pw, ph + extra - plot_legend_extra(curves, pw),
+          static_cast<double>(i % 3) * pw, static_cast<double>(i / 3) * (ph + extra), pw,
+          ph + extra - plot_legend_extra(curves, pw),
           ber_axes(fmt::format("({}) {}", char('a' + i), series_label(*attacks[i])),
                    attacks[i]->kind + " strength"),
           curves);
     }
     const std::size_t cols = std::min<std::size_t>(3, attacks.size());
-    png |= write_figure(dir, name,
-                        svg_document(cols * pw, ((attacks.size() + 2) / 3) * (ph + extra), panels));
+    png |= write_figure(
+        dir, name,
+        svg_document(static_cast<double>(cols) * pw,
+                     static_cast<double>((attacks.size() + 2) / 3) * (ph + extra), panels));
     return name;
   };
   std::string md_figures;
-  for (std::size_t i = 0; i < plotted.size(); ++i) {
-    const AttackSeries& a = *plotted[i];
-    const std::vector<PlotCurve> curves = curves_of(a, c.variants);
+  for (const AttackSeries* a : plotted) {
+    const std::vector<PlotCurve> curves = rep.curves_of(*a, c.variants);
     png |= write_figure(
-        dir, "figure-" + file_slug(series_label(a)),
+        dir, "figure-" + file_slug(series_label(*a)),
         svg_document(pw, ph + plot_legend_extra(curves, pw),
-                     detail::plot_panel(0, 0, pw, ph, ber_axes(series_label(a), strength_label(a)),
-                                        curves)));
+                     detail::plot_panel(0, 0, pw, ph,
+                                        ber_axes(series_label(*a), strength_label(*a)), curves)));
   }
   const std::string all = grid("figure-all", plotted, c.variants);
   if (!all.empty()) md_figures += "All attacks, every variant:\n\n![all](figure-all.svg)\n\n";
@@ -192,14 +204,17 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
   if (has({"VRS", "VRQ", "VRL", "VNS", "VSS"}) &&
       !grid("fig2", five, {"VRS", "VRQ", "VRL", "VNS", "VSS"}).empty())
     md_figures += "The paper's Fig. 2 (VRS, VRQ, VRL, VNS, VSS):\n\n![Fig. 2](fig2.svg)\n\n";
+  return md_figures;
+}
 
-  // The report.
+// The report's opening: the configuration and how strengths were chosen.
+std::string report_header(const CampaignConfig& c, std::size_t rows, double wall_seconds) {
   std::string md = fmt::format("# Campaign `{}`\n\n", c.name);
   md += fmt::format(
       "Configuration `{}`: {} models, variants {}, {} bits, {} payloads, {} draws for random "
       "attacks, seed {}. {} trials in {:.1f} s of wall time (all runs of the campaign).\n\n",
       c.source, c.models.size(), fmt::join(c.variants, ", "), c.bits, c.payloads, c.draws, c.seed,
-      rows.size(), wall_seconds);
+      rows, wall_seconds);
   for (const CampaignProtocol& p : c.protocols)
     md +=
         c.calibrate
@@ -213,18 +228,24 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
                       ? "fixed at the paper's 0.05"
                       : "= min(0.05, alpha) (at-most-strength)")
             : fmt::format("Fixed strength alpha = {} for every model and variant.\n\n", c.strength);
-  md += "## Calibrated strengths\n\nalpha (vertex RMS % of the diagonal, MSDM)\n\n| model |";
-  for (const Column& col : columns) md += " " + col.name + " |";
+  return md;
+}
+
+// The calibrated strengths, a row per model and a column per variant and protocol.
+std::string calibration_table(const Report& rep) {
+  std::string md =
+      "## Calibrated strengths\n\nalpha (vertex RMS % of the diagonal, MSDM)\n\n| model |";
+  for (const Column& col : rep.columns) md += " " + col.name + " |";
   md += "\n| --- |";
-  for (std::size_t k = 0; k < columns.size(); ++k) md += " ---: |";
+  for (std::size_t k = 0; k < rep.columns.size(); ++k) md += " ---: |";
   md += "\n";
-  for (const CampaignModel& m : c.models) {
+  for (const CampaignModel& m : rep.c.models) {
     md += "| " + m.name + " |";
-    for (const Column& col : columns) {
-      auto it = std::find_if(calibrations.begin(), calibrations.end(), [&](const auto& r) {
+    for (const Column& col : rep.columns) {
+      auto it = std::find_if(rep.calibrations.begin(), rep.calibrations.end(), [&](const auto& r) {
         return r.model == m.name && r.variant == col.variant && r.protocol == col.protocol;
       });
-      if (it == calibrations.end())
+      if (it == rep.calibrations.end())
         md += " - |";
       else if (it->strength <= 0)
         md +=
@@ -235,15 +256,19 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
     }
     md += "\n";
   }
+  return md;
+}
 
-  md +=
+// Medians of the embeddings' strength, distortion and time per column.
+std::string distortion_table(const Report& rep) {
+  std::string md =
       "\n## Distortion and time per variant\n\nMedians over the embeddings (one per model "
       "and payload).\n\n| variant | alpha | RMS % | MSDM | embedding s | failed |\n"
       "| --- | ---: | ---: | ---: | ---: | ---: |\n";
-  for (const Column& col : columns) {
+  for (const Column& col : rep.columns) {
     std::vector<double> a, r, m, t;
     int failed = 0;
-    for (const TrialRow& row : rows)
+    for (const TrialRow& row : rep.rows)
       if (row.variant == col.variant && row.protocol == col.protocol && row.attack == "none") {
         if (row.status != "ok") {
           ++failed;
@@ -255,55 +280,83 @@ std::string write_campaign_report(const std::string& out_dir, const CampaignConf
     md += fmt::format("| {} | {:.4f} | {:.5f} | {:.4f} | {:.4f} | {} |\n", col.name, median(a),
                       median(r), median(m), median(t), failed);
   }
+  return md;
+}
 
-  md +=
-      "\n## Median bit error rate\n\nOver models, payloads and draws, of the trials that "
-      "measured a mark. " +
-      left_out(rows) + "\n\n";
-  md += md_figures + "\n";
-  for (const AttackSeries& a : c.attacks) {
+// The median BER per attack and strength, and the paper's Table III when there is Loop.
+std::string ber_tables(const Report& rep) {
+  std::string md;
+  for (const AttackSeries& a : rep.c.attacks) {
     md += fmt::format("### {}\n\n{}\n\n| strength |", series_label(a), strength_label(a));
-    for (const Column& col : columns) md += " " + col.name + " |";
+    for (const Column& col : rep.columns) md += " " + col.name + " |";
     md += "\n| ---: |";
-    for (std::size_t k = 0; k < columns.size(); ++k) md += " ---: |";
+    for (std::size_t k = 0; k < rep.columns.size(); ++k) md += " ---: |";
     md += "\n";
     for (const double x : a.strengths) {
       md += fmt::format("| {:g} |", x);
-      for (const Column& col : columns) {
-        const SummaryRow* s = lookup(col, series_label(a), x);
+      for (const Column& col : rep.columns) {
+        const SummaryRow* s = rep.lookup(col, series_label(a), x);
         md += s ? fmt::format(" {:.3f} |", s->median_ber) : std::string(" - |");
       }
       md += "\n";
     }
     md += "\n";
   }
-  // Table III: Loop subdivision, one iteration.
-  if (lookup(columns[0], "loop", 1)) {
+  if (rep.lookup(rep.columns[0], "loop", 1)) {
     md +=
         "## Loop subdivision, one iteration (the paper's Table III)\n\n| variant | median BER |\n"
         "| --- | ---: |\n";
-    for (const Column& col : columns)
-      if (const SummaryRow* s = lookup(col, "loop", 1))
+    for (const Column& col : rep.columns)
+      if (const SummaryRow* s = rep.lookup(col, "loop", 1))
         md += fmt::format("| {} | {:.3f} |\n", col.name, s->median_ber);
     md += "\n";
   }
-  md += detail::published_comparison(c, summary);
-  md +=
+  return md;
+}
+
+// Median seconds of the attack and of the extraction, per attack.
+std::string time_table(const Report& rep) {
+  std::string md =
       "## Time per trial\n\nMedian seconds of the attack and of the blind extraction, per "
       "attack.\n\n| attack | attack s | extraction s | trials |\n| --- | ---: | ---: | ---: |\n";
-  for (const AttackSeries& a : c.attacks) {
+  for (const AttackSeries& a : rep.c.attacks) {
     std::vector<double> at, xt;
-    for (const TrialRow& row : rows)
+    for (const TrialRow& row : rep.rows)
       if (row.attack == series_label(a) && row.status == "ok")
         at.push_back(row.attack_seconds), xt.push_back(row.extract_seconds);
     md += fmt::format("| {} | {:.4f} | {:.5f} | {} |\n", series_label(a), median(at), median(xt),
                       at.size());
   }
+  return md;
+}
+
+}  // namespace
+
+std::string write_campaign_report(const std::string& out_dir, const CampaignConfig& c,
+                                  const std::vector<CalibrationRecord>& calibrations,
+                                  const std::vector<TrialRow>& rows, double wall_seconds) {
+  if (c.trace) return detail::write_trace_report(out_dir, c, calibrations, rows, wall_seconds);
+  const fs::path dir(out_dir);
+  const Report rep{c, calibrations, rows, summarize(c, rows), columns_of(c)};
+  write_summary_csv(dir, rep.summary);
+  bool png = false;
+  const std::string md_figures = write_figures(dir, rep, png);
+  std::string md = report_header(c, rows.size(), wall_seconds);
+  md += calibration_table(rep);
+  md += distortion_table(rep);
+  md +=
+      "\n## Median bit error rate\n\nOver models, payloads and draws, of the trials that "
+      "measured a mark. " +
+      left_out(rows) + "\n\n";
+  md += md_figures + "\n";
+  md += ber_tables(rep);
+  md += detail::published_comparison(c, rep.summary);
+  md += time_table(rep);
   md += fmt::format(
       "\nFiles: `rows.csv` and `rows.jsonl` (one row per trial), `summary.csv`, "
       "`calibration.jsonl`, figures as SVG{}.\n",
       png ? " and PNG" : " (PNG needs rsvg-convert from librsvg2-bin)");
-  const std::string path = (dir / "report.md").string();
+  std::string path = (dir / "report.md").string();
   write_file_atomically(path, md);
   return path;
 }

@@ -221,7 +221,7 @@ std::string write_trace_report(const std::string& out_dir, const CampaignConfig&
       "Files: `rows.csv` and `rows.jsonl` (one row per trial, both outcomes), `summary.csv`, "
       "`figure-trace.svg`{}.\n",
       png ? " and `.png`" : "");
-  const std::string path = (dir / "report.md").string();
+  std::string path = (dir / "report.md").string();
   write_file_atomically(path, md);
   return path;
 }

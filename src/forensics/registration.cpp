@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <vector>
 
 #include "meshmark/carrier/histogram.h"
@@ -177,6 +178,97 @@ Similarity icp_plane(const Eigen::MatrixX3d& S, const SurfaceIndex& original,
 
 }  // namespace
 
+namespace {
+
+// Registration's starts besides the identity (first): the principal axes of the leak's points
+// matched to the original's in the four proper ways, at the scale of their spreads.
+std::vector<Similarity> principal_axis_starts(const Eigen::MatrixX3d& leak,
+                                              const Eigen::MatrixX3d& original) {
+  std::vector<Similarity> starts(1);
+  Eigen::Vector3d mean_l, mean_o;
+  Eigen::Matrix3d cov_l, cov_o;
+  moments(leak, mean_l, cov_l);
+  moments(original, mean_o, cov_o);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> el(cov_l), eo(cov_o);
+  const double scale = std::sqrt(cov_o.trace() / std::max(cov_l.trace(), 1e-300));
+  for (const Eigen::Vector3d& signs : {Eigen::Vector3d(1, 1, 1), Eigen::Vector3d(1, -1, -1),
+                                       Eigen::Vector3d(-1, 1, -1), Eigen::Vector3d(-1, -1, 1)}) {
+    Eigen::Matrix3d R = eo.eigenvectors() * signs.asDiagonal() * el.eigenvectors().transpose();
+    if (R.determinant() < 0) R = -R;  // eigenvector bases may be left-handed
+    Similarity s;
+    s.rotation = R;
+    s.scale = scale;
+    s.translation = mean_o - scale * R * mean_l;
+    starts.push_back(s);
+  }
+  return starts;
+}
+
+// For a leak with the original's faces (noise, quantization, smoothing, a similarity), where
+// vertex i corresponds to vertex i: the least-squares similarity of the pairs (Umeyama),
+// refitted on the closest `trim` of them; none with fewer than 3 pairs.
+std::optional<Similarity> fit_corresponding_vertices(const Eigen::MatrixX3d& VL,
+                                                     const Eigen::MatrixX3d& VO,
+                                                     const std::vector<std::uint8_t>& used_l,
+                                                     const std::vector<std::uint8_t>& used_o,
+                                                     double trim) {
+  std::vector<Eigen::Index> pairs;
+  for (Eigen::Index i = 0; i < VL.rows(); ++i)
+    if (used_l[i] && used_o[i]) pairs.push_back(i);
+  if (pairs.size() < 3) return std::nullopt;
+  Similarity T;
+  for (const double share : {1.0, trim}) {
+    std::vector<double> d(pairs.size());
+    const Eigen::MatrixX3d moved = T.apply(VL);
+    for (std::size_t k = 0; k < pairs.size(); ++k)
+      d[k] = (moved.row(pairs[k]) - VO.row(pairs[k])).norm();
+    std::vector<std::size_t> order(pairs.size());
+    std::iota(order.begin(), order.end(), 0);
+    const auto keep = std::max<std::size_t>(
+        3, static_cast<std::size_t>(share * static_cast<double>(pairs.size())));
+    std::nth_element(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(keep - 1),
+                     order.end(), [&](std::size_t a, std::size_t b) { return d[a] < d[b]; });
+    Eigen::Matrix3Xd src(3, keep), dst(3, keep);
+    for (std::size_t k = 0; k < keep; ++k) {
+      src.col(static_cast<Eigen::Index>(k)) = VL.row(pairs[order[k]]).transpose();
+      dst.col(static_cast<Eigen::Index>(k)) = VO.row(pairs[order[k]]).transpose();
+    }
+    const Eigen::Matrix4d M = Eigen::umeyama(src, dst, true);
+    T.scale = M.block<3, 3>(0, 0).col(0).norm();
+    T.rotation = M.block<3, 3>(0, 0) / T.scale;
+    T.translation = M.block<3, 1>(0, 3);
+  }
+  return T;
+}
+
+// The verdict on the best transform: its overlap (the share of samples S near the original),
+// Registered when its residual is at most max_residual and the registered leak (all its points)
+// spans at least 2 % of the original's diagonal (a leak shrunk onto a patch of the original
+// fits it closely and means nothing), and the message.
+void judge(RegistrationResult& best, const SurfaceIndex& index, const Eigen::MatrixX3d& S,
+           const Eigen::MatrixX3d& all_l, double diagonal, double max_residual) {
+  const ClosestPoints cp = index.query(best.transform.apply(S));
+  const double near = std::max(3 * best.residual, 1e-3) * diagonal;
+  best.overlap = static_cast<double>((cp.distance.array() <= near).count()) / S.rows();
+  const Eigen::MatrixX3d moved = best.transform.apply(all_l);
+  const double span = (moved.colwise().maxCoeff() - moved.colwise().minCoeff()).norm() / diagonal;
+  const bool collapsed = !(span >= 0.02);
+  best.status = best.residual <= max_residual && !collapsed ? RegistrationStatus::Registered
+                                                            : RegistrationStatus::Failed;
+  best.message = fmt::format(
+      "{}{}: residual {:.3g} of the diagonal, {:.0f} % of the leak near the "
+      "original, scale {:.6f}{}",
+      best.status == RegistrationStatus::Registered ? "registered" : "FAILED",
+      best.iterations == 0 ? " (in the original's frame)" : "", best.residual, 100 * best.overlap,
+      best.transform.scale,
+      collapsed ? fmt::format(" (the registered leak spans only {:.2g} of the original's diagonal: "
+                              "it is not this original)",
+                              span)
+                : "");
+}
+
+}  // namespace
+
 RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
                                        const Eigen::MatrixX3d& VO, const Eigen::MatrixX3i& FO,
                                        const RegistrationOptions& o) {
@@ -202,28 +294,11 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
     if (used_o[i] == kCounted) PO.row(k++) = VO.row(i);
   const double diagonal = bounding_box_diagonal(VO, used_o);
 
-  // Starts: the identity, then the principal axes matched in the four proper ways.
-  std::vector<Similarity> starts(1);
-  Eigen::Vector3d mean_l, mean_o;
-  Eigen::Matrix3d cov_l, cov_o;
   Eigen::MatrixX3d all_l(
       static_cast<Eigen::Index>(std::count(used_l.begin(), used_l.end(), kCounted)), 3);
   for (Eigen::Index i = 0, k = 0; i < VL.rows(); ++i)
     if (used_l[i] == kCounted) all_l.row(k++) = VL.row(i);
-  moments(all_l, mean_l, cov_l);
-  moments(PO, mean_o, cov_o);
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> el(cov_l), eo(cov_o);
-  const double scale = std::sqrt(cov_o.trace() / std::max(cov_l.trace(), 1e-300));
-  for (const Eigen::Vector3d& signs : {Eigen::Vector3d(1, 1, 1), Eigen::Vector3d(1, -1, -1),
-                                       Eigen::Vector3d(-1, 1, -1), Eigen::Vector3d(-1, -1, 1)}) {
-    Eigen::Matrix3d R = eo.eigenvectors() * signs.asDiagonal() * el.eigenvectors().transpose();
-    if (R.determinant() < 0) R = -R;  // eigenvector bases may be left-handed
-    Similarity s;
-    s.rotation = R;
-    s.scale = scale;
-    s.translation = mean_o - scale * R * mean_l;
-    starts.push_back(s);
-  }
+  std::vector<Similarity> starts = principal_axis_starts(all_l, PO);
   const SurfaceIndex index(VO, FO);
   RegistrationResult best;
   best.residual = std::numeric_limits<double>::infinity();
@@ -252,32 +327,9 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
     // The leak has the original's faces (noise, quantization, smoothing, a similarity): vertex
     // i corresponds to vertex i, and the similarity is the least-squares fit of the pairs
     // (Umeyama), refitted on the closest `trim` of them.
-    std::vector<Eigen::Index> pairs;
-    for (Eigen::Index i = 0; i < VL.rows(); ++i)
-      if (used_l[i] && used_o[i]) pairs.push_back(i);
-    if (pairs.size() >= 3) {
-      Similarity T;
-      for (const double share : {1.0, o.trim}) {
-        std::vector<double> d(pairs.size());
-        const Eigen::MatrixX3d moved = T.apply(VL);
-        for (std::size_t k = 0; k < pairs.size(); ++k)
-          d[k] = (moved.row(pairs[k]) - VO.row(pairs[k])).norm();
-        std::vector<std::size_t> order(pairs.size());
-        std::iota(order.begin(), order.end(), 0);
-        const auto keep = std::max<std::size_t>(
-            3, static_cast<std::size_t>(share * static_cast<double>(pairs.size())));
-        std::nth_element(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(keep - 1),
-                         order.end(), [&](std::size_t a, std::size_t b) { return d[a] < d[b]; });
-        Eigen::Matrix3Xd src(3, keep), dst(3, keep);
-        for (std::size_t k = 0; k < keep; ++k) {
-          src.col(static_cast<Eigen::Index>(k)) = VL.row(pairs[order[k]]).transpose();
-          dst.col(static_cast<Eigen::Index>(k)) = VO.row(pairs[order[k]]).transpose();
-        }
-        const Eigen::Matrix4d M = Eigen::umeyama(src, dst, true);
-        T.scale = M.block<3, 3>(0, 0).col(0).norm();
-        T.rotation = M.block<3, 3>(0, 0) / T.scale;
-        T.translation = M.block<3, 1>(0, 3);
-      }
+    if (const std::optional<Similarity> fitted =
+            fit_corresponding_vertices(VL, VO, used_l, used_o, o.trim)) {
+      const Similarity& T = *fitted;
       const double rms = trimmed_rms(S, index, T, o.trim) / diagonal;
       if (rms < (near_frame ? 0.5 : 1.0) * best.residual) {
         best.transform = T;
@@ -321,26 +373,7 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
         (k + 1 < ranked.size() && ranked[k + 1].first / diagonal > 3 * best.residual))
       break;
   }
-  const ClosestPoints cp = index.query(best.transform.apply(S));
-  const double near = std::max(3 * best.residual, 1e-3) * diagonal;
-  best.overlap = static_cast<double>((cp.distance.array() <= near).count()) / S.rows();
-  // A leak shrunk onto a patch of the original fits it closely and means nothing: the
-  // registered leak must span at least 2 % of the original's diagonal.
-  const Eigen::MatrixX3d moved = best.transform.apply(all_l);
-  const double span = (moved.colwise().maxCoeff() - moved.colwise().minCoeff()).norm() / diagonal;
-  const bool collapsed = !(span >= 0.02);
-  best.status = best.residual <= o.max_residual && !collapsed ? RegistrationStatus::Registered
-                                                              : RegistrationStatus::Failed;
-  best.message = fmt::format(
-      "{}{}: residual {:.3g} of the diagonal, {:.0f} % of the leak near the "
-      "original, scale {:.6f}{}",
-      best.status == RegistrationStatus::Registered ? "registered" : "FAILED",
-      best.iterations == 0 ? " (in the original's frame)" : "", best.residual, 100 * best.overlap,
-      best.transform.scale,
-      collapsed ? fmt::format(" (the registered leak spans only {:.2g} of the original's diagonal: "
-                              "it is not this original)",
-                              span)
-                : "");
+  judge(best, index, S, all_l, diagonal, o.max_residual);
   return best;
 }
 

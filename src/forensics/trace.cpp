@@ -233,6 +233,134 @@ Eigen::MatrixX3d processed_reference(const Mesh& original, const Eigen::MatrixX3
   return reference;
 }
 
+// The fingerprint of a leak (fingerprint.h): its radial residual against the reference at the
+// measured carrier vertices, fitted with the original's basis; no basis when the original has
+// too few counted vertices for one. Like the bins, the reading uses no candidate's
+// coefficients.
+std::optional<FingerprintBasis> fingerprint_reading(const Mesh& original,
+                                                    const std::vector<std::uint8_t>& carrier,
+                                                    const Eigen::Vector3d& center,
+                                                    const Resampled& m,
+                                                    const Eigen::VectorXd& reference_radii,
+                                                    const Histogram& h, Eigen::VectorXd& reading) {
+  std::vector<std::uint8_t> used(carrier.size(), 0);
+  std::size_t counted = 0;
+  for (std::size_t i = 0; i < carrier.size(); ++i)
+    counted += carrier[i] == kCounted, used[i] = carrier[i] == kCounted && m.measured[i];
+  const int functions = fingerprint_functions(counted);
+  if (functions <= 0) return std::nullopt;
+  FingerprintBasis basis = fingerprint_basis(original.V, original.F, carrier, center, functions);
+  Eigen::VectorXd residual(original.V.rows());
+  for (Eigen::Index i = 0; i < residual.size(); ++i)
+    residual(i) = (m.point.row(i).transpose() - center).norm() - reference_radii(i);
+  reading = read_fingerprint(basis, residual, used, &h);
+  return basis;
+}
+
+// The scores of a group of candidates read alike (same variant, bits, ID bits, strengths and
+// method): each one's best exact p over the readings of kBands' widths times their number, and
+// for a copy with a fingerprint (and a basis) twice the smaller of that and the fingerprint's
+// p (Bonferroni over the two tests keeps it exact or conservative whichever mark the leak
+// kept). Not yet corrected for the number of candidates.
+std::vector<CandidateScore> score_group(const std::vector<IssuedCopy>& copies,
+                                        const std::vector<BitEvidence>& evidence,
+                                        const BitLayout& layout, int id_bits, const Key& key,
+                                        const FingerprintBasis* basis,
+                                        const Eigen::VectorXd& reading) {
+  const int bits = layout.size();
+  IdCodeOptions co;
+  co.bits = bits;
+  co.id_bits = id_bits;
+  const IdCode code(co);
+  std::vector<Payload> codewords;
+  for (const IssuedCopy& c : copies) codewords.push_back(code.encode(c.id, key));
+  std::vector<CandidateScore> scores(copies.size());
+  std::vector<std::uint8_t> previous;
+  for (const double band : kBands) {
+    const std::vector<std::uint8_t> read = layout.from_bins(banded_bits(evidence, band));
+    if (read == previous) continue;  // the same reading: the same p-values
+    previous = read;
+    const CodewordNull null(code, read, key);
+    for (std::size_t c = 0; c < copies.size(); ++c) {
+      CandidateScore s;
+      s.copy = copies[c];
+      s.compared = 0;
+      for (int j = 0; j < bits; ++j) {
+        s.compared += read[j] <= 1;
+        s.matches += read[j] <= 1 && read[j] == codewords[c].bits[j];
+      }
+      s.p_value = std::min(1.0, null.p_value(s.matches) * static_cast<double>(kBands.size()));
+      if (band == kBands.front() || s.p_value < scores[c].p_value) scores[c] = s;
+    }
+  }
+  if (basis)
+    for (CandidateScore& s : scores)
+      if (s.copy.mark_format == kFingerprintMarkFormat) {
+        s.fingerprint_z =
+            fingerprint_score(fingerprint_coefficients(key, s.copy.id, basis->functions), reading);
+        s.fingerprint_p = normal_upper_tail(s.fingerprint_z);
+        s.p_value = std::min(1.0, 2 * std::min(s.p_value, s.fingerprint_p));
+      }
+  return scores;
+}
+
+// Sorts the ranking and names the candidates below the threshold. A row edited after it was
+// recorded is never named (its buyer or its ID may be anyone's); a row without a MAC is, with a
+// warning, and so is a reserved one. Sets the status and the message.
+void name_buyers(TraceResult& r, const Key& key, double threshold) {
+  std::stable_sort(
+      r.ranking.begin(), r.ranking.end(),
+      [](const CandidateScore& a, const CandidateScore& b) { return a.p_value < b.p_value; });
+  std::size_t edited = 0;
+  for (CandidateScore& s : r.ranking) {
+    s.auth = check_row(key, s.copy);
+    if (s.auth == RowAuth::Edited) {
+      ++edited;
+      if (s.corrected_p < threshold)
+        r.warnings.push_back(fmt::format(
+            "row {} (ID {}) reads as the leaker (p = {:.3g} after correction) but fails its "
+            "authentication code: it was changed after it was recorded, and is not named",
+            s.copy.row, s.copy.id, s.corrected_p));
+      continue;
+    }
+    if (s.corrected_p < threshold) {
+      r.named.push_back(s);
+      if (s.auth == RowAuth::Unauthenticated)
+        r.warnings.push_back(fmt::format(
+            "row {} (ID {}) carries no authentication code (recorded before registry schema "
+            "4, or without the key): its buyer and ID are as the registry says, unverified",
+            s.copy.row, s.copy.id));
+      if (s.copy.state == "reserved")
+        r.warnings.push_back(fmt::format(
+            "row {} (ID {}) is reserved, not completed: the issue of its copy was interrupted "
+            "(or is running) after the ID was reserved; check that the copy was delivered",
+            s.copy.row, s.copy.id));
+    }
+  }
+  if (edited > 0)
+    r.warnings.push_back(fmt::format(
+        "{} of the {} candidate rows fail their authentication code (meshmark registry verify "
+        "lists them)",
+        edited, r.ranking.size()));
+  r.status = r.named.empty() ? TraceStatus::NoBuyer : TraceStatus::Named;
+  if (r.named.empty() && !r.warnings.empty() && r.ranking.front().corrected_p < threshold &&
+      r.ranking.front().auth == RowAuth::Edited) {
+    r.message =
+        "no buyer: the candidates that read as the leaker fail their authentication "
+        "code (see the warnings)";
+    return;
+  }
+  r.message =
+      r.named.empty()
+          ? fmt::format("no buyer: the best of {} candidates has p = {:.3g} after correction",
+                        r.ranking.size(), r.ranking.front().corrected_p)
+          : fmt::format(
+                "{} named: '{}' (ID {}), p = {:.3g} after correction for {} candidates",
+                r.named.size() == 1 ? "one buyer" : fmt::format("{} buyers", r.named.size()),
+                r.named[0].copy.buyer, r.named[0].copy.id, r.named[0].corrected_p,
+                r.ranking.size());
+}
+
 }  // namespace
 
 Resampled resample_at_original(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
@@ -341,55 +469,13 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     });
     std::optional<FingerprintBasis> basis;
     Eigen::VectorXd reading;
-    if (fingerprinted) {
-      std::vector<std::uint8_t> used(carrier.size(), 0);
-      std::size_t counted = 0;
-      for (std::size_t i = 0; i < carrier.size(); ++i)
-        counted += carrier[i] == kCounted, used[i] = carrier[i] == kCounted && m.measured[i];
-      const int functions = fingerprint_functions(counted);
-      if (functions > 0) {
-        basis = fingerprint_basis(original.V, original.F, carrier, center.point, functions);
-        Eigen::VectorXd residual(original.V.rows());
-        for (Eigen::Index i = 0; i < residual.size(); ++i)
-          residual(i) = (m.point.row(i).transpose() - center.point).norm() - reference_radii(i);
-        reading = read_fingerprint(*basis, residual, used, &h);
-      }
-    }
+    if (fingerprinted)
+      basis = fingerprint_reading(original, carrier, center.point, m, reference_radii, h, reading);
     const BitLayout layout = mark_layout(key, bits, true);
-    IdCodeOptions co;
-    co.bits = bits;
-    co.id_bits = id_bits;
-    const IdCode code(co);
-    std::vector<Payload> codewords;
-    for (const std::size_t k : members) codewords.push_back(code.encode(mine[k].id, key));
-    std::vector<CandidateScore> scores(members.size());
-    std::vector<std::uint8_t> previous;
-    for (const double band : kBands) {
-      const std::vector<std::uint8_t> read = layout.from_bins(banded_bits(evidence, band));
-      if (read == previous) continue;  // the same reading: the same p-values
-      previous = read;
-      const CodewordNull null(code, read, key);
-      for (std::size_t c = 0; c < members.size(); ++c) {
-        CandidateScore s;
-        s.copy = mine[members[c]];
-        s.compared = 0;
-        for (int j = 0; j < bits; ++j) {
-          s.compared += read[j] <= 1;
-          s.matches += read[j] <= 1 && read[j] == codewords[c].bits[j];
-        }
-        s.p_value = std::min(1.0, null.p_value(s.matches) * static_cast<double>(kBands.size()));
-        if (band == kBands.front() || s.p_value < scores[c].p_value) scores[c] = s;
-      }
-    }
-    for (CandidateScore& s : scores) {
-      if (basis && s.copy.mark_format == kFingerprintMarkFormat) {
-        // Two tests of one candidate: Bonferroni over them keeps its p-value exact or
-        // conservative whichever mark the leak kept.
-        s.fingerprint_z =
-            fingerprint_score(fingerprint_coefficients(key, s.copy.id, basis->functions), reading);
-        s.fingerprint_p = normal_upper_tail(s.fingerprint_z);
-        s.p_value = std::min(1.0, 2 * std::min(s.p_value, s.fingerprint_p));
-      }
+    std::vector<IssuedCopy> group_copies;
+    for (const std::size_t k : members) group_copies.push_back(mine[k]);
+    for (CandidateScore& s : score_group(group_copies, evidence, layout, id_bits, key,
+                                         basis ? &*basis : nullptr, reading)) {
       s.corrected_p = std::min(1.0, s.p_value * static_cast<double>(mine.size()));
       r.ranking.push_back(s);
     }
@@ -409,56 +495,7 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
   std::stable_sort(
       r.ranking.begin(), r.ranking.end(),
       [](const CandidateScore& a, const CandidateScore& b) { return a.p_value < b.p_value; });
-  // A row edited after it was recorded is never named (its buyer or its ID may be anyone's);
-  // a row without a MAC is, with a warning.
-  std::size_t edited = 0;
-  for (CandidateScore& s : r.ranking) {
-    s.auth = check_row(key, s.copy);
-    if (s.auth == RowAuth::Edited) {
-      ++edited;
-      if (s.corrected_p < o.threshold)
-        r.warnings.push_back(fmt::format(
-            "row {} (ID {}) reads as the leaker (p = {:.3g} after correction) but fails its "
-            "authentication code: it was changed after it was recorded, and is not named",
-            s.copy.row, s.copy.id, s.corrected_p));
-      continue;
-    }
-    if (s.corrected_p < o.threshold) {
-      r.named.push_back(s);
-      if (s.auth == RowAuth::Unauthenticated)
-        r.warnings.push_back(fmt::format(
-            "row {} (ID {}) carries no authentication code (recorded before registry schema "
-            "4, or without the key): its buyer and ID are as the registry says, unverified",
-            s.copy.row, s.copy.id));
-      if (s.copy.state == "reserved")
-        r.warnings.push_back(fmt::format(
-            "row {} (ID {}) is reserved, not completed: the issue of its copy was interrupted "
-            "(or is running) after the ID was reserved; check that the copy was delivered",
-            s.copy.row, s.copy.id));
-    }
-  }
-  if (edited > 0)
-    r.warnings.push_back(fmt::format(
-        "{} of the {} candidate rows fail their authentication code (meshmark registry verify "
-        "lists them)",
-        edited, r.ranking.size()));
-  r.status = r.named.empty() ? TraceStatus::NoBuyer : TraceStatus::Named;
-  if (r.named.empty() && !r.warnings.empty() && r.ranking.front().corrected_p < o.threshold &&
-      r.ranking.front().auth == RowAuth::Edited) {
-    r.message =
-        "no buyer: the candidates that read as the leaker fail their authentication "
-        "code (see the warnings)";
-    return r;
-  }
-  r.message =
-      r.named.empty()
-          ? fmt::format("no buyer: the best of {} candidates has p = {:.3g} after correction",
-                        r.ranking.size(), r.ranking.front().corrected_p)
-          : fmt::format(
-                "{} named: '{}' (ID {}), p = {:.3g} after correction for {} candidates",
-                r.named.size() == 1 ? "one buyer" : fmt::format("{} buyers", r.named.size()),
-                r.named[0].copy.buyer, r.named[0].copy.id, r.named[0].corrected_p,
-                r.ranking.size());
+  name_buyers(r, key, o.threshold);
   return r;
 }
 
