@@ -190,44 +190,18 @@ void fall_back_where_bins_cannot_reach(const EmbedContext& ctx, const Payload& p
   }
 }
 
-}  // namespace
 
-bool build_round(const EmbedContext& ctx, const Payload& payload, const EmbedOptions& o,
-                 const Eigen::MatrixX3d& V, bool assemble_hessian, RoundProblem& round,
-                 std::string& message) {
-  const Eigen::MatrixX3i& F = *ctx.F;
-  const int nb = payload.size(), ng = ctx.groups.count();
-  // Distances are measured from the original center, where this round puts the center back:
-  // the decoder will see them so (up to the center's second-order error), and the rows need not
-  // model the shift of every distance that bringing the center back causes.
-  round.hist = build_histogram(V, ctx.referenced, ctx.original_center, nb);
+// Each group's direction u_g and the bounds of its step along it: radial for the positions at
+// the extreme distances (fixed: they define the histogram's range) and where the variant's
+// direction cannot reach the bin's shell (counted in round.radial_fallbacks); the payload rows'
+// coefficients a_g.
+void set_group_directions(const EmbedContext& ctx, const Payload& payload, const EmbedOptions& o,
+                          const Eigen::MatrixX3d& V, const Eigen::MatrixX3d& N,
+                          const std::vector<int>& counts, RoundProblem& round) {
   const Histogram& h = round.hist;
-  if (!h.valid()) {
-    message =
-        "no histogram: the mesh has no referenced vertex or all lie at one distance from the "
-        "center";
-    return false;
-  }
-  const double s = h.step;
-  std::vector<double> means;
-  std::vector<int> counts;
-  bin_means(h, means, counts);
-  const bool need_normals = o.variant.direction != DirectionKind::Radial;
-  const Eigen::MatrixX3d N = need_normals ? vertex_normals(V, F) : Eigen::MatrixX3d();
-
   SeparableQp& qp = round.qp;
-  qp.h.resize(ng);
-  qp.lo.resize(ng);
-  qp.hi.resize(ng);
-  qp.a = Eigen::VectorXd::Zero(ng);
-  qp.row.assign(static_cast<std::size_t>(ng), -1);
-  qp.e.resize(3, ng);
-  qp.b.resize(nb);
-  for (int j = 0; j < nb; ++j) {
-    const double m = payload.bits[j] ? 1.0 : -1.0;
-    const double alpha = bit_strength(o, j);
-    qp.b(j) = counts[j] > 0 ? alpha - m * (means[j] - 0.5) : alpha;
-  }
+  const int nb = payload.size(), ng = ctx.groups.count();
+  const double s = h.step;
   round.U.resize(ng, 3);
   round.radial_fallbacks = 0;
   for (int g = 0; g < ng; ++g) {
@@ -264,8 +238,14 @@ bool build_round(const EmbedContext& ctx, const Payload& payload, const EmbedOpt
     }
     qp.h(g) = 1;  // the position's squared displacement, once however many vertices share it
   }
-  fall_back_where_bins_cannot_reach(ctx, payload, o, V, h, counts, round);
-  // The center rows: e_g = sum over the group's vertices of J_i u_g, and the center itself.
+}
+
+// The center rows: e_g = sum over the group's vertices of J_i u_g, and the center itself,
+// brought back where it was. False, with a message, when the center is ill-defined.
+bool set_center_rows(const EmbedContext& ctx, const EmbedOptions& o, const Eigen::MatrixX3d& V,
+                     RoundProblem& round, std::string& message) {
+  SeparableQp& qp = round.qp;
+  const int ng = ctx.groups.count();
   // When every vertex is referenced and alone at its position (the common case), group g is
   // vertex g and the per-vertex directions are the groups'.
   const bool one_to_one = ng == V.rows();
@@ -276,8 +256,8 @@ bool build_round(const EmbedContext& ctx, const Payload& payload, const EmbedOpt
       for (int k = ctx.groups.offsets[g]; k < ctx.groups.offsets[g + 1]; ++k)
         Uv.row(ctx.groups.members[k]) = round.U.row(g);
   }
-  const CenterProducts cp =
-      center_jacobian_products(V, F, ctx.referenced, o.variant.center, one_to_one ? round.U : Uv);
+  const CenterProducts cp = center_jacobian_products(V, *ctx.F, ctx.referenced, o.variant.center,
+                                                     one_to_one ? round.U : Uv);
   round.center = cp.center;
   if (!round.center.well_defined) {
     message = fmt::format(
@@ -286,7 +266,7 @@ bool build_round(const EmbedContext& ctx, const Payload& payload, const EmbedOpt
         center_letter(o.variant.center), round.center.volume_consistency);
     return false;
   }
-  qp.c = (ctx.original_center - round.center.point) / s;  // bring the center back where it was
+  qp.c = (ctx.original_center - round.center.point) / round.hist.step;
   if (one_to_one) {
     qp.e = cp.E.transpose();
   } else {
@@ -295,19 +275,67 @@ bool build_round(const EmbedContext& ctx, const Payload& payload, const EmbedOpt
       for (int k = ctx.groups.offsets[g]; k < ctx.groups.offsets[g + 1]; ++k)
         qp.e.col(g) += cp.E.row(ctx.groups.members[k]).transpose();
   }
-  if (o.variant.cost == CostKind::Quadric) {
-    // q_i = sum over the faces around i of (u . n_f)^2: the quadric error of moving along u.
-    const Eigen::MatrixX3d FN = face_normals(V, F);
-    Eigen::VectorXd q = Eigen::VectorXd::Zero(ng);
-    for (Eigen::Index t = 0; t < F.rows(); ++t)
-      for (int c = 0; c < 3; ++c) {
-        const int g = ctx.groups.group_of[F(t, c)];
-        const double d = round.U.row(g).dot(FN.row(t));
-        q(g) += d * d;
-      }
-    qp.h = o.lambda * qp.h + (1 - o.lambda) * q;
-    qp.h = qp.h.cwiseMax(1e-12 * qp.h.maxCoeff());  // keep the cost strictly convex
+  return true;
+}
+
+// Cost Q: q_g = sum over the faces around the group of (u . n_f)^2, the quadric error of moving
+// along u, mixed with the displacement by lambda.
+void set_quadric_costs(const EmbedContext& ctx, const EmbedOptions& o, const Eigen::MatrixX3d& V,
+                       RoundProblem& round) {
+  const Eigen::MatrixX3i& F = *ctx.F;
+  SeparableQp& qp = round.qp;
+  const Eigen::MatrixX3d FN = face_normals(V, F);
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(ctx.groups.count());
+  for (Eigen::Index t = 0; t < F.rows(); ++t)
+    for (int c = 0; c < 3; ++c) {
+      const int g = ctx.groups.group_of[F(t, c)];
+      const double d = round.U.row(g).dot(FN.row(t));
+      q(g) += d * d;
+    }
+  qp.h = o.lambda * qp.h + (1 - o.lambda) * q;
+  qp.h = qp.h.cwiseMax(1e-12 * qp.h.maxCoeff());  // keep the cost strictly convex
+}
+
+}  // namespace
+
+bool build_round(const EmbedContext& ctx, const Payload& payload, const EmbedOptions& o,
+                 const Eigen::MatrixX3d& V, bool assemble_hessian, RoundProblem& round,
+                 std::string& message) {
+  const int nb = payload.size(), ng = ctx.groups.count();
+  // Distances are measured from the original center, where this round puts the center back:
+  // the decoder will see them so (up to the center's second-order error), and the rows need not
+  // model the shift of every distance that bringing the center back causes.
+  round.hist = build_histogram(V, ctx.referenced, ctx.original_center, nb);
+  const Histogram& h = round.hist;
+  if (!h.valid()) {
+    message =
+        "no histogram: the mesh has no referenced vertex or all lie at one distance from the "
+        "center";
+    return false;
   }
+  std::vector<double> means;
+  std::vector<int> counts;
+  bin_means(h, means, counts);
+  const bool need_normals = o.variant.direction != DirectionKind::Radial;
+  const Eigen::MatrixX3d N = need_normals ? vertex_normals(V, *ctx.F) : Eigen::MatrixX3d();
+
+  SeparableQp& qp = round.qp;
+  qp.h.resize(ng);
+  qp.lo.resize(ng);
+  qp.hi.resize(ng);
+  qp.a = Eigen::VectorXd::Zero(ng);
+  qp.row.assign(static_cast<std::size_t>(ng), -1);
+  qp.e.resize(3, ng);
+  qp.b.resize(nb);
+  for (int j = 0; j < nb; ++j) {
+    const double m = payload.bits[j] ? 1.0 : -1.0;
+    const double alpha = bit_strength(o, j);
+    qp.b(j) = counts[j] > 0 ? alpha - m * (means[j] - 0.5) : alpha;
+  }
+  set_group_directions(ctx, payload, o, V, N, counts, round);
+  fall_back_where_bins_cannot_reach(ctx, payload, o, V, h, counts, round);
+  if (!set_center_rows(ctx, o, V, round, message)) return false;
+  if (o.variant.cost == CostKind::Quadric) set_quadric_costs(ctx, o, V, round);
   if (assemble_hessian) round.H = laplacian_hessian(ctx, round.U, o.lambda);
   return true;
 }
