@@ -375,26 +375,39 @@ struct Patch {
     }
   }
 
+  using Spans = std::unordered_map<std::string, JsonSpan>;
+
+  // New bytes for a buffer view: where the old ones were, and the JSON member of its length.
+  struct Replacement {
+    int buffer;
+    std::size_t offset, length;
+    std::string bytes;
+    std::string length_pointer;
+  };
+
+  // An edit of the JSON member at `pointer`; one that is absent is an error unless
+  // may_be_absent (an absent byteOffset stays 0).
+  void edit(const Spans& spans, std::vector<JsonEdit>& edits, const std::string& pointer,
+            const std::string& value, bool may_be_absent) const {
+    const auto it = spans.find(pointer);
+    if (it == spans.end()) {
+      if (may_be_absent) return;
+      throw InvalidArgumentError(fmt::format("{}: cannot place {} in the JSON", where(), pointer));
+    }
+    edits.push_back({it->second, value});
+  }
+
   // Re-encodes changed meshopt views and Draco primitives, puts the new bytes where the old
   // were, and moves what follows them in their buffers (by the change of the 4-byte-aligned
   // lengths, so every view keeps its alignment and its place relative to its neighbours).
-  void recompress(const std::unordered_map<std::string, JsonSpan>& spans,
-                  std::vector<JsonEdit>& edits) {
-    auto edit = [&](const std::string& pointer, const std::string& value, bool may_be_absent) {
-      const auto it = spans.find(pointer);
-      if (it == spans.end()) {
-        if (may_be_absent) return;  // an absent byteOffset stays 0
-        throw InvalidArgumentError(
-            fmt::format("{}: cannot place {} in the JSON", where(), pointer));
-      }
-      edits.push_back({it->second, value});
-    };
-    struct Replacement {
-      int buffer;
-      std::size_t offset, length;
-      std::string bytes;
-      std::string length_pointer;  // the JSON member holding the length
-    };
+  void recompress(const Spans& spans, std::vector<JsonEdit>& edits) {
+    std::vector<Replacement> replacements = meshopt_replacements();
+    add_draco_replacements(spans, edits, replacements);
+    if (!replacements.empty()) splice(std::move(replacements), spans, edits);
+  }
+
+  // The changed meshopt views encoded again (unfiltered attributes only).
+  std::vector<Replacement> meshopt_replacements() const {
     std::vector<Replacement> replacements;
     for (std::size_t v = 0; v < g.views.size(); ++v) {
       if (!view_changed[v]) continue;
@@ -415,6 +428,13 @@ struct Patch {
           {m.buffer, m.offset, m.length, std::move(out),
            fmt::format("/bufferViews/{}/extensions/EXT_meshopt_compression/byteLength", v)});
     }
+    return replacements;
+  }
+
+  // The changed Draco primitives encoded again, and the accessors' counts, min and max set to
+  // what a reader will decode from them.
+  void add_draco_replacements(const Spans& spans, std::vector<JsonEdit>& edits,
+                              std::vector<Replacement>& replacements) const {
     for (std::size_t d = 0; d < g.dracos.size(); ++d) {
       if (!draco_changed[d]) continue;
       const GltfDraco& dm = g.dracos[d];
@@ -425,10 +445,10 @@ struct Patch {
       const std::size_t points = back.positions.size() / 3;
       for (const int a : dm.attribute_accessors)
         if (g.accessor_counts[static_cast<std::size_t>(a)] != points)
-          edit(fmt::format("/accessors/{}/count", a), std::to_string(points), false);
+          edit(spans, edits, fmt::format("/accessors/{}/count", a), std::to_string(points), false);
       if (dm.indices_accessor >= 0 &&
           g.accessor_counts[static_cast<std::size_t>(dm.indices_accessor)] != back.triangles.size())
-        edit(fmt::format("/accessors/{}/count", dm.indices_accessor),
+        edit(spans, edits, fmt::format("/accessors/{}/count", dm.indices_accessor),
              std::to_string(back.triangles.size()), false);
       double lo[3], hi[3];
       for (int c = 0; c < 3; ++c) {
@@ -441,7 +461,7 @@ struct Patch {
           hi[c] = std::max(hi[c], back.positions[3 * k + static_cast<std::size_t>(c)]);
         }
       for (const auto& [key, values] : {std::pair{"min", lo}, std::pair{"max", hi}})
-        edit(fmt::format("/accessors/{}/{}", dm.position_accessor, key),
+        edit(spans, edits, fmt::format("/accessors/{}/{}", dm.position_accessor, key),
              fmt::format("[{},{},{}]", number_text(values[0], kGltfFloat),
                          number_text(values[1], kGltfFloat), number_text(values[2], kGltfFloat)),
              true);
@@ -449,7 +469,12 @@ struct Patch {
       replacements.push_back({view.buffer, view.offset, view.length, std::move(out),
                               fmt::format("/bufferViews/{}/byteLength", dm.view)});
     }
-    if (replacements.empty()) return;
+  }
+
+  // Puts each replacement's bytes in its buffer (padded to 4 bytes), moves what follows, and
+  // edits the lengths and offsets that changed.
+  void splice(std::vector<Replacement> replacements, const Spans& spans,
+              std::vector<JsonEdit>& edits) {
     std::sort(replacements.begin(), replacements.end(),
               [](const Replacement& x, const Replacement& y) {
                 return std::pair(x.buffer, x.offset) < std::pair(y.buffer, y.offset);
@@ -476,24 +501,26 @@ struct Patch {
       shifts.push_back(
           {r.buffer, r.offset + r.length,
            static_cast<std::int64_t>(r.bytes.size()) - static_cast<std::int64_t>(old_span)});
-      edit(r.length_pointer, std::to_string(n), false);
+      edit(spans, edits, r.length_pointer, std::to_string(n), false);
     }
     for (std::size_t v = 0; v < g.views.size(); ++v) {
       const GltfView& view = g.views[v];
       if (view.compressed) {
         const GltfMeshopt& m = view.meshopt;
         if (moved(m.buffer, m.offset) != m.offset)
-          edit(fmt::format("/bufferViews/{}/extensions/EXT_meshopt_compression/byteOffset", v),
+          edit(spans, edits,
+               fmt::format("/bufferViews/{}/extensions/EXT_meshopt_compression/byteOffset", v),
                std::to_string(moved(m.buffer, m.offset)), m.offset == 0);
       }
       if (g.buffers[static_cast<std::size_t>(view.buffer)].kind != GltfBuffer::Kind::Fallback &&
           moved(view.buffer, view.offset) != view.offset)
-        edit(fmt::format("/bufferViews/{}/byteOffset", v),
+        edit(spans, edits, fmt::format("/bufferViews/{}/byteOffset", v),
              std::to_string(moved(view.buffer, view.offset)), view.offset == 0);
     }
     for (std::size_t b = 0; b < g.buffers.size(); ++b)
       if (buffers[b].size() != g.buffers[b].data.size())
-        edit(fmt::format("/buffers/{}/byteLength", b), std::to_string(buffers[b].size()), false);
+        edit(spans, edits, fmt::format("/buffers/{}/byteLength", b),
+             std::to_string(buffers[b].size()), false);
   }
 };
 
