@@ -95,6 +95,7 @@ std::vector<Mesh> detail::cgal_simplify_levels(const Mesh& mesh, const std::vect
   std::stable_sort(order.begin(), order.end(),
                    [&](std::size_t a, std::size_t b) { return ratios[a] > ratios[b]; });
   std::vector<std::size_t> targets;
+  targets.reserve(order.size());
   for (const std::size_t k : order) targets.push_back(face_target(sm, ratios[k]));
   std::vector<Mesh> levels;
   collapse(sm, LevelsStop{&sm, &mesh, targets, &levels}, cost);

@@ -194,7 +194,7 @@ std::vector<int> first_at_same_position(const Eigen::MatrixX3d& V,
   std::vector<int> leader(static_cast<std::size_t>(nv), -1);
   for (int i = 0; i < nv; ++i) {
     if (i + kAhead < nv)
-      __builtin_prefetch(&table[hash[static_cast<std::size_t>(i + kAhead)] & (slots - 1)]);
+      __builtin_prefetch(&table[hash[static_cast<std::size_t>(i) + kAhead] & (slots - 1)]);
     if (!mask[static_cast<std::size_t>(i)]) continue;
     const std::uint64_t h = hash[static_cast<std::size_t>(i)];
     for (std::size_t k = h & (slots - 1);; k = (k + 1) & (slots - 1)) {

@@ -178,6 +178,7 @@ void check_registry(const Registry& registry, std::vector<CopyRequest>& requests
             (!c.original_geometry.empty() && r.original_geometry == c.original_geometry));
   };
   std::vector<IssuedCopy> wanted;
+  wanted.reserve(candidates.size());
   for (const std::size_t k : candidates) wanted.push_back(out[k].record);
   for (const IssuedCopy& taken : registry.conflicts(wanted))
     for (const std::size_t k : candidates) {

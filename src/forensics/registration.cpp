@@ -319,7 +319,7 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
     int more = 0;
     const Similarity rigid =
         icp(samples, index, start, o, false, iterations, tolerance, rms, steps);
-    const Similarity T = icp(samples, index, rigid, o, true, iterations, tolerance, rms, more);
+    Similarity T = icp(samples, index, rigid, o, true, iterations, tolerance, rms, more);
     steps += more;
     return T;
   };
