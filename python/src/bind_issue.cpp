@@ -115,9 +115,9 @@ py::dict score_dict(const CandidateScore& s) {
 void init_issue(py::module_& m) {
   m.def(
       "issue",
-      [](py::iterable copies, const std::string& registry, py::handle key, py::handle key_file,
-         int bits, int id_bits, double strength_spread, py::handle options, int threads,
-         bool resume, bool public_key, bool fingerprint, const py::kwargs& kwargs) {
+      [](const py::iterable& copies, const std::string& registry, py::handle key,
+         py::handle key_file, int bits, int id_bits, double strength_spread, py::handle options,
+         int threads, bool resume, bool public_key, bool fingerprint, const py::kwargs& kwargs) {
         IssueSettings s;
         s.allow_public_key = public_key;
         s.fingerprint = fingerprint;

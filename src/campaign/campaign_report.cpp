@@ -165,9 +165,9 @@ std::string write_figures(const fs::path& dir, const Report& rep, bool& png) {
       extra = std::max(extra, plot_legend_extra(rep.curves_of(*a, variants), pw));
     for (std::size_t i = 0; i < attacks.size(); ++i) {
       const std::vector<PlotCurve> curves = rep.curves_of(*attacks[i], variants);
+      const auto column = static_cast<double>(i % 3), row = std::floor(static_cast<double>(i) / 3);
       panels += detail::plot_panel(
-          static_cast<double>(i % 3) * pw, static_cast<double>(i / 3) * (ph + extra), pw,
-          ph + extra - plot_legend_extra(curves, pw),
+          column * pw, row * (ph + extra), pw, ph + extra - plot_legend_extra(curves, pw),
           ber_axes(fmt::format("({}) {}", char('a' + i), series_label(*attacks[i])),
                    attacks[i]->kind + " strength"),
           curves);
@@ -176,7 +176,7 @@ std::string write_figures(const fs::path& dir, const Report& rep, bool& png) {
     png |= write_figure(
         dir, name,
         svg_document(static_cast<double>(cols) * pw,
-                     static_cast<double>((attacks.size() + 2) / 3) * (ph + extra), panels));
+                     std::ceil(static_cast<double>(attacks.size()) / 3) * (ph + extra), panels));
     return name;
   };
   std::string md_figures;

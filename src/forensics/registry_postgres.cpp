@@ -198,6 +198,7 @@ class PostgresRegistry final : public RegistryBackend {
         fmt::format("SELECT row, {} FROM copies WHERE {} ORDER BY row", kRegistryColumns, where),
         p);
     std::vector<IssuedCopy> out;
+    out.reserve(static_cast<std::size_t>(r.rows()));
     for (int i = 0; i < r.rows(); ++i) out.push_back(r.copy(i));
     return out;
   }
@@ -223,6 +224,7 @@ class PostgresRegistry final : public RegistryBackend {
 
   Result run(const std::string& sql, const std::vector<std::string>& params = {}) {
     std::vector<const char*> values;
+    values.reserve(params.size());
     for (const std::string& v : params) values.push_back(v.c_str());
     // Without parameters: the simple protocol, which also runs several statements.
     Result r(params.empty() ? PQexec(conn_, sql.c_str())

@@ -273,6 +273,7 @@ std::vector<CandidateScore> score_group(const std::vector<IssuedCopy>& copies,
   co.id_bits = id_bits;
   const IdCode code(co);
   std::vector<Payload> codewords;
+  codewords.reserve(copies.size());
   for (const IssuedCopy& c : copies) codewords.push_back(code.encode(c.id, key));
   std::vector<CandidateScore> scores(copies.size());
   std::vector<std::uint8_t> previous;

@@ -474,7 +474,8 @@ struct Reader {
       if (!t.empty() || !q.empty() || !s.empty())
         r.fail(fmt::format("nodes[{}]: both 'matrix' and translation/rotation/scale", n));
       for (int c = 0; c < 4; ++c)
-        for (int row = 0; row < 4; ++row) m(row, c) = matrix[static_cast<std::size_t>(4 * c + row)];
+        for (int row = 0; row < 4; ++row)
+          m(row, c) = matrix[4 * static_cast<std::size_t>(c) + static_cast<std::size_t>(row)];
       if (m.row(3) != Eigen::RowVector4d(0, 0, 0, 1))
         r.fail(fmt::format("nodes[{}]: 'matrix' is not affine (its last row is not 0 0 0 1)", n));
       return m;

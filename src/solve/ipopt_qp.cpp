@@ -64,6 +64,7 @@ Bool eval_jac_g(Index, Number*, Bool, Index, Index, Index* rows, Index* cols, Nu
 std::vector<std::pair<Index, Index>> hessian_pattern(const GeneralQp& qp) {
   std::vector<std::pair<Index, Index>> pattern;
   const auto n = static_cast<Index>(qp.c.size());
+  pattern.reserve(static_cast<std::size_t>(n + qp.Q.nonZeros()));
   for (Index i = 0; i < n; ++i) pattern.emplace_back(i, i);
   for (int k = 0; k < qp.Q.outerSize(); ++k)
     for (Eigen::SparseMatrix<double>::InnerIterator it(qp.Q, k); it; ++it)
