@@ -190,7 +190,6 @@ void fall_back_where_bins_cannot_reach(const EmbedContext& ctx, const Payload& p
   }
 }
 
-
 // Each group's direction u_g and the bounds of its step along it: radial for the positions at
 // the extreme distances (fixed: they define the histogram's range) and where the variant's
 // direction cannot reach the bin's shell (counted in round.radial_fallbacks); the payload rows'
