@@ -4,7 +4,8 @@
 #
 #   cmake -DBUILD_DIR=build -DSOURCE_DIR=. -DWORK_DIR=DIR -DMESH=FILE -DVERSION=X.Y.Z
 #         -DGENERATOR=Ninja -DCXX=c++ -DBUILD_TYPE=Release -DLIBDIR=lib -DSANITIZE=OFF
-#         -DSHARED=OFF [-DBUILD_SHARED_VARIANT=ON] -P tests/external_project.cmake
+#         -DSHARED=OFF -DCOMPONENTS=draco,3mf,postgres,ipopt,cgal [-DBUILD_SHARED_VARIANT=ON]
+#         -P tests/external_project.cmake
 #
 # SHARED: whether BUILD_DIR builds shared libraries libmeshmark_core.so and libmeshmark_NAME.so
 # per component (then the prefix must hold them and their soname links, and the installed CLI
@@ -19,7 +20,8 @@
 # linking meshmark::core alone, whose configure step fails when the installed link interface of
 # meshmark::core names a component's library or a GPL one.
 cmake_policy(SET CMP0057 NEW)  # if(... IN_LIST ...) in this script
-foreach(var BUILD_DIR SOURCE_DIR WORK_DIR MESH VERSION GENERATOR CXX BUILD_TYPE LIBDIR SANITIZE SHARED)
+foreach(var BUILD_DIR SOURCE_DIR WORK_DIR MESH VERSION GENERATOR CXX BUILD_TYPE LIBDIR SANITIZE SHARED
+        COMPONENTS)
   if(NOT DEFINED ${var})
     message(FATAL_ERROR "external_project.cmake: -D${var}=... is required")
   endif()
@@ -103,10 +105,8 @@ if(CORE_ONLY)
   set(libraries core)
 else()
   set(restricted "")
-  # The libraries this build has: the core, and the components its package config lists.
-  file(STRINGS ${BUILD_DIR}/meshmarkConfig.cmake built REGEX "^set\\(_meshmark_built ")
-  string(REGEX REPLACE "^set\\(_meshmark_built (.*)\\)$" "\\1" libraries "${built}")
-  string(REPLACE " " ";" libraries "${libraries}")
+  # The libraries this build has: the core and its components (COMPONENTS, comma-separated).
+  string(REPLACE "," ";" libraries "core,${COMPONENTS}")
 endif()
 step("install" ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
 set(installed include/meshmark/version.h include/meshmark/mark/embed.h bin/meshmark

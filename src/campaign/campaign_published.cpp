@@ -9,7 +9,6 @@
 #include <cmath>
 
 #include "campaign/campaign_internal.h"
-#include "campaign/campaign_parts.h"
 #include "meshmark/campaign/campaign.h"
 
 namespace meshmark {

@@ -11,7 +11,6 @@
 #include <set>
 
 #include "campaign/campaign_internal.h"
-#include "campaign/campaign_parts.h"
 #include "meshmark/attacks/attack.h"
 #include "meshmark/campaign/campaign.h"
 #include "meshmark/io/io.h"

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <map>
 
-#include "campaign/campaign_parts.h"
 #include "meshmark/campaign/campaign.h"
 
 namespace meshmark {
