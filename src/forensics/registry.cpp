@@ -8,6 +8,8 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
+#include <map>
+#include <optional>
 #include <regex>
 #include <set>
 #include <tuple>
@@ -15,6 +17,7 @@
 #include "core/component.h"
 #include "forensics/registry_backend.h"
 #include "meshmark/core/error.h"
+#include "meshmark/forensics/spacing.h"
 
 namespace meshmark {
 
@@ -243,6 +246,11 @@ std::vector<IssuedCopy> Registry::conflicts(const std::vector<IssuedCopy>& copie
 }
 
 std::vector<IssuedCopy> Registry::record(std::vector<IssuedCopy> copies) {
+  for (IssuedCopy& c : copies) c.spaced_index = 0;  // only the key places an ID in the span
+  return insert(std::move(copies));
+}
+
+std::vector<IssuedCopy> Registry::insert(std::vector<IssuedCopy> copies) {
   const std::string stamp = now_utc();
   impl_->store->transaction([&] {
     const std::vector<IssuedCopy> taken = conflicts(copies);
@@ -267,6 +275,40 @@ std::vector<IssuedCopy> Registry::record(std::vector<IssuedCopy> copies) {
   return copies;
 }
 
+namespace {
+
+// IssuedCopy::spaced_index of copies under one key, with one SpacedIds per code (bits, ID length).
+class SpanIndex {
+ public:
+  explicit SpanIndex(const Key& key) : key_(key) {}
+  std::uint64_t operator()(const IssuedCopy& c) {
+    auto it = spans_.find({c.bits, c.id_bits});
+    if (it == spans_.end()) {
+      std::optional<SpacedIds> span;
+      try {
+        IdCodeOptions o;
+        o.bits = c.bits, o.id_bits = c.id_bits;
+        span.emplace(IdCode(o), key_);
+      } catch (const InvalidArgumentError&) {
+        // no code of these bits and ID length: its copies lie outside every span
+      }
+      it = spans_.emplace(std::make_pair(c.bits, c.id_bits), std::move(span)).first;
+    }
+    if (!it->second) return 0;
+    try {
+      return it->second->index_of(c.id);
+    } catch (const InvalidArgumentError&) {
+      return 0;  // an ID too long for its code
+    }
+  }
+
+ private:
+  const Key& key_;
+  std::map<std::pair<int, int>, std::optional<SpacedIds>> spans_;
+};
+
+}  // namespace
+
 std::vector<IssuedCopy> Registry::record(std::vector<IssuedCopy> copies, const Key& key) {
   const std::string fingerprint = key_fingerprint(key);
   const std::string stamp = now_utc();
@@ -279,7 +321,9 @@ std::vector<IssuedCopy> Registry::record(std::vector<IssuedCopy> copies, const K
     if (c.issued_at.empty()) c.issued_at = stamp;
     c.mac = row_mac(key, c);
   }
-  return record(std::move(copies));
+  SpanIndex spans(key);
+  for (IssuedCopy& c : copies) c.spaced_index = spans(c);
+  return insert(std::move(copies));
 }
 
 std::vector<IssuedCopy> Registry::reserve(std::vector<IssuedCopy> copies, const Key& key) {
@@ -319,6 +363,10 @@ std::vector<IssuedCopy> Registry::list(const RegistryQuery& query) const {
   return impl_->store->list(query);
 }
 
+std::uint64_t Registry::last_spaced_index(const IssuedCopy& c) const {
+  return impl_->store->last_spaced_index(c);
+}
+
 std::vector<IssuedCopy> read_registry(const std::string& where, const RegistryQuery& query) {
   if (where.find("://") == std::string::npos && !std::filesystem::exists(where))
     throw IOError(fmt::format("{}: no such registry", where));
@@ -331,9 +379,14 @@ RegistryCheck verify_registry(const std::string& where, const Key& key) {
   const Registry registry(where, true);
   RegistryCheck check;
   check.integrity = registry.integrity_check();
+  SpanIndex spans(key);
   for (const IssuedCopy& c : registry.list()) {
     ++check.rows;
-    const RowAuth auth = check_row(key, c);
+    RowAuth auth = check_row(key, c);
+    // spaced_index is derived, not in the MAC: a nonzero one the key does not give was
+    // edited (it would exempt the row from the spacing checks of later IDs).
+    if (auth != RowAuth::OtherKey && c.spaced_index != 0 && c.spaced_index != spans(c))
+      auth = RowAuth::Edited;
     if (auth != RowAuth::OtherKey && c.state == "reserved") check.reserved.push_back(c);
     switch (auth) {
       case RowAuth::Authentic:

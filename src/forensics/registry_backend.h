@@ -3,6 +3,8 @@
 // table, copies, with the same columns and the same unique key; the rules (conflicts, one
 // transaction per batch) are Registry's.
 
+#include <fmt/format.h>
+
 #include <functional>
 #include <memory>
 #include <string>
@@ -33,6 +35,9 @@ class RegistryBackend {
   virtual void release(std::int64_t row) = 0;
   /// The copies matching query, by row.
   virtual std::vector<IssuedCopy> list(const RegistryQuery& query) = 0;
+  /// The largest spaced_index among the copies of c's original (its file's hash or, when c
+  /// has one, its geometry), key, bits and ID length; 0 when none. By index, not a scan.
+  virtual std::uint64_t last_spaced_index(const IssuedCopy& c) = 0;
   /// The store's own integrity check: "ok", or its findings one per line.
   virtual std::string integrity_check() { return "ok"; }
 };
@@ -55,7 +60,7 @@ const PostgresConnector*& postgres_connector_slot();
 inline constexpr const char* kRegistryColumns =
     "original_hash, original_path, buyer, id, id_bits, bits, variant, strength, "
     "strength_spread, bin_offset, key_fingerprint, mark_format, issued_at, output_path, "
-    "output_hash, method, original_geometry, mac, key_derivation, state";
+    "output_hash, method, original_geometry, mac, key_derivation, state, spaced_index";
 
 /// The statements that create schema version 1's table and index, in SQLite's or
 /// PostgreSQL's types.
@@ -109,5 +114,26 @@ inline constexpr const char* kRegistryMigrationV4 =
     "ALTER TABLE copies ADD COLUMN mac TEXT NOT NULL DEFAULT '';\n"
     "ALTER TABLE copies ADD COLUMN key_derivation TEXT NOT NULL DEFAULT '';\n"
     "ALTER TABLE copies ADD COLUMN state TEXT NOT NULL DEFAULT 'issued';";
+
+/// The statements that take version 4 to version 5: where each copy's ID lies in its code's
+/// spaced enumeration (IssuedCopy::spaced_index; 0 for the copies recorded before, which are
+/// checked one by one), and the indexes the spacing rule looks the copies of a group up by.
+inline std::string registry_migration_v5(bool postgres) {
+  return std::string("ALTER TABLE copies ADD COLUMN spaced_index ") +
+         (postgres ? "BIGINT" : "INTEGER") +
+         " NOT NULL DEFAULT 0;\n"
+         "CREATE INDEX copies_spaced_by_file ON copies (original_hash, key_fingerprint, bits, "
+         "id_bits, spaced_index);\n"
+         "CREATE INDEX copies_spaced_by_shape ON copies (original_geometry, key_fingerprint, "
+         "bits, id_bits, spaced_index);";
+}
+
+/// The WHERE condition of the copies of c's group (last_spaced_index) for one way of knowing
+/// the original: by_shape selects by geometry, else by file. Parameters: 1 the original's
+/// file hash or geometry, 2 key_fingerprint, 3 bits, 4 id_bits (SQLite ?N, PostgreSQL $N).
+inline std::string spacing_group_where(bool by_shape, char mark) {
+  return fmt::format("{} = {}1 AND key_fingerprint = {}2 AND bits = {}3 AND id_bits = {}4",
+                     by_shape ? "original_geometry" : "original_hash", mark, mark, mark, mark);
+}
 
 }  // namespace meshmark::detail

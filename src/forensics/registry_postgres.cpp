@@ -55,6 +55,7 @@ class Result {
     c.mac = text(row, 18);
     c.key_derivation = text(row, 19);
     c.state = text(row, 20);
+    c.spaced_index = std::strtoull(PQgetvalue(r_, row, 21), nullptr, 10);
     return c;
   }
 
@@ -105,6 +106,10 @@ class PostgresRegistry final : public RegistryBackend {
         if (schema_version() == 3) {
           run(kRegistryMigrationV4);
           run("UPDATE meshmark_schema SET version = 4");
+        }
+        if (schema_version() == 4) {
+          run(registry_migration_v5(true));
+          run("UPDATE meshmark_schema SET version = 5");
         }
       });
     } catch (...) {
@@ -165,10 +170,11 @@ class PostgresRegistry final : public RegistryBackend {
                                         c.original_geometry,
                                         c.mac,
                                         c.key_derivation,
-                                        c.state};
+                                        c.state,
+                                        std::to_string(c.spaced_index)};
     const Result r =
         run(fmt::format("INSERT INTO copies ({}) VALUES ($1, $2, $3, $4, $5, $6, "
-                        "$7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19, $20) "
+                        "$7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19, $20, $21) "
                         "RETURNING row",
                         kRegistryColumns),
             p);
@@ -194,6 +200,9 @@ class PostgresRegistry final : public RegistryBackend {
     if (query.buyer) add("buyer", *query.buyer);
     if (query.key_fingerprint) add("key_fingerprint", *query.key_fingerprint);
     if (query.id) add("id", std::to_string(*query.id));
+    if (query.bits) add("bits", std::to_string(*query.bits));
+    if (query.id_bits) add("id_bits", std::to_string(*query.id_bits));
+    if (query.spaced) where += *query.spaced ? " AND spaced_index > 0" : " AND spaced_index = 0";
     const Result r = run(
         fmt::format("SELECT row, {} FROM copies WHERE {} ORDER BY row", kRegistryColumns, where),
         p);
@@ -201,6 +210,19 @@ class PostgresRegistry final : public RegistryBackend {
     out.reserve(static_cast<std::size_t>(r.rows()));
     for (int i = 0; i < r.rows(); ++i) out.push_back(r.copy(i));
     return out;
+  }
+
+  std::uint64_t last_spaced_index(const IssuedCopy& c) override {
+    std::uint64_t last = 0;
+    for (const bool by_shape : {false, true}) {
+      if (by_shape && c.original_geometry.empty()) continue;
+      const Result r = run("SELECT coalesce(max(spaced_index), 0) FROM copies WHERE " +
+                               spacing_group_where(by_shape, '$'),
+                           {by_shape ? c.original_geometry : c.original_hash, c.key_fingerprint,
+                            std::to_string(c.bits), std::to_string(c.id_bits)});
+      last = std::max<std::uint64_t>(last, std::strtoull(PQgetvalue(r.get(), 0, 0), nullptr, 10));
+    }
+    return last;
   }
 
   bool complete(const IssuedCopy& c) override {

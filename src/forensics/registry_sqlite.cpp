@@ -64,6 +64,7 @@ class Statement {
     c.mac = text(18);
     c.key_derivation = text(19);
     c.state = text(20);
+    c.spaced_index = static_cast<std::uint64_t>(sqlite3_column_int64(s_, 21));
     return c;
   }
 
@@ -143,6 +144,10 @@ class SqliteRegistry final : public RegistryBackend {
           exec(kRegistryMigrationV4);
           exec("PRAGMA user_version = 4");
         }
+        if (schema_version() == 4) {
+          exec(registry_migration_v5(false).c_str());
+          exec("PRAGMA user_version = 5");
+        }
       });
     } catch (...) {
       sqlite3_close(db_);
@@ -172,6 +177,7 @@ class SqliteRegistry final : public RegistryBackend {
     const auto replace = [&](const std::string& column, const std::string& as) {
       columns.replace(columns.find(column), column.size(), as + " AS " + column);
     };
+    if (version < 5) replace("spaced_index", "0"), spaced_column_ = false;
     if (version < 4)
       replace("mac", "''"), replace("key_derivation", "''"), replace("state", "'issued'");
     if (version < 3) replace("original_geometry", "''");
@@ -216,7 +222,7 @@ class SqliteRegistry final : public RegistryBackend {
       insert_ = std::make_unique<Statement>(
           db_, path_,
           fmt::format("INSERT INTO copies ({}) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, "
-                      "?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20)",
+                      "?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20, ?21)",
                       kRegistryColumns));
     Statement& s = *insert_;
     sqlite3_reset(s.get());
@@ -240,6 +246,7 @@ class SqliteRegistry final : public RegistryBackend {
     s.bind(18, c.mac);
     s.bind(19, c.key_derivation);
     s.bind(20, c.state);
+    s.bind(21, static_cast<std::int64_t>(c.spaced_index));
     if (sqlite3_step(s.get()) != SQLITE_DONE) fail(db_, path_, "cannot record a copy");
     return sqlite3_last_insert_rowid(db_);
   }
@@ -269,6 +276,24 @@ class SqliteRegistry final : public RegistryBackend {
     if (sqlite3_step(s.get()) != SQLITE_DONE) fail(db_, path_, "cannot release a reserved row");
   }
 
+  std::uint64_t last_spaced_index(const IssuedCopy& c) override {
+    if (!spaced_column_) return 0;  // read-only, before schema 5: no copy is spaced
+    std::uint64_t last = 0;
+    for (const bool by_shape : {false, true}) {
+      if (by_shape && c.original_geometry.empty()) continue;
+      Statement q(
+          db_, path_,
+          "SELECT max(spaced_index) FROM copies WHERE " + spacing_group_where(by_shape, '?'));
+      q.bind(1, by_shape ? c.original_geometry : c.original_hash);
+      q.bind(2, c.key_fingerprint);
+      q.bind(3, c.bits);
+      q.bind(4, c.id_bits);
+      if (sqlite3_step(q.get()) != SQLITE_ROW) fail(db_, path_, "cannot read the spacing index");
+      last = std::max(last, static_cast<std::uint64_t>(sqlite3_column_int64(q.get(), 0)));
+    }
+    return last;
+  }
+
   std::string integrity_check() override {
     Statement q(db_, path_, "PRAGMA integrity_check");
     std::string found;
@@ -290,6 +315,12 @@ class SqliteRegistry final : public RegistryBackend {
     if (query.buyer) where += " AND buyer = ?2";
     if (query.key_fingerprint) where += " AND key_fingerprint = ?3";
     if (query.id) where += " AND id = ?4";
+    if (query.bits) where += " AND bits = ?6";
+    if (query.id_bits) where += " AND id_bits = ?7";
+    if (query.spaced && spaced_column_)
+      where += *query.spaced ? " AND spaced_index > 0" : " AND spaced_index = 0";
+    else if (query.spaced && *query.spaced)
+      where += " AND 0";  // before schema 5 every copy reads spaced_index 0
     Statement q(db_, path_,
                 fmt::format("SELECT row, {} FROM copies WHERE {} ORDER BY row", columns_, where));
     if (query.original_hash) q.bind(1, *query.original_hash);
@@ -297,6 +328,8 @@ class SqliteRegistry final : public RegistryBackend {
     if (query.key_fingerprint) q.bind(3, *query.key_fingerprint);
     if (query.id) q.bind(4, static_cast<std::int64_t>(*query.id));
     if (query.original_geometry) q.bind(5, *query.original_geometry);
+    if (query.bits) q.bind(6, *query.bits);
+    if (query.id_bits) q.bind(7, *query.id_bits);
     std::vector<IssuedCopy> out;
     int rc = 0;
     while ((rc = sqlite3_step(q.get())) == SQLITE_ROW) out.push_back(q.copy());
@@ -317,6 +350,7 @@ class SqliteRegistry final : public RegistryBackend {
   std::string path_;
   bool read_only_ = false;
   std::string columns_ = kRegistryColumns;  // what SELECT lists (read-only: the schema's)
+  bool spaced_column_ = true;               // the schema has spaced_index (version 5 on)
   sqlite3* db_ = nullptr;
   std::unique_ptr<Statement> insert_;
 };

@@ -216,14 +216,91 @@ std::vector<std::uint8_t> IdCode::encode_message(const std::vector<std::uint8_t>
   return out;
 }
 
-Payload IdCode::encode(std::uint64_t id, const Key& key) const {
+std::vector<std::uint8_t> IdCode::permuted_message(std::uint64_t id, const Key& key) const {
   if (id_bits_ < 64 && (id >> id_bits_) != 0)
     throw InvalidArgumentError(fmt::format("ID {} does not fit in {} bits", id, id_bits_));
   std::vector<std::uint8_t> x(k_, 0);  // high k - id_bits bits zero, the ID MSB first
   for (int i = 0; i < id_bits_; ++i) x[k_ - id_bits_ + i] = (id >> (id_bits_ - 1 - i)) & 1;
-  const Key code_key = derive_key(key, "id-code");
+  return permute(std::move(x), derive_key(key, "id-code"), false);
+}
+
+std::optional<std::uint64_t> IdCode::message_id(const std::vector<std::uint8_t>& message,
+                                                const Key& key) const {
+  if (static_cast<int>(message.size()) != k_)
+    throw InvalidArgumentError(
+        fmt::format("a message of this code has {} bits, not {}", k_, message.size()));
+  const std::vector<std::uint8_t> x = permute(message, derive_key(key, "id-code"), true);
+  for (int i = 0; i < k_ - id_bits_; ++i)
+    if (x[i]) return std::nullopt;
+  std::uint64_t id = 0;
+  for (int i = 0; i < id_bits_; ++i) id = id << 1 | x[k_ - id_bits_ + i];
+  return id;
+}
+
+std::vector<std::uint8_t> IdCode::message_codeword(const std::vector<std::uint8_t>& message) const {
+  if (static_cast<int>(message.size()) != k_)
+    throw InvalidArgumentError(
+        fmt::format("a message of this code has {} bits, not {}", k_, message.size()));
+  return encode_message(message);
+}
+
+std::vector<std::vector<std::uint8_t>> IdCode::spaced_message_basis(int distance) const {
+  // The subcode's t': the least with 2t' + 2 >= distance (the overall parity bit makes the
+  // inner code's odd minimum 2t' + 1 even).
+  const int t2 = std::max(t_, (distance - 1) / 2);
+  const int N = (1 << m_) - 1, inner = n_ - 1;
+  // Each unit message's syndromes c(alpha^i), 2t < i <= 2t' (m bits each): the messages of
+  // the subcode are the kernel of that linear map (its codewords already vanish at i <= 2t).
+  const int columns = (2 * t2 - 2 * t_) * m_;
+  std::vector<std::vector<std::uint8_t>> rows(k_);  // [syndrome bits | identity]
+  std::vector<std::uint8_t> unit(k_, 0);
+  for (int l = 0; l < k_; ++l) {
+    unit[l] = 1;
+    const std::vector<std::uint8_t> c = encode_message(unit);
+    unit[l] = 0;
+    std::vector<std::uint8_t>& row = rows[l];
+    row.assign(columns + k_, 0);
+    for (int i = 2 * t_ + 1, col = 0; i <= 2 * t2; ++i, col += m_) {
+      int s = 0;
+      for (int j = 0; j < inner; ++j)  // coefficient of x^j is payload bit inner - 1 - j
+        if (c[inner - 1 - j]) s ^= exp_[(static_cast<long>(i) * j) % N];
+      for (int b = 0; b < m_; ++b) row[col + b] = (s >> b) & 1;
+    }
+    row[columns + l] = 1;
+  }
+  // Gaussian elimination on the syndrome columns; the rows left zero there span the kernel.
+  std::size_t pivot_row = 0;
+  for (int col = 0; col < columns && pivot_row < rows.size(); ++col) {
+    std::size_t p = pivot_row;
+    while (p < rows.size() && !rows[p][col]) ++p;
+    if (p == rows.size()) continue;
+    std::swap(rows[p], rows[pivot_row]);
+    for (std::size_t q = 0; q < rows.size(); ++q)
+      if (q != pivot_row && rows[q][col])
+        for (std::size_t j = col; j < rows[q].size(); ++j) rows[q][j] ^= rows[pivot_row][j];
+    ++pivot_row;
+  }
+  std::vector<std::vector<std::uint8_t>> basis;
+  for (std::size_t q = pivot_row; q < rows.size(); ++q)
+    basis.emplace_back(rows[q].begin() + columns, rows[q].end());
+  // Reduced row echelon form over the message bits.
+  std::size_t r = 0;
+  for (int col = 0; col < k_ && r < basis.size(); ++col) {
+    std::size_t p = r;
+    while (p < basis.size() && !basis[p][col]) ++p;
+    if (p == basis.size()) continue;
+    std::swap(basis[p], basis[r]);
+    for (std::size_t q = 0; q < basis.size(); ++q)
+      if (q != r && basis[q][col])
+        for (int j = col; j < k_; ++j) basis[q][j] ^= basis[r][j];
+    ++r;
+  }
+  return basis;
+}
+
+Payload IdCode::encode(std::uint64_t id, const Key& key) const {
   Payload out;
-  out.bits = encode_message(permute(std::move(x), code_key, false));
+  out.bits = encode_message(permuted_message(id, key));
   const std::vector<std::uint8_t> offset = mask(key);
   for (int j = 0; j < n_; ++j) out.bits[j] ^= offset[j];
   return out;
@@ -372,15 +449,14 @@ IdDecodeResult IdCode::decode(const std::vector<std::uint8_t>& bits,
         result.corrected);
     return result;
   }
-  std::vector<std::uint8_t> message(codeword.begin(), codeword.begin() + k_);
-  const std::vector<std::uint8_t> x = permute(std::move(message), derive_key(key, "id-code"), true);
-  for (int i = 0; i < k_ - id_bits_; ++i)
-    if (x[i]) {
-      result.status = IdDecodeStatus::NotUnderKey;
-      result.message = "a codeword, but of no ID under this key: another key, or damage";
-      return result;
-    }
-  for (int i = 0; i < id_bits_; ++i) result.id = result.id << 1 | x[k_ - id_bits_ + i];
+  const std::optional<std::uint64_t> id =
+      message_id(std::vector<std::uint8_t>(codeword.begin(), codeword.begin() + k_), key);
+  if (!id) {
+    result.status = IdDecodeStatus::NotUnderKey;
+    result.message = "a codeword, but of no ID under this key: another key, or damage";
+    return result;
+  }
+  result.id = *id;
   result.status = IdDecodeStatus::Found;
   result.valid = true;
   result.message = fmt::format("ID found, {} of {} bits corrected", result.corrected, n_);

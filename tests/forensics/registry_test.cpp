@@ -402,8 +402,10 @@ TEST(Registry, ReadingLeavesItsBytesAsTheyWere) {
     sqlite3* h = nullptr;
     ASSERT_EQ(sqlite3_open(db.c_str(), &h), SQLITE_OK);
     ASSERT_EQ(sqlite3_exec(h,
-                           "DROP INDEX copies_by_geometry; ALTER TABLE copies DROP COLUMN "
-                           "original_geometry; PRAGMA user_version = 2",
+                           "DROP INDEX copies_by_geometry; DROP INDEX copies_spaced_by_shape; "
+                           "DROP INDEX copies_spaced_by_file; ALTER TABLE copies DROP COLUMN "
+                           "spaced_index; ALTER TABLE copies DROP COLUMN original_geometry; "
+                           "PRAGMA user_version = 2",
                            nullptr, nullptr, nullptr),
               SQLITE_OK)
         << sqlite3_errmsg(h);

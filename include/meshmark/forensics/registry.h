@@ -28,7 +28,7 @@ namespace meshmark {
 
 /// The schema version this build writes and reads.
 inline constexpr int kRegistrySchemaVersion =
-    4;  ///< 2 the method, 3 the geometry, 4 MAC, derivation
+    5;  ///< 2 the method, 3 the geometry, 4 MAC, derivation, 5 spaced_index
 
 /// One issued copy.
 struct IssuedCopy {
@@ -65,6 +65,11 @@ struct IssuedCopy {
   /// row was recorded before the copy was written (Registry::reserve) and the issue has not
   /// completed it: it was interrupted (a rerun finishes it) or is still running.
   std::string state = "issued";
+  /// 1 + the position of the ID in its code's spaced enumeration under the copy's key
+  /// (SpacedIds, spacing.h), 0 when the ID lies outside it. Derived from the ID and the key,
+  /// so record() computes it (0 without the key) and the MAC leaves it out; verify_registry
+  /// recomputes it. Copies recorded before schema version 5 read 0.
+  std::uint64_t spaced_index = 0;
 };
 
 /// What the authentication code of a row says (check_row).
@@ -93,6 +98,10 @@ struct RegistryQuery {
   std::optional<std::string> buyer;              ///< copies issued to this buyer
   std::optional<std::string> key_fingerprint;    ///< copies issued under this key
   std::optional<std::uint64_t> id;               ///< copies carrying this ID
+  std::optional<int> bits;                       ///< copies of this payload length nb
+  std::optional<int> id_bits;                    ///< copies of this ID length
+  /// copies whose spaced_index is nonzero (true) or zero (false)
+  std::optional<bool> spaced;
 };
 
 /// A fingerprint of a key that reveals nothing of it: the first 16 bytes of
@@ -178,6 +187,9 @@ class Registry {
 
   /// The copies that match query, in the order they were recorded.
   std::vector<IssuedCopy> list(const RegistryQuery& query = {}) const;
+  /// The largest spaced_index among the copies of c's original (by file or geometry), key,
+  /// bits and ID length, 0 when there is none: one indexed lookup, whatever the registry's size.
+  std::uint64_t last_spaced_index(const IssuedCopy& c) const;
 
   /// The schema version of the open registry.
   int schema_version() const;
@@ -187,6 +199,8 @@ class Registry {
   std::string integrity_check() const;
 
  private:
+  // record()'s transaction, spaced_index as given.
+  std::vector<IssuedCopy> insert(std::vector<IssuedCopy> copies);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

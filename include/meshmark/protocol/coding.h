@@ -30,6 +30,7 @@
 /// retry rule (0, 1) for 15 retries, bound 9.4e-7.
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -135,6 +136,24 @@ class IdCode {
   /// A basis of the dual code: nb - k words of nb bits (payload order), each orthogonal to
   /// every codeword minus its mask. For the detection's null distribution (detect.h).
   std::vector<std::vector<std::uint8_t>> dual_basis() const;
+
+  /// The k-bit message id's codeword encodes: (0...0 || id) through the keyed permutation.
+  /// \throw InvalidArgumentError when id does not fit in id_bits.
+  std::vector<std::uint8_t> permuted_message(std::uint64_t id, const Key& key) const;
+  /// The ID whose permuted_message is message (k bits), or none when the permutation's inverse
+  /// has a nonzero check bit (the message is no ID's under key).
+  std::optional<std::uint64_t> message_id(const std::vector<std::uint8_t>& message,
+                                          const Key& key) const;
+  /// The codeword of a k-bit message, without the mask (payload order): linear in message.
+  std::vector<std::uint8_t> message_codeword(const std::vector<std::uint8_t>& message) const;
+  /// A basis (k-bit messages, reduced row echelon form) of the messages whose codewords lie
+  /// in the extended narrow-sense BCH subcode of designed distance 2t' + 2 >= distance: two
+  /// messages of its span give codewords at least `distance` bits apart. The subcode of a
+  /// primitive BCH code is the one whose generator also has the roots alpha^i for
+  /// 2t < i <= 2t'; the span has dimension k - (r' - r) (r' the subcode's parity bits), or
+  /// is every message when min_distance() >= distance already, or {0} when no such subcode
+  /// exists at this length.
+  std::vector<std::vector<std::uint8_t>> spaced_message_basis(int distance) const;
 
  private:
   // Inner BCH decoding of c (n_ - 1 bits, coefficient order) in place; returns the number of
