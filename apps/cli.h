@@ -2,6 +2,7 @@
 // The meshmark command line: shared pieces of the subcommands (thin wrappers over the library).
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json_fwd.hpp>
 #include <initializer_list>
 #include <stdexcept>
 #include <string>
@@ -13,6 +14,7 @@
 #include "meshmark/carrier/carrier_check.h"
 #include "meshmark/forensics/issue.h"
 #include "meshmark/forensics/registry.h"
+#include "meshmark/forensics/trace.h"
 #include "meshmark/io/io.h"
 #include "meshmark/mark/calibrate.h"
 #include "meshmark/mark/embed.h"
@@ -139,6 +141,12 @@ std::optional<Key> resolve_key_in(const KeyArgs& args, const std::string& regist
 /// The ID code for nb payload bits and --id-bits.
 IdCode id_code(const KeyArgs& args, int nb);
 
+/// What trace --json prints of a trace (docs/tracing.md); also serve's answer to POST /trace.
+nlohmann::json trace_json(const TraceResult& result, const TraceOptions& options,
+                          const std::vector<std::string>& warnings);
+/// One registry row as registry list --format json prints it; also serve's GET /copies/ID.
+nlohmann::json registry_row_json(const IssuedCopy& copy);
+void register_serve(CLI::App& app, int& exit_code);  ///< meshmark serve (cli_serve.cpp)
 void register_embed(CLI::App& app, int& exit_code);
 void register_keygen(CLI::App& app, int& exit_code);    ///< meshmark keygen FILE
 void register_generate(CLI::App& app, int& exit_code);  ///< the man page, the bash completion

@@ -23,7 +23,9 @@ std::vector<IssuedCopy> read_registry_input(const std::string& where, const Regi
   }
 }
 
-nlohmann::json to_json(const IssuedCopy& c) {
+}  // namespace
+
+nlohmann::json registry_row_json(const IssuedCopy& c) {
   return {{"row", c.row},
           {"original_hash", c.original_hash},
           {"original_geometry", c.original_geometry},
@@ -44,8 +46,11 @@ nlohmann::json to_json(const IssuedCopy& c) {
           {"method", c.method},
           {"mac", c.mac},
           {"key_derivation", c.key_derivation},
-          {"state", c.state}};
+          {"state", c.state},
+          {"spaced_index", c.spaced_index}};
 }
+
+namespace {
 
 // A CSV field: quoted when it holds a comma, a quote or a line break.
 std::string csv(const std::string& raw) {
@@ -75,22 +80,22 @@ int run_list(const RegistryArgs& a) {
     nlohmann::json all = nlohmann::json::array();
     for (const IssuedCopy& c : copies) {
       if (a.format == "jsonl")
-        fmt::print("{}\n", to_json(c).dump());
+        fmt::print("{}\n", registry_row_json(c).dump());
       else
-        all.push_back(to_json(c));
+        all.push_back(registry_row_json(c));
     }
     if (a.format == "json") fmt::print("{}\n", all.dump(2));
   } else if (a.format == "csv") {
     fmt::print(
         "row,original_hash,original_path,buyer,id,id_bits,bits,variant,strength,"
         "strength_spread,bin_offset,key_fingerprint,mark_format,issued_at,output_path,"
-        "output_hash,method,original_geometry,mac,key_derivation,state\n");
+        "output_hash,method,original_geometry,mac,key_derivation,state,spaced_index\n");
     for (const IssuedCopy& c : copies)
-      fmt::print("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.row,
+      fmt::print("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", c.row,
                  c.original_hash, csv(c.original_path), csv(c.buyer), c.id, c.id_bits, c.bits,
                  c.variant, c.strength, c.strength_spread, c.bin_offset, c.key_fingerprint,
                  c.mark_format, c.issued_at, csv(c.output_path), c.output_hash, c.method,
-                 c.original_geometry, c.mac, csv(c.key_derivation), c.state);
+                 c.original_geometry, c.mac, csv(c.key_derivation), c.state, c.spaced_index);
   } else {
     // The columns say what they hold: the variant (Cho's methods: method/variant), the key
     // fingerprint's first 8 hex digits, the copy's path.

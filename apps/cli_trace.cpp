@@ -81,6 +81,52 @@ std::string reproducing_command(const std::vector<std::string>& argv, bool& reda
   return cmd;
 }
 
+// One candidate's score as trace --json prints it.
+nlohmann::json score_json(const CandidateScore& s) {
+  nlohmann::json j{
+      {"buyer", s.copy.buyer},      {"id", s.copy.id},      {"matches", s.matches},
+      {"bits", s.compared},         {"p_value", s.p_value}, {"corrected_p", s.corrected_p},
+      {"copy", s.copy.output_path}, {"row", s.copy.row},    {"row_auth", enum_name(s.auth)}};
+  if (std::isfinite(s.fingerprint_z))  // a copy issued with the fingerprint
+    j["fingerprint"] = {{"z", s.fingerprint_z}, {"p_value", s.fingerprint_p}};
+  return j;
+}
+
+}  // namespace
+
+nlohmann::json trace_json(const TraceResult& r, const TraceOptions& options,
+                          const std::vector<std::string>& warnings) {
+  nlohmann::json named = nlohmann::json::array(), top = nlohmann::json::array();
+  for (const CandidateScore& s : r.named) named.push_back(score_json(s));
+  for (std::size_t i = 0; i < r.ranking.size() && i < 5; ++i)
+    top.push_back(score_json(r.ranking[i]));
+  nlohmann::json evidence = nlohmann::json::array();
+  for (const BitEvidence& e : r.bits)
+    evidence.push_back({{"bit", e.bit > 1 ? nlohmann::json(nullptr) : nlohmann::json(e.bit)},
+                        {"shift", e.shift},
+                        {"if_one", e.if_one},
+                        {"if_zero", e.if_zero},
+                        {"vertices", e.vertices}});
+  return {{"status", trace_status_name(r.status)},
+          {"message", r.message},
+          {"candidates", r.candidates},
+          {"threshold", options.threshold},
+          {"named", named},
+          {"best", top},
+          {"registration", r.registration.message},
+          {"registration_residual", r.registration.residual},
+          {"overlap", r.registration.overlap},
+          {"scale", r.registration.transform.scale},
+          {"measured_fraction", r.measured_fraction},
+          {"attenuation", r.attenuation},
+          {"processing", r.processing},
+          {"bit_evidence", evidence},
+          {"warnings", warnings},
+          {"identical_row", r.identical_row}};
+}
+
+namespace {
+
 int run(const TraceArgs& a) {
   const std::optional<Key> key = resolve_key_in(a.keys, a.registry);
   if (!key) throw InvalidArgumentError("trace needs the key the copies were issued under");
@@ -124,42 +170,8 @@ int run(const TraceArgs& a) {
       if (n.copy.row == s.copy.row) return true;
     return false;
   };
-  auto score = [](const CandidateScore& s) {
-    nlohmann::json j{
-        {"buyer", s.copy.buyer},      {"id", s.copy.id},      {"matches", s.matches},
-        {"bits", s.compared},         {"p_value", s.p_value}, {"corrected_p", s.corrected_p},
-        {"copy", s.copy.output_path}, {"row", s.copy.row},    {"row_auth", enum_name(s.auth)}};
-    if (std::isfinite(s.fingerprint_z))  // a copy issued with the fingerprint
-      j["fingerprint"] = {{"z", s.fingerprint_z}, {"p_value", s.fingerprint_p}};
-    return j;
-  };
   if (a.json) {
-    nlohmann::json named = nlohmann::json::array(), top = nlohmann::json::array();
-    for (const CandidateScore& s : r.named) named.push_back(score(s));
-    for (std::size_t i = 0; i < r.ranking.size() && i < 5; ++i) top.push_back(score(r.ranking[i]));
-    nlohmann::json evidence = nlohmann::json::array();
-    for (const BitEvidence& e : r.bits)
-      evidence.push_back({{"bit", e.bit > 1 ? nlohmann::json(nullptr) : nlohmann::json(e.bit)},
-                          {"shift", e.shift},
-                          {"if_one", e.if_one},
-                          {"if_zero", e.if_zero},
-                          {"vertices", e.vertices}});
-    nlohmann::json j = {{"status", trace_status_name(r.status)},
-                        {"message", r.message},
-                        {"candidates", r.candidates},
-                        {"threshold", options.threshold},
-                        {"named", named},
-                        {"best", top},
-                        {"registration", r.registration.message},
-                        {"registration_residual", r.registration.residual},
-                        {"overlap", r.registration.overlap},
-                        {"scale", r.registration.transform.scale},
-                        {"measured_fraction", r.measured_fraction},
-                        {"attenuation", r.attenuation},
-                        {"processing", r.processing},
-                        {"bit_evidence", evidence},
-                        {"warnings", warnings},
-                        {"identical_row", r.identical_row}};
+    nlohmann::json j = trace_json(r, options, warnings);
     if (!a.report.empty()) j["report"] = a.report;
     if (!a.pdf.empty()) j["pdf"] = a.pdf;
     fmt::print("{}\n", j.dump(2));

@@ -153,6 +153,9 @@ int main(int argc, char** argv) {
   cli::register_registry(app, exit_code);
   cli::register_trace(app, exit_code, std::vector<std::string>(argv, argv + argc));
   cli::register_generate(app, exit_code);
+#ifdef MESHMARK_HAVE_SERVE
+  cli::register_serve(app, exit_code);
+#endif
   // Every message printed goes through printable() (idempotent: meshmark's errors are escaped
   // already, the others, parse errors included, may quote input).
   app.failure_message([](const CLI::App* a, const CLI::Error& e) {

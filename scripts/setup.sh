@@ -11,6 +11,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev       # tests and benchmarks
   coinor-libipopt-dev                              # independent QP solver for the optimality tests
   libsodium-dev                                    # BLAKE2b and ChaCha20 for secret keys
+  libcpp-httplib-dev                               # meshmark serve (HTTP/JSON)
   libsqlite3-dev libpq-dev                         # the registry of issued copies
   postgresql                                       # a real server for the registry's tests
   libopenmpi-dev openmpi-bin                       # distributed benchmark campaigns (mpirun)

@@ -13,6 +13,8 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <mutex>
+#include <set>
 
 #include "core/parallel.h"
 #include "core/progress_counter.h"
@@ -127,10 +129,10 @@ bool resumable(const IssuedCopy& taken, IssuedCopy wanted, const std::string& ou
 // intact copy of an earlier run), a codeword too close to an issued one.
 // Requests with id:auto get theirs here, chosen by free_ids() (spacing.h).
 void check_registry(const Registry& registry, std::vector<CopyRequest>& requests,
-                    const IssueSettings& settings, std::vector<CopyOutcome>& out) {
+                    const IssueSettings& settings, std::map<std::string, IssuedCopy>& originals,
+                    std::vector<CopyOutcome>& out) {
   std::vector<std::size_t> candidates, automatic;
-  std::vector<IssuedCopy> given, chosen;        // the copies with an ID, those asking for one
-  std::map<std::string, IssuedCopy> originals;  // each input read and hashed once
+  std::vector<IssuedCopy> given, chosen;  // the copies with an ID, those asking for one
   for (std::size_t k = 0; k < requests.size(); ++k) {
     if (!pending(out[k])) continue;
     if (!requests[k].id && !requests[k].auto_id) {
@@ -247,6 +249,35 @@ struct Original {
   Histogram histogram;      ///< the original's, around the fingerprint's center (settings.bits)
   std::size_t counted = 0;  ///< counted carrier vertices
 };
+
+// What issue_copies keeps of the originals it has read, and Issuer across its calls.
+struct OriginalCache {
+  std::map<std::string, std::shared_ptr<const Original>> prepared;  // by original_key
+  std::map<std::string, IssuedCopy> records;  // by original_key: its registry record
+};
+
+// Reads (unless in memory), checks and prepares an original for every copy made from it.
+std::shared_ptr<const Original> prepare_original(const CopyRequest& request,
+                                                 const IssueSettings& settings) {
+  Mesh mesh = request.mesh ? *request.mesh : read_mesh(request.input, settings.read);
+  if (request.mesh) validate_mesh(mesh.V, mesh.F, request.input);
+  PreparedEmbedder embedder(mesh.V, mesh.F, settings.embedding);
+  std::optional<FingerprintBasis> basis;
+  Histogram histogram;
+  std::size_t counted = 0;
+  if (settings.fingerprint) {
+    const std::vector<std::uint8_t> carrier = carrier_vertices(mesh.V, mesh.F);
+    counted = static_cast<std::size_t>(std::count(carrier.begin(), carrier.end(), kCounted));
+    const int functions = fingerprint_functions(counted);
+    if (functions > 0) {
+      const Center c = center_of_mass(mesh.V, mesh.F, carrier, settings.embedding.variant.center);
+      basis = fingerprint_basis(mesh.V, mesh.F, carrier, c.point, functions);
+      histogram = build_histogram(mesh.V, carrier, c.point, settings.bits);
+    }
+  }
+  return std::make_shared<const Original>(Original{
+      std::move(mesh), std::move(embedder), std::move(basis), std::move(histogram), counted});
+}
 
 // Embeds and writes one copy (out[k] pending).
 void make_copy(const CopyRequest& request, const Original& original, const IssueSettings& settings,
@@ -467,7 +498,11 @@ void complete_rows(Registry& registry, const std::vector<CopyRequest>& requests,
 
 }  // namespace
 
-IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings& settings) {
+namespace {
+
+// issue_copies, with the originals of cache prepared before and the registry open (when given).
+IssueResult issue_with(std::vector<CopyRequest> requests, const IssueSettings& settings,
+                       OriginalCache& cache, Registry* open_registry) {
   const auto start = std::chrono::steady_clock::now();
   if (settings.bits < 1)
     throw InvalidArgumentError(fmt::format("{} payload bits: at least 1", settings.bits));
@@ -512,40 +547,23 @@ IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings&
     code.emplace(co);
   }
   refuse_clashes(requests, settings, out);
-  std::optional<Registry> registry;
-  if (!settings.registry.empty()) {
-    registry.emplace(settings.registry);
-    check_registry(*registry, requests, settings, out);
-  }
+  std::optional<Registry> own_registry;
+  Registry* registry = open_registry;
+  if (!settings.registry.empty() && !registry) registry = &own_registry.emplace(settings.registry);
+  if (registry) check_registry(*registry, requests, settings, cache.records, out);
   // Each distinct original read and prepared once, before the work is shared out.
   // An original that cannot be read is Unreadable; options its preparation refuses make every
   // copy of it Refused.
-  std::map<std::string, std::shared_ptr<const Original>> originals;
+  std::map<std::string, std::shared_ptr<const Original>>& originals = cache.prepared;
   std::map<std::string, std::pair<CopyStatus, std::string>> failed;
+  std::set<std::string> inputs;
   for (std::size_t k = 0; k < requests.size(); ++k) {
     const std::string input = original_key(requests[k]);
-    if (!pending(out[k]) || originals.count(input) || failed.count(input)) continue;
+    if (!pending(out[k])) continue;
+    inputs.insert(input);
+    if (originals.count(input) || failed.count(input)) continue;
     try {
-      Mesh mesh =
-          requests[k].mesh ? *requests[k].mesh : read_mesh(requests[k].input, settings.read);
-      if (requests[k].mesh) validate_mesh(mesh.V, mesh.F, requests[k].input);
-      PreparedEmbedder embedder(mesh.V, mesh.F, settings.embedding);
-      std::optional<FingerprintBasis> basis;
-      Histogram histogram;
-      std::size_t counted = 0;
-      if (settings.fingerprint) {
-        const std::vector<std::uint8_t> carrier = carrier_vertices(mesh.V, mesh.F);
-        counted = static_cast<std::size_t>(std::count(carrier.begin(), carrier.end(), kCounted));
-        const int functions = fingerprint_functions(counted);
-        if (functions > 0) {
-          const Center c =
-              center_of_mass(mesh.V, mesh.F, carrier, settings.embedding.variant.center);
-          basis = fingerprint_basis(mesh.V, mesh.F, carrier, c.point, functions);
-          histogram = build_histogram(mesh.V, carrier, c.point, settings.bits);
-        }
-      }
-      originals[input] = std::make_shared<const Original>(Original{
-          std::move(mesh), std::move(embedder), std::move(basis), std::move(histogram), counted});
+      originals[input] = prepare_original(requests[k], settings);
     } catch (const IOError& e) {
       failed[input] = {CopyStatus::Unreadable, e.what()};
     } catch (const InvalidInputError& e) {
@@ -556,7 +574,7 @@ IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings&
       failed[input] = {CopyStatus::NotEmbedded, e.what()};
     }
   }
-  result.inputs = originals.size() + failed.size();
+  result.inputs = inputs.size();
   std::vector<std::size_t> jobs;
   for (std::size_t k = 0; k < requests.size(); ++k) {
     if (!pending(out[k])) continue;
@@ -586,6 +604,119 @@ IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings&
   if (registry) complete_rows(*registry, requests, settings, out);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
+}
+
+}  // namespace
+
+IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings& settings) {
+  OriginalCache cache;
+  return issue_with(std::move(requests), settings, cache, nullptr);
+}
+
+struct Issuer::Impl {
+  IssueSettings settings;
+  std::size_t max_originals = 0;
+  std::optional<Registry> registry;
+  OriginalCache cache;
+  // The prepared originals by geometry hash, the most recently used last.
+  std::vector<PreparedOriginal> order;
+  std::mutex mutex;
+
+  // Moves the original to the most recently used place; drops the least recently used beyond
+  // the bound, with what the cache holds of it.
+  void touch(const std::string& geometry) {
+    auto it = std::find_if(order.begin(), order.end(),
+                           [&](const PreparedOriginal& p) { return p.geometry == geometry; });
+    if (it != order.end()) std::rotate(it, it + 1, order.end());
+    while (order.size() > max_originals) {
+      CopyRequest r;
+      r.mesh = order.front().mesh;
+      cache.prepared.erase(original_key(r));
+      cache.records.erase(original_key(r));
+      order.erase(order.begin());
+    }
+  }
+};
+
+Issuer::Issuer(IssueSettings settings, std::size_t max_originals)
+    : impl_(std::make_unique<Impl>()) {
+  if (max_originals == 0) throw InvalidArgumentError("an issuer holds at least one original");
+  if (settings.bits < 1)
+    throw InvalidArgumentError(fmt::format("{} payload bits: at least 1", settings.bits));
+  impl_->settings = std::move(settings);
+  impl_->max_originals = max_originals;
+  if (!impl_->settings.registry.empty()) impl_->registry.emplace(impl_->settings.registry);
+}
+
+Issuer::~Issuer() = default;
+
+PreparedOriginal Issuer::prepare(Mesh mesh, const std::string& name) {
+  validate_mesh(mesh.V, mesh.F, name);
+  const std::string geometry = geometry_hash(mesh.V, mesh.F);
+  const std::lock_guard<std::mutex> lock(impl_->mutex);
+  if (const std::optional<PreparedOriginal> known = find_locked(geometry)) {
+    PreparedOriginal again = *known;
+    again.prepared_before = true;
+    impl_->touch(geometry);
+    return again;
+  }
+  PreparedOriginal p;
+  p.geometry = geometry;
+  p.name = name;
+  p.vertices = mesh.V.rows();
+  p.faces = mesh.F.rows();
+  p.mesh = std::make_shared<const Mesh>(std::move(mesh));
+  CopyRequest r;
+  r.input = name;
+  r.mesh = p.mesh;
+  impl_->cache.prepared[original_key(r)] = prepare_original(r, impl_->settings);
+  impl_->cache.records[original_key(r)] = issued_copy(*p.mesh, name, "", 0, impl_->settings);
+  impl_->order.push_back(p);
+  impl_->touch(geometry);
+  return p;
+}
+
+std::optional<PreparedOriginal> Issuer::find(const std::string& geometry) {
+  const std::lock_guard<std::mutex> lock(impl_->mutex);
+  return find_locked(geometry);
+}
+
+std::optional<PreparedOriginal> Issuer::find_locked(const std::string& geometry) const {
+  for (const PreparedOriginal& p : impl_->order)
+    if (p.geometry == geometry) return p;
+  return std::nullopt;
+}
+
+IssueResult Issuer::issue(std::vector<CopyRequest> requests) {
+  const std::lock_guard<std::mutex> lock(impl_->mutex);
+  std::vector<std::string> used;
+  for (const CopyRequest& r : requests)
+    for (const PreparedOriginal& p : impl_->order)
+      if (r.mesh && r.mesh == p.mesh) used.push_back(p.geometry);
+  IssueResult result = issue_with(std::move(requests), impl_->settings, impl_->cache,
+                                  impl_->registry ? &*impl_->registry : nullptr);
+  for (const std::string& g : used) impl_->touch(g);
+  // Originals given in memory but not prepared are not kept.
+  std::map<std::string, std::shared_ptr<const Original>> kept;
+  std::map<std::string, IssuedCopy> records;
+  for (const PreparedOriginal& p : impl_->order) {
+    CopyRequest r;
+    r.mesh = p.mesh;
+    const std::string k = original_key(r);
+    if (impl_->cache.prepared.count(k)) kept[k] = impl_->cache.prepared[k];
+    if (impl_->cache.records.count(k)) records[k] = impl_->cache.records[k];
+  }
+  impl_->cache.prepared = std::move(kept);
+  impl_->cache.records = std::move(records);
+  return result;
+}
+
+const IssueSettings& Issuer::settings() const {
+  return impl_->settings;
+}
+
+Registry* Issuer::registry() {
+  return impl_->registry ? &*impl_->registry : nullptr;
 }
 
 }  // namespace meshmark

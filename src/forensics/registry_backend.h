@@ -117,7 +117,8 @@ inline constexpr const char* kRegistryMigrationV4 =
 
 /// The statements that take version 4 to version 5: where each copy's ID lies in its code's
 /// spaced enumeration (IssuedCopy::spaced_index; 0 for the copies recorded before, which are
-/// checked one by one), and the indexes the spacing rule looks the copies of a group up by.
+/// checked one by one), the indexes the spacing rule looks the copies of a group up by, and
+/// one that finds an ID of an original's file without reading the original's other copies.
 inline std::string registry_migration_v5(bool postgres) {
   return std::string("ALTER TABLE copies ADD COLUMN spaced_index ") +
          (postgres ? "BIGINT" : "INTEGER") +
@@ -125,7 +126,8 @@ inline std::string registry_migration_v5(bool postgres) {
          "CREATE INDEX copies_spaced_by_file ON copies (original_hash, key_fingerprint, bits, "
          "id_bits, spaced_index);\n"
          "CREATE INDEX copies_spaced_by_shape ON copies (original_geometry, key_fingerprint, "
-         "bits, id_bits, spaced_index);";
+         "bits, id_bits, spaced_index);\n"
+         "CREATE INDEX copies_by_file ON copies (original_hash, key_fingerprint, id);";
 }
 
 /// The WHERE condition of the copies of c's group (last_spaced_index) for one way of knowing

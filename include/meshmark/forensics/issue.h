@@ -10,8 +10,8 @@
 ///   manifest), a path naming it through a link included; an ID already issued from the same
 ///   original under the same key, an ID given twice, or an ID whose codeword is closer than
 ///   kIssuedSpacing bits to one already issued is refused (a buyer must never get a copy that could
-///   be taken for another's). A copy asking for `id:auto` gets the smallest ID that passes these
-///   rules (free_ids()).
+///   be taken for another's). A copy asking for `id:auto` gets the next ID of the registry's
+///   spaced set that passes these rules (free_ids(), spacing.h).
 /// - Each distinct original is read and prepared once, then the copies are embedded on
 ///   IssueSettings::threads threads, each at the fixed strength or at the strongest within
 ///   fidelity limits (calibrate.h).
@@ -151,6 +151,50 @@ struct IssueResult {
 /// \throw InvalidArgumentError for settings out of range; IOError when the registry cannot be
 ///        opened.
 IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings& settings);
+
+/// An original an Issuer has prepared.
+struct PreparedOriginal {
+  std::string geometry;               ///< its geometry_hash: how it is known (registry.h)
+  std::string name;                   ///< the name it was prepared under (its original_path)
+  std::int64_t vertices = 0;          ///< vertices
+  std::int64_t faces = 0;             ///< faces
+  bool prepared_before = false;       ///< prepare() found it prepared already: nothing done
+  std::shared_ptr<const Mesh> mesh;   ///< the mesh: a request's CopyRequest::mesh names it
+};
+
+/// A long-running issuer (`meshmark serve`, Python's `meshmark.Issuer`): it holds the registry
+/// open and up to max_originals prepared originals (read, checked, hashed, the embedder's and
+/// the fingerprint's preparation), the least recently used dropped first, so that a copy of a
+/// prepared original costs its embedding and writing alone. Its calls may come from several
+/// threads: they run one at a time. Every rule of issue_copies holds.
+class Issuer {
+ public:
+  /// \throw InvalidArgumentError for settings out of range; IOError when the registry cannot
+  ///        be opened.
+  explicit Issuer(IssueSettings settings, std::size_t max_originals = 16);
+  ~Issuer();
+  Issuer(const Issuer&) = delete;
+  Issuer& operator=(const Issuer&) = delete;
+
+  /// Prepares an original named `name`; an original of the same geometry prepared before is
+  /// not prepared again (prepared_before). \throw InvalidInputError for a mesh validate_mesh
+  /// refuses; InvalidArgumentError when the settings cannot embed in it.
+  PreparedOriginal prepare(Mesh mesh, const std::string& name);
+  /// The prepared original of this geometry hash, if it is held.
+  std::optional<PreparedOriginal> find(const std::string& geometry);
+  /// Issues copies as issue_copies does; a request whose CopyRequest::mesh is a prepared
+  /// original's `mesh` uses its preparation.
+  IssueResult issue(std::vector<CopyRequest> requests);
+  /// The settings every copy is issued with.
+  const IssueSettings& settings() const;
+  /// The open registry, or nullptr without one.
+  Registry* registry();
+
+ private:
+  std::optional<PreparedOriginal> find_locked(const std::string& geometry) const;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 /// Sets request's ID from text: "auto" (the registry picks it: CopyRequest::auto_id) or an ID
 /// in decimal or 0x hex (parse_id() in coding.h, which throws InvalidArgumentError).
