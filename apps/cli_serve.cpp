@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cctype>
+#include <cerrno>
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
@@ -15,6 +17,7 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <thread>
 
 #include "cli.h"
@@ -130,11 +133,54 @@ std::pair<std::string, int> parse_listen(const std::string& text) {
   return {host, std::stoi(port_text)};
 }
 
+// This machine's name, for the server's temporary folder.
+std::string host_name() {
+  char name[256] = {};
+  if (gethostname(name, sizeof name - 1) != 0) return "host";
+  std::string out = name;
+  for (char& c : out)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-') c = '_';
+  return out;
+}
+
+// The prefix of a server's temporary folder: meshmark-serve-HOST-PID-.
+std::string work_prefix(pid_t pid) {
+  return fmt::format("meshmark-serve-{}-{}-", host_name(), pid);
+}
+
+// Gives back the rows that servers killed on this machine had reserved: copies being made
+// whose answers were never sent (a reserved row names its output, in the server's temporary
+// folder, which holds the machine and the process). Their folders are removed. The rows of a
+// server still running, here or on another machine, are left alone.
+std::size_t release_dead_servers_rows(Registry& registry, const Key& key) {
+  RegistryQuery q;
+  q.state = "reserved";
+  q.key_fingerprint = key_fingerprint(key);
+  const std::string here = fmt::format("meshmark-serve-{}-", host_name());
+  std::vector<IssuedCopy> dead;
+  std::set<fs::path> folders;
+  for (const IssuedCopy& c : registry.list(q)) {
+    const fs::path folder = fs::path(c.output_path).parent_path();
+    const std::string name = folder.filename().string();
+    if (name.rfind(here, 0) != 0) continue;
+    const std::string rest = name.substr(here.size());
+    const std::size_t dash = rest.find('-');
+    if (dash == std::string::npos || dash == 0) continue;
+    const pid_t pid = static_cast<pid_t>(std::strtol(rest.substr(0, dash).c_str(), nullptr, 10));
+    if (pid <= 0 || kill(pid, 0) == 0 || errno != ESRCH) continue;  // alive, or not ours to say
+    dead.push_back(c), folders.insert(folder);
+  }
+  registry.release(dead);
+  std::error_code ec;
+  for (const fs::path& f : folders) fs::remove_all(f, ec);
+  return dead.size();
+}
+
 // A temporary folder of the server's own, removed when it stops.
 class WorkDir {
  public:
   WorkDir() {
-    std::string pattern = (fs::temp_directory_path() / "meshmark-serve-XXXXXX").string();
+    std::string pattern = (fs::temp_directory_path() / (work_prefix(getpid()) + "XXXXXX")).string();
     if (!mkdtemp(pattern.data()))
       throw IOError(fmt::format("{}: cannot make the server's temporary folder", pattern));
     path_ = pattern;
@@ -229,6 +275,8 @@ class Service {
       get_copies(req, res);
     });
   }
+
+  Registry* registry() { return issuer_.registry(); }
 
  private:
   void post_original(const httplib::Request& req, httplib::Response& res) {
@@ -366,6 +414,10 @@ int run(const ServeArgs& a) {
   settings.fingerprint = a.fingerprint;
   settings.threads = 1;  // one copy per request; requests run side by side
   Service service(a, settings, *key);
+  if (Registry* registry = service.registry())
+    if (const std::size_t released = release_dead_servers_rows(*registry, *key))
+      fmt::print("meshmark serve: gave back {} row(s) reserved by a server that was killed\n",
+                 released);
   httplib::Server server;
   server.set_payload_max_length(static_cast<std::size_t>(a.max_upload_mib * 1024 * 1024));
   service.routes(server, token);

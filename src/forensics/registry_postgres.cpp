@@ -202,6 +202,7 @@ class PostgresRegistry final : public RegistryBackend {
     if (query.id) add("id", std::to_string(*query.id));
     if (query.bits) add("bits", std::to_string(*query.bits));
     if (query.id_bits) add("id_bits", std::to_string(*query.id_bits));
+    if (query.state) add("state", *query.state);
     if (query.spaced) where += *query.spaced ? " AND spaced_index > 0" : " AND spaced_index = 0";
     const Result r = run(
         fmt::format("SELECT row, {} FROM copies WHERE {} ORDER BY row", kRegistryColumns, where),

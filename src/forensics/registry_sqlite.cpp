@@ -179,7 +179,8 @@ class SqliteRegistry final : public RegistryBackend {
     };
     if (version < 5) replace("spaced_index", "0"), spaced_column_ = false;
     if (version < 4)
-      replace("mac", "''"), replace("key_derivation", "''"), replace("state", "'issued'");
+      replace("mac", "''"), replace("key_derivation", "''"), replace("state", "'issued'"),
+          state_column_ = false;
     if (version < 3) replace("original_geometry", "''");
     if (version < 2) replace("method", "'qp'");
     columns_ = columns;
@@ -317,6 +318,10 @@ class SqliteRegistry final : public RegistryBackend {
     if (query.id) where += " AND id = ?4";
     if (query.bits) where += " AND bits = ?6";
     if (query.id_bits) where += " AND id_bits = ?7";
+    if (query.state && state_column_)
+      where += " AND state = ?8";
+    else if (query.state && *query.state != "issued")
+      where += " AND 0";  // before schema 4 every copy reads "issued"
     if (query.spaced && spaced_column_)
       where += *query.spaced ? " AND spaced_index > 0" : " AND spaced_index = 0";
     else if (query.spaced && *query.spaced)
@@ -330,6 +335,7 @@ class SqliteRegistry final : public RegistryBackend {
     if (query.original_geometry) q.bind(5, *query.original_geometry);
     if (query.bits) q.bind(6, *query.bits);
     if (query.id_bits) q.bind(7, *query.id_bits);
+    if (query.state && state_column_) q.bind(8, *query.state);
     std::vector<IssuedCopy> out;
     int rc = 0;
     while ((rc = sqlite3_step(q.get())) == SQLITE_ROW) out.push_back(q.copy());
@@ -351,6 +357,7 @@ class SqliteRegistry final : public RegistryBackend {
   bool read_only_ = false;
   std::string columns_ = kRegistryColumns;  // what SELECT lists (read-only: the schema's)
   bool spaced_column_ = true;               // the schema has spaced_index (version 5 on)
+  bool state_column_ = true;                // the schema has state (version 4 on)
   sqlite3* db_ = nullptr;
   std::unique_ptr<Statement> insert_;
 };

@@ -102,6 +102,7 @@ struct RegistryQuery {
   std::optional<int> id_bits;                    ///< copies of this ID length
   /// copies whose spaced_index is nonzero (true) or zero (false)
   std::optional<bool> spaced;
+  std::optional<std::string> state;  ///< copies in this state ("issued", "reserved")
 };
 
 /// A fingerprint of a key that reveals nothing of it: the first 16 bytes of
