@@ -501,8 +501,12 @@ void complete_rows(Registry& registry, const std::vector<CopyRequest>& requests,
 namespace {
 
 // issue_copies, with the originals of cache prepared before and the registry open (when given).
+// lock (when given, held on entry): what guards the cache and the registry; it is released
+// while the copies are embedded and written, so that several issues embed side by side, and
+// held again on return.
 IssueResult issue_with(std::vector<CopyRequest> requests, const IssueSettings& settings,
-                       OriginalCache& cache, Registry* open_registry) {
+                       OriginalCache& cache, Registry* open_registry,
+                       std::unique_lock<std::mutex>* lock = nullptr) {
   const auto start = std::chrono::steady_clock::now();
   if (settings.bits < 1)
     throw InvalidArgumentError(fmt::format("{} payload bits: at least 1", settings.bits));
@@ -588,12 +592,15 @@ IssueResult issue_with(std::vector<CopyRequest> requests, const IssueSettings& s
   // leaves reserved rows (which a rerun completes), never a copy that no row names.
   if (registry) reserve_rows(*registry, requests, jobs, settings, out);
   detail::ProgressCounter progress(settings.progress, "issuing", static_cast<long>(jobs.size()));
+  std::vector<std::shared_ptr<const Original>> job_originals;  // held while unlocked
+  job_originals.reserve(jobs.size());
+  for (const std::size_t k : jobs) job_originals.push_back(originals.at(original_key(requests[k])));
+  if (lock) lock->unlock();
   result.threads = detail::parallel_for(jobs.size(), settings.threads, [&](std::size_t j) {
     const std::size_t k = jobs[j];
 
     try {
-      make_copy(requests[k], *originals.at(original_key(requests[k])), settings,
-                code ? &*code : nullptr, out[k]);
+      make_copy(requests[k], *job_originals[j], settings, code ? &*code : nullptr, out[k]);
     } catch (const InvalidArgumentError& e) {  // options this copy's embedding refuses
       refuse(out[k], e.what());
     } catch (const std::exception& e) {
@@ -601,6 +608,7 @@ IssueResult issue_with(std::vector<CopyRequest> requests, const IssueSettings& s
     }
     progress.step(1, requests[k].output);
   });
+  if (lock) lock->lock();
   if (registry) complete_rows(*registry, requests, settings, out);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
@@ -688,13 +696,13 @@ std::optional<PreparedOriginal> Issuer::find_locked(const std::string& geometry)
 }
 
 IssueResult Issuer::issue(std::vector<CopyRequest> requests) {
-  const std::lock_guard<std::mutex> lock(impl_->mutex);
+  std::unique_lock<std::mutex> lock(impl_->mutex);
   std::vector<std::string> used;
   for (const CopyRequest& r : requests)
     for (const PreparedOriginal& p : impl_->order)
       if (r.mesh && r.mesh == p.mesh) used.push_back(p.geometry);
   IssueResult result = issue_with(std::move(requests), impl_->settings, impl_->cache,
-                                  impl_->registry ? &*impl_->registry : nullptr);
+                                  impl_->registry ? &*impl_->registry : nullptr, &lock);
   for (const std::string& g : used) impl_->touch(g);
   // Originals given in memory but not prepared are not kept.
   std::map<std::string, std::shared_ptr<const Original>> kept;

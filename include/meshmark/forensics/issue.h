@@ -154,19 +154,20 @@ IssueResult issue_copies(std::vector<CopyRequest> requests, const IssueSettings&
 
 /// An original an Issuer has prepared.
 struct PreparedOriginal {
-  std::string geometry;               ///< its geometry_hash: how it is known (registry.h)
-  std::string name;                   ///< the name it was prepared under (its original_path)
-  std::int64_t vertices = 0;          ///< vertices
-  std::int64_t faces = 0;             ///< faces
-  bool prepared_before = false;       ///< prepare() found it prepared already: nothing done
-  std::shared_ptr<const Mesh> mesh;   ///< the mesh: a request's CopyRequest::mesh names it
+  std::string geometry;              ///< its geometry_hash: how it is known (registry.h)
+  std::string name;                  ///< the name it was prepared under (its original_path)
+  std::int64_t vertices = 0;         ///< vertices
+  std::int64_t faces = 0;            ///< faces
+  bool prepared_before = false;      ///< prepare() found it prepared already: nothing done
+  std::shared_ptr<const Mesh> mesh;  ///< the mesh: a request's CopyRequest::mesh names it
 };
 
 /// A long-running issuer (`meshmark serve`, Python's `meshmark.Issuer`): it holds the registry
 /// open and up to max_originals prepared originals (read, checked, hashed, the embedder's and
 /// the fingerprint's preparation), the least recently used dropped first, so that a copy of a
 /// prepared original costs its embedding and writing alone. Its calls may come from several
-/// threads: they run one at a time. Every rule of issue_copies holds.
+/// threads: the registry's steps (choosing and reserving IDs, completing rows) run one at a
+/// time, the embedding and writing of copies side by side. Every rule of issue_copies holds.
 class Issuer {
  public:
   /// \throw InvalidArgumentError for settings out of range; IOError when the registry cannot
