@@ -110,30 +110,119 @@ py::dict score_dict(const CandidateScore& s) {
   return d;
 }
 
+// The settings issue() and Issuer take, from their keywords; further keywords set the
+// embedding's fields, as embed() takes them (variant="VRS", ...).
+IssueSettings issue_settings(const std::string& registry, py::handle key, py::handle key_file,
+                             int bits, int id_bits, double strength_spread, py::handle options,
+                             bool public_key, bool fingerprint, const py::kwargs& kwargs) {
+  IssueSettings s;
+  s.allow_public_key = public_key;
+  s.fingerprint = fingerprint;
+  s.registry = registry;
+  s.key = resolve_key(key, key_file);
+  s.bits = bits;
+  if (!key_file.is_none()) s.kept_files.emplace_back("the key file", to_path(key_file));
+  s.id_bits = id_bits;
+  s.strength_spread = strength_spread;
+  if (!options.is_none()) s.embedding = options.cast<EmbedOptions>();
+  apply_keywords(py::cast(&s.embedding, py::return_value_policy::reference), kwargs);
+  return s;
+}
+
 }  // namespace
 
 void init_issue(py::module_& m) {
+  py::class_<Issuer>(
+      m, "Issuer",
+      "A long-running issuer (docs/serving.md): it holds the registry open and up to "
+      "`originals` prepared originals, so that a copy of a prepared original costs its "
+      "embedding and writing alone. The same rules as issue().")
+      .def(py::init([](const std::string& registry, py::handle key, py::handle key_file, int bits,
+                       int id_bits, double strength_spread, py::handle options, bool public_key,
+                       bool fingerprint, std::size_t originals, const py::kwargs& kwargs) {
+             IssueSettings s =
+                 issue_settings(registry, key, key_file, bits, id_bits, strength_spread, options,
+                                public_key, fingerprint, kwargs);
+             s.threads = 1;  // one copy per call; calls from several threads run side by side
+             return std::make_unique<Issuer>(std::move(s), originals);
+           }),
+           py::kw_only(), py::arg("registry") = "", py::arg("key") = py::none(),
+           py::arg("key_file") = py::none(), py::arg("bits") = 64, py::arg("id_bits") = 32,
+           py::arg("strength_spread") = 0.25, py::arg("options") = py::none(),
+           py::arg("public_key") = false, py::arg("fingerprint") = false, py::arg("originals") = 16)
+      .def(
+          "prepare",
+          [](Issuer& self, py::handle original) {
+            std::string name;
+            Mesh mesh;
+            if (is_path(original)) {
+              name = to_path(original);
+              mesh = read_mesh(name, self.settings().read);
+            } else {
+              mesh = to_mesh(original, "original");
+              name = memory_name(mesh);
+            }
+            PreparedOriginal p;
+            {
+              py::gil_scoped_release unlocked;
+              p = self.prepare(std::move(mesh), name);
+            }
+            py::dict d;
+            d["original"] = p.geometry;
+            d["name"] = p.name;
+            d["vertices"] = p.vertices;
+            d["faces"] = p.faces;
+            d["prepared_before"] = p.prepared_before;
+            return d;
+          },
+          py::arg("original"),
+          "Prepares an original (a path, a meshmark.Mesh or a (V, F) pair) once. Returns a dict: "
+          "original (its geometry hash, which issue() takes), name, vertices, faces, "
+          "prepared_before.")
+      .def(
+          "issue",
+          [](Issuer& self, const std::string& original, py::handle output, const std::string& buyer,
+             py::handle id) {
+            const std::optional<PreparedOriginal> p = self.find(original);
+            if (!p)
+              throw InvalidArgumentError(fmt::format(
+                  "original {} is not prepared (prepare() it first; the least recently used "
+                  "are dropped beyond the issuer's bound)",
+                  original));
+            CopyRequest r;
+            r.input = p->name;
+            r.mesh = p->mesh;
+            r.output = to_path(output);
+            r.buyer = buyer;
+            if (py::isinstance<py::str>(id) && id.cast<std::string>() == "auto")
+              r.auto_id = true;
+            else
+              r.id = to_id(id, "id");
+            IssueResult result;
+            {
+              py::gil_scoped_release unlocked;
+              result = self.issue({r});
+            }
+            py::dict d = to_dict(r, result.copies.at(0));
+            d["row"] = result.copies.at(0).record.row;
+            return d;
+          },
+          py::arg("original"), py::arg("output"), py::kw_only(), py::arg("buyer") = "",
+          py::arg("id") = "auto",
+          "Issues one copy of a prepared original (its geometry hash) to output, for buyer, "
+          "with id ('auto': the registry picks it). Returns issue()'s dict for it, and row.");
+
   m.def(
       "issue",
       [](const py::iterable& copies, const std::string& registry, py::handle key,
          py::handle key_file, int bits, int id_bits, double strength_spread, py::handle options,
          int threads, bool resume, bool public_key, bool fingerprint, const py::kwargs& kwargs) {
-        IssueSettings s;
-        s.allow_public_key = public_key;
-        s.fingerprint = fingerprint;
         std::vector<CopyRequest> requests;
         std::size_t k = 0;
         MeshCache seen;
         for (py::handle item : copies) requests.push_back(to_request(item, k++, seen));
-        s.registry = registry;
-        s.key = resolve_key(key, key_file);
-        s.bits = bits;
-        if (!key_file.is_none()) s.kept_files.emplace_back("the key file", to_path(key_file));
-        s.id_bits = id_bits;
-        s.strength_spread = strength_spread;
-        if (!options.is_none()) s.embedding = options.cast<EmbedOptions>();
-        // The embedding's fields as keywords, as embed() takes them (variant="VRS", ...).
-        apply_keywords(py::cast(&s.embedding, py::return_value_policy::reference), kwargs);
+        IssueSettings s = issue_settings(registry, key, key_file, bits, id_bits, strength_spread,
+                                         options, public_key, fingerprint, kwargs);
         s.threads = threads;
         s.resume = resume;
         IssueResult r;

@@ -165,3 +165,27 @@ def test_the_fingerprint_is_issued_and_scored(fandisk, tmp_path):
                    registry=plain, key=KEY)
     nofp = meshmark.trace(tmp_path / "p-62.ply", fandisk, plain, key=KEY)
     assert nofp["named"][0]["fingerprint_z"] is None and nofp["named"][0]["fingerprint_p"] is None
+
+
+def test_an_issuer_prepares_once_and_issues_copies_that_trace(fandisk, tmp_path):
+    db = str(tmp_path / "shop.db")
+    issuer = meshmark.Issuer(registry=db, key=KEY, originals=2)
+    first = issuer.prepare(fandisk)
+    again = issuer.prepare(meshmark.read_mesh(fandisk))  # the same geometry, in memory
+    assert not first["prepared_before"] and again["prepared_before"]
+    assert again["original"] == first["original"]
+    out = [issuer.issue(first["original"], tmp_path / f"i-{b}.ply", buyer=b) for b in "abc"]
+    assert all(o["ok"] for o in out), out
+    assert len({o["id"] for o in out}) == 3
+    rows = {r["id"]: r for r in (json.loads(line) for line in run_cli(
+        "registry", "export", db, "--format", "jsonl").splitlines())}
+    for b, o in zip("abc", out):
+        assert rows[o["id"]]["buyer"] == b and rows[o["id"]]["row"] == o["row"]
+        read = run_cli("extract", tmp_path / f"i-{b}.ply", "--coded", "--key", KEY, "--json")
+        assert read["id_valid"] and read["id"] == o["id"]
+    found = meshmark.trace(tmp_path / "i-b.ply", fandisk, db, key=KEY)
+    assert [n["buyer"] for n in found["named"]] == ["b"]
+    with pytest.raises(meshmark.InvalidArgumentError, match="not prepared"):
+        issuer.issue("0" * 64, tmp_path / "x.ply", buyer="x")
+    refused = issuer.issue(first["original"], tmp_path / "d.ply", buyer="d", id=out[0]["id"])
+    assert refused["status"] == "refused" and "already issued" in refused["message"]

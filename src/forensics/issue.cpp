@@ -125,6 +125,12 @@ bool resumable(const IssuedCopy& taken, IssuedCopy wanted, const std::string& ou
   }
 }
 
+// How a copy is refused when another issue took its ID between the choice and the
+// reservation (another server on the same registry), or the reservation failed (that, or the
+// database): Issuer issues such a copy again when the registry chose its ID.
+constexpr const char* kChosenMeanwhile = "taken meanwhile: ";
+constexpr const char* kNotReserved = "not reserved: ";
+
 // The registry's refusals: coded IDs only, an ID issued before or given twice (or skipped, an
 // intact copy of an earlier run), a codeword too close to an issued one.
 // Requests with id:auto get theirs here, chosen by free_ids() (spacing.h).
@@ -185,6 +191,13 @@ void check_registry(const Registry& registry, std::vector<CopyRequest>& requests
   for (const IssuedCopy& taken : registry.conflicts(wanted))
     for (const std::size_t k : candidates) {
       if (!same(k, taken)) continue;
+      if (requests[k].auto_id && taken.row) {
+        // Chosen free a moment ago: another issue (another server on the registry) took it.
+        refuse(out[k], kChosenMeanwhile + fmt::format("ID {} was taken by another issue while "
+                                                      "this one chose it",
+                                                      taken.id));
+        continue;
+      }
       if (taken.row && taken.state == "reserved") {
         // An issue that reserved this row and did not complete it: this very copy (buyer,
         // settings, output) is finished under the same row, whatever its file holds now.
@@ -434,7 +447,7 @@ void reserve_rows(Registry& registry, const std::vector<CopyRequest>& requests,
     fresh = registry.reserve(std::move(fresh), id_key(settings.key));
     for (std::size_t j = 0; j < index.size(); ++j) out[index[j]].record = fresh[j];
   } catch (const std::exception& e) {
-    for (const std::size_t k : index) refuse(out[k], fmt::format("not reserved: {}", e.what()));
+    for (const std::size_t k : index) refuse(out[k], kNotReserved + std::string(e.what()));
     std::erase_if(jobs, [&](std::size_t k) { return !pending(out[k]); });
   }
 }
@@ -701,8 +714,28 @@ IssueResult Issuer::issue(std::vector<CopyRequest> requests) {
   for (const CopyRequest& r : requests)
     for (const PreparedOriginal& p : impl_->order)
       if (r.mesh && r.mesh == p.mesh) used.push_back(p.geometry);
+  // A copy whose ID the registry chose, refused because another issuer (another server on the
+  // same PostgreSQL registry) reserved that ID first, is issued again with the next one.
+  constexpr int kAttempts = 8;
+  const std::vector<CopyRequest> asked = requests;
   IssueResult result = issue_with(std::move(requests), impl_->settings, impl_->cache,
                                   impl_->registry ? &*impl_->registry : nullptr, &lock);
+  for (int attempt = 1; attempt < kAttempts; ++attempt) {
+    std::vector<std::size_t> again;
+    for (std::size_t k = 0; k < asked.size(); ++k)
+      if (asked[k].auto_id && result.copies[k].status == CopyStatus::Refused &&
+          (result.copies[k].message.rfind(kNotReserved, 0) == 0 ||
+           result.copies[k].message.rfind(kChosenMeanwhile, 0) == 0))
+        again.push_back(k);
+    if (again.empty()) break;
+    std::vector<CopyRequest> retry;
+    retry.reserve(again.size());
+    for (const std::size_t k : again) retry.push_back(asked[k]);
+    IssueResult second = issue_with(std::move(retry), impl_->settings, impl_->cache,
+                                    impl_->registry ? &*impl_->registry : nullptr, &lock);
+    for (std::size_t j = 0; j < again.size(); ++j)
+      result.copies[again[j]] = std::move(second.copies[j]);
+  }
   for (const std::string& g : used) impl_->touch(g);
   // Originals given in memory but not prepared are not kept.
   std::map<std::string, std::shared_ptr<const Original>> kept;

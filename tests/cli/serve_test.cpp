@@ -23,6 +23,7 @@
 #include "meshmark/protocol/coding.h"
 #include "meshmark/protocol/key.h"
 #include "meshmark/protocol/watermark.h"
+#include "postgres_server.h"
 #include "test_data.h"
 
 // After Eigen's headers: <resolv.h>, which httplib.h includes, defines _res.
@@ -38,16 +39,19 @@ const std::string kToken = "test-token-0123456789abcdef";
 // A server started by the CLI, stopped (SIGTERM) when this goes out of scope.
 class Server {
  public:
-  Server(const std::string& dir, const std::string& extra = "") {
-    const std::string log = dir + "/serve.log";
+  // registry: an SQLite file or a postgresql:// URI ("": dir/shop.db); log: where its output
+  // goes in dir.
+  explicit Server(const std::string& dir, const std::string& registry = "",
+                  const std::string& log_name = "serve.log") {
+    const std::string log = dir + "/" + log_name;
+    const std::string where = registry.empty() ? dir + "/shop.db" : registry;
     std::remove(log.c_str());
     pid_ = fork();
     if (pid_ == 0) {
       setenv("MESHMARK_TOKEN", kToken.c_str(), 1);
       const std::string cmd = fmt::format(
-          "exec {} serve --listen 127.0.0.1:0 --registry {}/shop.db --key-file "
-          "{}/shop.key {} > {} 2>&1",
-          MESHMARK_CLI, dir, dir, extra, log);
+          "exec {} serve --listen 127.0.0.1:0 --registry '{}' --key-file {}/shop.key > {} 2>&1",
+          MESHMARK_CLI, where, dir, log);
       execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
       _exit(127);
     }
@@ -345,6 +349,53 @@ TEST(Serve, ConcurrentClientsLoseNothingAndAKillLeavesNoHalfRecordedCopy) {
   }
   EXPECT_TRUE(killed_mid_issue) << "no kill landed inside an issue";
   EXPECT_GT(check(), 60u);
+}
+
+// Two servers on one PostgreSQL registry, two clients each, every copy with id:auto: both
+// servers choose from the same spaced set, so they often choose the same next ID at once; the
+// registry's transaction refuses the second, and its server takes the next. No request fails,
+// no ID is given twice, every file is the one its row records.
+TEST(Serve, TwoServersOnOnePostgresRegistryNeverShareAnId) {
+  MESHMARK_REQUIRE_POSTGRES();
+  const std::string pg = PostgresServer::get().fresh_database("serve");
+  const std::string dir = fresh_dir("serve-pg");
+  Server a(dir, pg, "a.log"), b(dir, pg, "b.log");
+  ASSERT_NE(a.port(), 0) << bytes_of(dir + "/a.log");
+  ASSERT_NE(b.port(), 0) << bytes_of(dir + "/b.log");
+  std::vector<std::pair<std::uint64_t, std::string>> received;
+  std::mutex m;
+  std::vector<std::thread> clients;
+  for (Server* server : {&a, &b}) {
+    httplib::Client c = server->client();
+    const std::string hash = post_original(c, test::data_mesh("spot.obj"));
+    for (int k = 0; k < 2; ++k)
+      clients.emplace_back([&, server, hash, k] {
+        httplib::Client c = server->client();
+        for (int i = 0; i < 10; ++i) {
+          const auto r = c.Post(
+              "/copies",
+              nlohmann::json{{"original", hash}, {"buyer", fmt::format("{}-{}", k, i)}}.dump(),
+              "application/json");
+          ASSERT_TRUE(r);
+          ASSERT_EQ(r->status, 200) << r->body;
+          const std::lock_guard<std::mutex> lock(m);
+          received.emplace_back(std::stoull(r->get_header_value("X-Meshmark-Id")),
+                                content_hash(r->body));
+        }
+      });
+  }
+  for (std::thread& t : clients) t.join();
+  ASSERT_EQ(received.size(), 40u);
+  std::map<std::uint64_t, IssuedCopy> rows;
+  for (const IssuedCopy& r : read_registry(pg)) {
+    EXPECT_TRUE(rows.emplace(r.id, r).second) << "ID " << r.id << " twice";
+    EXPECT_EQ(r.state, "issued");
+  }
+  EXPECT_EQ(rows.size(), 40u);
+  for (const auto& [id, body] : received) {
+    ASSERT_TRUE(rows.count(id)) << "ID " << id;
+    EXPECT_EQ(rows[id].output_hash, body);
+  }
 }
 
 }  // namespace
