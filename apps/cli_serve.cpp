@@ -248,7 +248,7 @@ class Service {
       return httplib::Server::HandlerResponse::Handled;
     });
     server.set_exception_handler(
-        [](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
+        [](const httplib::Request&, httplib::Response& res, const std::exception_ptr& ep) {
           try {
             std::rethrow_exception(ep);
           } catch (const std::exception& e) {
@@ -344,14 +344,14 @@ class Service {
       return answer_error(res, status_of(c.status),
                           fmt::format("{}: {}", copy_status_name(c.status), c.message));
     }
-    std::string bytes = read_file(output);
+    const std::string bytes = read_file(output);
     std::remove(output.c_str());
     res.set_header("X-Meshmark-Id", std::to_string(c.record.id));
     res.set_header("X-Meshmark-Row", std::to_string(c.record.row));
     res.set_header("Content-Disposition",
                    fmt::format("attachment; filename=\"copy-{}.{}\"", c.record.id, format));
     res.status = 200;
-    res.set_content(std::move(bytes), copy_formats().at(format).c_str());
+    res.set_content(bytes, copy_formats().at(format).c_str());
   }
 
   void post_trace(const httplib::Request& req, httplib::Response& res) {
@@ -431,17 +431,21 @@ int run(const ServeArgs& a) {
   sigaddset(&stop_signals, SIGINT);
   sigaddset(&stop_signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+  std::atomic<bool> stopped{false};
   std::thread stopper([&] {
-    int signal = 0;
-    sigwait(&stop_signals, &signal);
-    server.stop();
+    const timespec tick{0, 200000000};  // looks again whether the server stopped on its own
+    while (!stopped)
+      if (sigtimedwait(&stop_signals, nullptr, &tick) > 0) {
+        server.stop();
+        return;
+      }
   });
   fmt::print("meshmark serve: listening on http://{}:{} (registry {})\n",
              host.find(':') != std::string::npos ? "[" + host + "]" : host, bound,
              registry_display_name(a.registry));
   std::fflush(stdout);
   const bool ok = server.listen_after_bind();
-  pthread_kill(stopper.native_handle(), SIGTERM);  // when the server stopped on its own
+  stopped = true;
   stopper.join();
   fmt::print("meshmark serve: stopped\n");
   return ok ? kOk : kWriteFailed;

@@ -108,7 +108,7 @@ class IssuedCodewords {
     g.batch_ids.insert(c.id);
   }
   // The ID free_ids() gives next in c's group.
-  std::uint64_t next_id(IssuedCopy c) {
+  std::uint64_t next_id(const IssuedCopy& c) {
     Group& g = group(c);
     if (g.spaced && g.spaced->log2_capacity() >= kMinSpacedCapacity) return next_spaced(g, c);
     return next_smallest(g, c);
