@@ -38,13 +38,41 @@ int hamming(const Payload& a, const Payload& b) {
 }  // namespace
 
 SpacedIds::SpacedIds(const IdCode& code, const Key& key, int spacing)
-    : code_(code), key_(key), basis_(code.spaced_message_basis(spacing)) {
+    : code_(code),
+      key_(key),
+      order_key_(derive_key(key, "spaced-order")),
+      basis_(code.spaced_message_basis(spacing)) {
   if (basis_.size() > kMaxSpacedDimension) basis_.resize(kMaxSpacedDimension);
   for (const std::vector<std::uint8_t>& row : basis_)
     pivots_.push_back(static_cast<int>(std::find(row.begin(), row.end(), 1) - row.begin()));
 }
 
-std::optional<std::uint64_t> SpacedIds::id_at(std::uint64_t position) const {
+std::uint64_t SpacedIds::order(std::uint64_t position, bool inverse) const {
+  // A Feistel network on D-bit numbers, x = L || R (|L| = D/2), 8 rounds: even rounds
+  // R ^= F(round, L), odd rounds L ^= F(round, R); the inverse runs them in reverse order.
+  const int d = dimension(), a = d / 2, b = d - a;
+  if (a == 0) return position;
+  const auto low = [](int bits) { return bits >= 64 ? ~0ULL : (1ULL << bits) - 1; };
+  std::uint64_t left = position >> b, right = position & low(b);
+  constexpr int kRounds = 8;
+  for (int step = 0; step < kRounds; ++step) {
+    const int round = inverse ? kRounds - 1 - step : step;
+    const bool even = round % 2 == 0;
+    const std::uint64_t from = even ? left : right;
+    std::vector<std::uint8_t> data = {static_cast<std::uint8_t>(round),
+                                      static_cast<std::uint8_t>(d)};
+    for (int i = 7; i >= 0; --i) data.push_back(static_cast<std::uint8_t>(from >> (8 * i)));
+    const std::vector<std::uint8_t> f =
+        keyed_hash_bits(order_key_, "spaced-order", data, even ? b : a);
+    std::uint64_t mixed = 0;
+    for (const std::uint8_t bit : f) mixed = mixed << 1 | bit;
+    (even ? right : left) ^= mixed;
+  }
+  return left << b | right;
+}
+
+std::optional<std::uint64_t> SpacedIds::id_at(std::uint64_t place) const {
+  const std::uint64_t position = order(place, false);
   std::vector<std::uint8_t> message(code_.message_bits(), 0);
   for (std::size_t j = 0; j < basis_.size(); ++j)
     if ((position >> j) & 1)
@@ -63,7 +91,7 @@ std::uint64_t SpacedIds::index_of(std::uint64_t id) const {
       position |= std::uint64_t(1) << j;
       for (std::size_t i = 0; i < spanned.size(); ++i) spanned[i] ^= basis_[j][i];
     }
-  return spanned == message ? position + 1 : 0;
+  return spanned == message ? order(position, true) + 1 : 0;
 }
 
 namespace {

@@ -21,11 +21,13 @@ namespace meshmark {
 inline constexpr int kIssuedSpacing = 16;
 
 /// The IDs a registry issues for `id:auto`: those whose permuted message (IdCode) lies in the
-/// span of IdCode::spaced_message_basis(spacing), taken in the order of their position in that
-/// span. Any two of them have codewords at least `spacing` bits apart by the construction of
-/// the code (a BCH subcode's designed distance), so a new one needs no comparison with the
-/// others: only with the copies recorded outside the span (IDs given by hand, copies recorded
-/// before registry schema 5), which the registry finds by index (IssuedCopy::spaced_index).
+/// span of IdCode::spaced_message_basis(spacing), taken place by place in a keyed order of that
+/// span (docs/format.md 7.3). Any two of them have codewords at least `spacing` bits apart by
+/// the construction of the code (a BCH subcode's designed distance), so a new one needs no
+/// comparison with the others: only with the copies recorded outside the span (IDs given by
+/// hand, copies recorded before registry schema 5), which the registry finds by index
+/// (IssuedCopy::spaced_index). The order is keyed so that, to whoever lacks the key, the
+/// codewords of two buyers differ by a uniformly random nonzero codeword of the subcode.
 class SpacedIds {
  public:
   /// \throw InvalidArgumentError as IdCode's constructor.
@@ -36,14 +38,17 @@ class SpacedIds {
   /// log2 of the expected number of IDs among the positions: a position holds an ID when the
   /// permutation's inverse of its message has zero check bits (probability 2^-check_bits).
   int log2_capacity() const { return dimension() - code_.check_bits(); }
-  /// The ID at a position (< 2^dimension()), or none when it holds none (or ID 0, never issued).
-  std::optional<std::uint64_t> id_at(std::uint64_t position) const;
-  /// 1 + the position of id, or 0 when id lies outside the span.
+  /// The ID at a place (< 2^dimension()), or none when it holds none (or ID 0, never issued).
+  std::optional<std::uint64_t> id_at(std::uint64_t place) const;
+  /// 1 + the place of id, or 0 when id lies outside the span.
   std::uint64_t index_of(std::uint64_t id) const;
 
  private:
+  // The keyed permutation of the places onto the span's coordinates (and back).
+  std::uint64_t order(std::uint64_t position, bool inverse) const;
   IdCode code_;
   Key key_;
+  Key order_key_;                                 // derive_key(key, "spaced-order")
   std::vector<std::vector<std::uint8_t>> basis_;  // reduced row echelon form
   std::vector<int> pivots_;                       // each basis row's leading bit
 };
