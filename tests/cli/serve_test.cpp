@@ -46,12 +46,13 @@ class Server {
     const std::string log = dir + "/" + log_name;
     const std::string where = registry.empty() ? dir + "/shop.db" : registry;
     std::remove(log.c_str());
+    // Everything the child needs is made before fork: it only calls execl.
+    const std::string cmd = fmt::format(
+        "MESHMARK_TOKEN={} exec {} serve --listen 127.0.0.1:0 --registry '{}' --key-file "
+        "{}/shop.key > {} 2>&1",
+        kToken, MESHMARK_CLI, where, dir, log);
     pid_ = fork();
     if (pid_ == 0) {
-      setenv("MESHMARK_TOKEN", kToken.c_str(), 1);
-      const std::string cmd = fmt::format(
-          "exec {} serve --listen 127.0.0.1:0 --registry '{}' --key-file {}/shop.key > {} 2>&1",
-          MESHMARK_CLI, where, dir, log);
       execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
       _exit(127);
     }
