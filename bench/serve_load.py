@@ -42,6 +42,9 @@ def main():
     ap.add_argument("--copies", type=int, default=1000)
     ap.add_argument("--clients", type=int, default=4)
     ap.add_argument("--format", default="ply")
+    ap.add_argument("--kill-after", type=float, default=0,
+                    help="kill -9 the server after this many seconds of load, start it again, "
+                         "and check that no row stays reserved")
     args = ap.parse_args()
     work = tempfile.mkdtemp(prefix="meshmark-serve-load-")
     try:
@@ -49,9 +52,9 @@ def main():
                        stdout=subprocess.DEVNULL)
         token = uuid.uuid4().hex
         env = dict(os.environ, MESHMARK_TOKEN=token)
-        server = subprocess.Popen(
-            [args.cli, "serve", "--listen", "127.0.0.1:0", "--registry", f"{work}/shop.db",
-             "--key-file", f"{work}/shop.key"], stdout=subprocess.PIPE, env=env, text=True)
+        command = [args.cli, "serve", "--listen", "127.0.0.1:0", "--registry", f"{work}/shop.db",
+                   "--key-file", f"{work}/shop.key"]
+        server = subprocess.Popen(command, stdout=subprocess.PIPE, env=env, text=True)
         line = server.stdout.readline()
         port = int(line.rsplit(":", 1)[1].split()[0])
         headers = {"Authorization": f"Bearer {token}"}
@@ -65,7 +68,7 @@ def main():
         prepare_s = time.perf_counter() - t0
         if r.status not in (200, 201):
             sys.exit(f"POST /originals: {r.status} {original}")
-        received, latencies, errors = [], [], []
+        received, latencies, errors, cut = [], [], [], []
         lock = threading.Lock()
 
         def client(k, n):
@@ -74,10 +77,15 @@ def main():
                 req = json.dumps({"original": original["original"], "buyer": f"c{k}-{i}",
                                   "format": args.format})
                 t = time.perf_counter()
-                conn.request("POST", "/copies", req,
-                             dict(headers, **{"Content-Type": "application/json"}))
-                resp = conn.getresponse()
-                data = resp.read()
+                try:
+                    conn.request("POST", "/copies", req,
+                                 dict(headers, **{"Content-Type": "application/json"}))
+                    resp = conn.getresponse()
+                    data = resp.read()
+                except (ConnectionError, http.client.HTTPException):
+                    with lock:
+                        cut.append(k)  # the server was killed: this client stops
+                    return
                 dt = time.perf_counter() - t
                 with lock:
                     if resp.status != 200:
@@ -93,9 +101,22 @@ def main():
         threads = [threading.Thread(target=client, args=(k, n)) for k, n in enumerate(per)]
         for t in threads:
             t.start()
+        released = None
+        if args.kill_after > 0:
+            time.sleep(args.kill_after)
+            server.kill()  # SIGKILL, in the middle of the load
+            server.wait(timeout=60)
         for t in threads:
             t.join()
         wall = time.perf_counter() - t0
+        if args.kill_after > 0:
+            db = sqlite3.connect(f"{work}/shop.db")
+            left = db.execute("SELECT count(*) FROM copies WHERE state = 'reserved'").fetchone()[0]
+            db.close()
+            server = subprocess.Popen(command, stdout=subprocess.PIPE, env=env, text=True)
+            first = server.stdout.readline()
+            released = {"reserved_after_kill": left,
+                        "restart_says": first.strip() if "gave back" in first else None}
         server.terminate()
         server.wait(timeout=60)
         rows = {}
@@ -105,6 +126,7 @@ def main():
                 sys.exit(f"ID {rid} recorded twice")
             rows[rid] = (state, out_hash)
         lost = [i for i, h in received if i not in rows or rows[i] != ("issued", h)]
+        reserved = sum(1 for state, _ in rows.values() if state == "reserved")
         ids = [i for i, _ in received]
         print(json.dumps({
             "mesh": os.path.basename(args.mesh), "vertices": original["vertices"],
@@ -114,8 +136,9 @@ def main():
             "latency_p95_ms": round(1e3 * sorted(latencies)[int(0.95 * len(latencies))], 1),
             "copies_per_s": round(len(received) / wall, 1),
             "duplicate_ids": len(ids) - len(set(ids)), "rows": len(rows),
-            "mismatched_or_missing_rows": len(lost)}, indent=1))
-        return 1 if errors or lost or len(ids) != len(set(ids)) else 0
+            "mismatched_or_missing_rows": len(lost), "rows_left_reserved": reserved,
+            "clients_cut_by_the_kill": len(cut), "kill": released}, indent=1))
+        return 1 if errors or lost or reserved or len(ids) != len(set(ids)) else 0
     finally:
         shutil.rmtree(work, ignore_errors=True)
 
