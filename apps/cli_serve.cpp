@@ -247,6 +247,15 @@ class Service {
       answer_error(res, 401, "a bearer token is needed (Authorization: Bearer TOKEN)");
       return httplib::Server::HandlerResponse::Handled;
     });
+    // Answers the library gives without a body (no such endpoint, a body too large): JSON too.
+    server.set_error_handler([](const httplib::Request&, httplib::Response& res) {
+      if (!res.body.empty()) return;
+      answer_error(res, res.status,
+                   res.status == 404   ? "no such endpoint (GET /health, POST /originals, POST "
+                                         "/copies, POST /trace, GET /copies/ID)"
+                   : res.status == 413 ? "the request body is larger than --max-upload"
+                                       : "the request is refused");
+    });
     server.set_exception_handler(
         [](const httplib::Request&, httplib::Response& res, const std::exception_ptr& ep) {
           try {

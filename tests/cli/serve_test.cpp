@@ -262,6 +262,10 @@ TEST(Serve, BadRequestsAreRefusedAndChangeNothing) {
   r = c.Get("/copies/123456789");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 404);
+  r = c.Get("/nowhere");  // the library's own answers are JSON too
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 404);
+  EXPECT_NE(r->body.find("no such endpoint"), std::string::npos) << r->body;
   const std::vector<IssuedCopy> after = read_registry(dir + "/shop.db");
   ASSERT_EQ(after.size(), before.size());
   for (std::size_t i = 0; i < after.size(); ++i)
