@@ -11,7 +11,6 @@
 #include <tuple>
 
 #include "meshmark/core/error.h"
-#include "meshmark/protocol/watermark.h"
 
 namespace meshmark {
 
