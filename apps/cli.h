@@ -2,8 +2,8 @@
 // The meshmark command line: shared pieces of the subcommands (thin wrappers over the library).
 
 #include <CLI/CLI.hpp>
-#include <nlohmann/json_fwd.hpp>
 #include <initializer_list>
+#include <nlohmann/json_fwd.hpp>
 #include <stdexcept>
 #include <string>
 #include <vector>

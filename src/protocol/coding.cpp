@@ -48,6 +48,24 @@ std::set<int> generator_roots(int m, int t) {
   return roots;
 }
 
+// Gauss-Jordan elimination over GF(2) on the first `columns` columns of rows (whole rows
+// XORed): the pivot rows end first, in column order, each pivot alone in its column. Returns
+// their number.
+std::size_t eliminate(std::vector<std::vector<std::uint8_t>>& rows, int columns) {
+  std::size_t pivots = 0;
+  for (int col = 0; col < columns && pivots < rows.size(); ++col) {
+    std::size_t p = pivots;
+    while (p < rows.size() && !rows[p][col]) ++p;
+    if (p == rows.size()) continue;
+    std::swap(rows[p], rows[pivots]);
+    for (std::size_t q = 0; q < rows.size(); ++q)
+      if (q != pivots && rows[q][col])
+        for (std::size_t j = col; j < rows[q].size(); ++j) rows[q][j] ^= rows[pivots][j];
+    ++pivots;
+  }
+  return pivots;
+}
+
 }  // namespace
 
 double log2_hamming_ball(int n, int t) {
@@ -268,33 +286,12 @@ std::vector<std::vector<std::uint8_t>> IdCode::spaced_message_basis(int distance
     }
     row[columns + l] = 1;
   }
-  // Gaussian elimination on the syndrome columns; the rows left zero there span the kernel.
-  std::size_t pivot_row = 0;
-  for (int col = 0; col < columns && pivot_row < rows.size(); ++col) {
-    std::size_t p = pivot_row;
-    while (p < rows.size() && !rows[p][col]) ++p;
-    if (p == rows.size()) continue;
-    std::swap(rows[p], rows[pivot_row]);
-    for (std::size_t q = 0; q < rows.size(); ++q)
-      if (q != pivot_row && rows[q][col])
-        for (std::size_t j = col; j < rows[q].size(); ++j) rows[q][j] ^= rows[pivot_row][j];
-    ++pivot_row;
-  }
+  // Elimination on the syndrome columns: the rows left zero there span the kernel.
+  const std::size_t pivots = eliminate(rows, columns);
   std::vector<std::vector<std::uint8_t>> basis;
-  for (std::size_t q = pivot_row; q < rows.size(); ++q)
+  for (std::size_t q = pivots; q < rows.size(); ++q)
     basis.emplace_back(rows[q].begin() + columns, rows[q].end());
-  // Reduced row echelon form over the message bits.
-  std::size_t r = 0;
-  for (int col = 0; col < k_ && r < basis.size(); ++col) {
-    std::size_t p = r;
-    while (p < basis.size() && !basis[p][col]) ++p;
-    if (p == basis.size()) continue;
-    std::swap(basis[p], basis[r]);
-    for (std::size_t q = 0; q < basis.size(); ++q)
-      if (q != r && basis[q][col])
-        for (int j = col; j < k_; ++j) basis[q][j] ^= basis[r][j];
-    ++r;
-  }
+  eliminate(basis, k_);  // reduced row echelon form over the message bits
   return basis;
 }
 
