@@ -120,6 +120,7 @@ nlohmann::json trace_json(const TraceResult& r, const TraceOptions& options,
           {"measured_fraction", r.measured_fraction},
           {"attenuation", r.attenuation},
           {"processing", r.processing},
+          {"fingerprint_processing", r.fingerprint_processing},
           {"bit_evidence", evidence},
           {"warnings", warnings},
           {"identical_row", r.identical_row}};
@@ -182,6 +183,9 @@ int run(const TraceArgs& a) {
         "  measured         {:.1f} % of the original's vertices (attenuation {:.3f}; "
         "reference: {})\n",
         100 * r.measured_fraction, r.attenuation, r.processing);
+    if (!r.fingerprint_processing.empty())
+      fmt::print("  fingerprint      read at the leak's vertices (smoothing taken out: {})\n",
+                 r.fingerprint_processing);
     fmt::print("  candidates       {} issued copies of this original under this key\n",
                r.candidates);
     for (std::size_t i = 0; i < r.ranking.size() && i < 3; ++i) {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "meshmark/core/error.h"
 #include "meshmark/core/mesh.h"
 
 namespace meshmark {
@@ -72,6 +73,28 @@ Histogram build_histogram(const Eigen::MatrixX3d& V, const std::vector<std::uint
     h.t(i) = x - b;
   }
   return h;
+}
+
+Histogram histogram_at(const Histogram& h, const Eigen::MatrixX3d& P,
+                       const std::vector<std::uint8_t>& mask) {
+  if (mask.size() != static_cast<std::size_t>(P.rows()))
+    throw InvalidArgumentError("the mask does not match the points");
+  Histogram out = h;
+  const Eigen::Index n = P.rows();
+  out.rho = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::quiet_NaN());
+  out.t = Eigen::VectorXd::Zero(n);
+  out.bin.assign(static_cast<std::size_t>(n), -1);
+  out.argmin = out.argmax = -1;
+  if (!h.valid()) return out;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (!mask[i]) continue;
+    const double r = (P.row(i).transpose() - h.center).norm();
+    if (!(r >= h.rho_min && r <= h.rho_max)) continue;
+    const double x = (r - h.rho_min) / h.step;
+    const int b = std::min(static_cast<int>(std::floor(x)), h.bins - 1);
+    out.rho(i) = r, out.bin[i] = b, out.t(i) = x - b;
+  }
+  return out;
 }
 
 void bin_means(const Histogram& h, std::vector<double>& means, std::vector<int>& counts,

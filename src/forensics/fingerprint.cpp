@@ -128,8 +128,34 @@ FingerprintBasis fingerprint_basis(const Eigen::MatrixX3d& V, const Eigen::Matri
     b.row_start.push_back(static_cast<int>(b.index.size()));
   }
   mean_square /= static_cast<double>(counted.size());
-  const double scale = 1 / std::sqrt(mean_square);
-  for (double& v : b.value) v *= scale;
+  b.scale = 1 / std::sqrt(mean_square);
+  for (double& v : b.value) v *= b.scale;
+  b.points.resize(functions, 3);
+  for (int k = 0; k < functions; ++k) b.points.row(k) = V.row(b.centers[k]);
+  return b;
+}
+
+FingerprintBasis fingerprint_basis_at(const FingerprintBasis& basis, const Eigen::MatrixX3d& P,
+                                      const std::vector<std::uint8_t>& mask) {
+  if (mask.size() != static_cast<std::size_t>(P.rows()))
+    throw InvalidArgumentError("the mask does not match the points");
+  if (basis.points.rows() != basis.functions)
+    throw InvalidArgumentError("the basis has no bump positions");
+  FingerprintBasis b;
+  b.functions = basis.functions, b.center = basis.center, b.diagonal = basis.diagonal;
+  b.width = basis.width, b.centers = basis.centers, b.points = basis.points;
+  b.scale = basis.scale;
+  const double cut2 = 9 * b.width * b.width, inv = 1 / (2 * b.width * b.width);
+  b.row_start.assign(1, 0);
+  for (Eigen::Index i = 0; i < P.rows(); ++i) {
+    if (mask[i])
+      for (int k = 0; k < b.functions; ++k) {
+        const double d2 = (P.row(i) - b.points.row(k)).squaredNorm();
+        if (d2 > cut2) continue;
+        b.index.push_back(k), b.value.push_back(b.scale * std::exp(-d2 * inv));
+      }
+    b.row_start.push_back(static_cast<int>(b.index.size()));
+  }
   return b;
 }
 
@@ -212,7 +238,8 @@ Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX
 }
 
 Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::VectorXd& residual,
-                                 const std::vector<std::uint8_t>& measured, const Histogram* keep) {
+                                 const std::vector<std::uint8_t>& measured, const Histogram* keep,
+                                 double ridge) {
   const int K = basis.functions;
   const Eigen::Index n = static_cast<Eigen::Index>(basis.row_start.size()) - 1;
   if (residual.size() != n || measured.size() != static_cast<std::size_t>(n))
@@ -253,8 +280,9 @@ Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::Vec
     A.noalias() -= M[c] * Ginv * M[c].transpose();
     y.noalias() -= M[c] * (Ginv * R[c]);
   }
-  const double ridge = 1e-9 * std::max(A.trace() / K, 1e-300);
-  A.diagonal().array() += ridge;
+  if (!(ridge >= 0 && ridge < 1e6))
+    throw InvalidArgumentError(fmt::format("the fingerprint ridge {} is outside [0, 1e6)", ridge));
+  A.diagonal().array() += std::max(ridge, 1e-9) * std::max(A.trace() / K, 1e-300);
   return A.ldlt().solve(y);
 }
 

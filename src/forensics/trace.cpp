@@ -7,6 +7,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <optional>
 #include <tuple>
@@ -36,24 +37,40 @@ namespace {
 // p-value is its smallest over the readings times their number (Bonferroni).
 constexpr std::array<double, 3> kBands = {0.0, 0.2, 0.35};
 
-Resampled measure(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
-                  const Eigen::MatrixX3d& VO, const std::vector<std::uint8_t>& carrier,
-                  const Eigen::Vector3d& center, double erase) {
+// Where the rays from center through the counted rows of P (carrier[i] == kCounted) cross the
+// surface (V, F): the plane of the nearest face, or the nearest point itself where the ray runs
+// nearly along that plane or crosses it farther than `erase` from it; rows with no face within
+// `erase` are not crossed. Also each crossing's face, barycentric weights and face normal.
+struct Crossings {
+  Eigen::MatrixX3d point;             ///< #P x 3 (P's own row where not crossed)
+  std::vector<std::uint8_t> crossed;  ///< #P
+  std::vector<int> face;              ///< #P, -1 where not crossed
+  Eigen::MatrixX3d barycentric;       ///< #P x 3, of the nearest point on the face
+  Eigen::MatrixX3d normal;            ///< #P x 3, unit normal of the face
+  std::size_t counted = 0, found = 0;
+};
+
+Crossings cross_rays(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                     const Eigen::MatrixX3d& P, const std::vector<std::uint8_t>& carrier,
+                     const Eigen::Vector3d& center, double erase) {
   std::vector<Eigen::Index> rows;
-  for (Eigen::Index i = 0; i < VO.rows(); ++i)  // each position once
+  for (Eigen::Index i = 0; i < P.rows(); ++i)  // each position once
     if (carrier[i] == kCounted) rows.push_back(i);
   Eigen::MatrixX3d Q(static_cast<Eigen::Index>(rows.size()), 3);
-  for (std::size_t k = 0; k < rows.size(); ++k) Q.row(k) = VO.row(rows[k]);
-  const ClosestPoints cp = closest_points(VL, FL, Q);
-  Resampled m;
-  m.point = VO;
-  m.measured.assign(static_cast<std::size_t>(VO.rows()), 0);
-  std::size_t found = 0;
+  for (std::size_t k = 0; k < rows.size(); ++k) Q.row(k) = P.row(rows[k]);
+  const ClosestPoints cp = closest_points(V, F, Q);
+  Crossings x;
+  x.point = P;
+  x.crossed.assign(static_cast<std::size_t>(P.rows()), 0);
+  x.face.assign(static_cast<std::size_t>(P.rows()), -1);
+  x.barycentric = Eigen::MatrixX3d::Zero(P.rows(), 3);
+  x.normal = Eigen::MatrixX3d::Zero(P.rows(), 3);
+  x.counted = rows.size();
   for (std::size_t k = 0; k < rows.size(); ++k) {
     if (!(cp.distance(k) <= erase)) continue;
     const Eigen::Vector3d q = cp.point.row(k).transpose();
-    const Eigen::Vector3d a = VL.row(FL(cp.face[k], 0)), b = VL.row(FL(cp.face[k], 1)),
-                          c = VL.row(FL(cp.face[k], 2));
+    const Eigen::Vector3d a = V.row(F(cp.face[k], 0)), b = V.row(F(cp.face[k], 1)),
+                          c = V.row(F(cp.face[k], 2));
     const Eigen::Vector3d n = (b - a).cross(c - a).normalized();
     const Eigen::Vector3d dir = (Q.row(k).transpose() - center).normalized();
     const double along = dir.dot(n);
@@ -62,11 +79,25 @@ Resampled measure(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
       const Eigen::Vector3d hit = center + dir * ((a - center).dot(n) / along);
       if ((hit - q).norm() <= erase) p = hit;
     }
-    m.point.row(rows[k]) = p.transpose();
-    m.measured[rows[k]] = 1;
-    ++found;
+    const Eigen::Index i = rows[k];
+    x.point.row(i) = p.transpose();
+    x.crossed[i] = 1;
+    x.face[i] = cp.face[k];
+    x.barycentric.row(i) = cp.barycentric.row(k);
+    x.normal.row(i) = n.transpose();
+    ++x.found;
   }
-  m.fraction = rows.empty() ? 0 : static_cast<double>(found) / rows.size();
+  return x;
+}
+
+Resampled measure(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
+                  const Eigen::MatrixX3d& VO, const std::vector<std::uint8_t>& carrier,
+                  const Eigen::Vector3d& center, double erase) {
+  Crossings x = cross_rays(VL, FL, VO, carrier, center, erase);
+  Resampled m;
+  m.point = std::move(x.point);
+  m.measured = std::move(x.crossed);
+  m.fraction = x.counted ? static_cast<double>(x.found) / x.counted : 0;
   return m;
 }
 
@@ -233,27 +264,113 @@ Eigen::MatrixX3d processed_reference(const Mesh& original, const Eigen::MatrixX3
   return reference;
 }
 
-// The fingerprint of a leak (fingerprint.h): its radial residual against the reference at the
-// measured carrier vertices, fitted with the original's basis; no basis when the original has
-// too few counted vertices for one. Like the bins, the reading uses no candidate's
-// coefficients.
-std::optional<FingerprintBasis> fingerprint_reading(const Mesh& original,
-                                                    const std::vector<std::uint8_t>& carrier,
-                                                    const Eigen::Vector3d& center,
-                                                    const Resampled& m,
-                                                    const Eigen::VectorXd& reference_radii,
-                                                    const Histogram& h, Eigen::VectorXd& reading) {
-  std::vector<std::uint8_t> used(carrier.size(), 0);
+// What explains a leak's radial residuals best: the residuals left, and the processing's name.
+struct SmoothingFit {
+  Eigen::VectorXd residual;
+  std::string processing = "none";
+};
+
+// The fit of a leak's radial residuals d by the effects of Laplacian smoothing of `base` at
+// several iteration counts together (least squares: a low-pass filter of another shape than any
+// one count's), change_of(smoothed positions of base) being an effect at d's places. Replaces
+// fit's residual when it is lower and 5 % below d's; `name` becomes fit's processing.
+void fit_smoothings(const Mesh& base, const Eigen::VectorXd& d,
+                    const std::function<Eigen::VectorXd(const Eigen::MatrixX3d&)>& change_of,
+                    const char* name, SmoothingFit& fit) {
+  constexpr std::array<int, 9> kLevels = {1, 2, 4, 7, 11, 17, 26, 40, 60};
+  Eigen::MatrixXd C(d.size(), static_cast<Eigen::Index>(kLevels.size()));
+  Mesh current = base;
+  int done = 0;
+  for (std::size_t l = 0; l < kLevels.size(); ++l) {
+    current = attack_smooth_laplacian(current, kLevels[l] - done);
+    done = kLevels[l];
+    C.col(static_cast<Eigen::Index>(l)) = change_of(current.V);
+  }
+  Eigen::MatrixXd G = C.transpose() * C;
+  G.diagonal().array() += 1e-12 * std::max(G.trace(), 1e-300);
+  const Eigen::VectorXd residual = d - C * G.ldlt().solve(C.transpose() * d);
+  if (!(residual.norm() < fit.residual.norm() && residual.norm() < 0.95 * d.norm())) return;
+  fit.residual = residual;
+  fit.processing = name;
+}
+
+// How far a surface moving by delta at a crossing (face normal n) moves along the ray u: through
+// the face's plane, or along the ray where it runs nearly along the plane.
+double along_ray(const Eigen::Vector3d& n, const Eigen::Vector3d& u, const Eigen::Vector3d& delta) {
+  const double along = u.dot(n);
+  return std::abs(along) > 0.1 ? n.dot(delta) / along : u.dot(delta);
+}
+
+// The fingerprint of a leak (fingerprint.h), read at the leak's own vertices: for each counted
+// leak vertex within `erase` of the original, the radial residual between it and where the ray
+// from the center through it crosses the original (cross_rays). A resampled leak's vertices lie
+// on the marked surface (decimation and remeshing place them there); its faces cut corners
+// between them, which a reading at the original's vertices would take for a mark. What smoothing
+// explains is taken out of the residuals (fit_smoothings: the original smoothed, its motion
+// interpolated at each crossing; and the original sampled at the crossings, on the leak's faces,
+// smoothed as a resampled leak would have been). The original's bumps and bins are evaluated at
+// the crossings. No basis when the original has too few counted vertices for one. Like the
+// bins, the reading uses no candidate's coefficients, so an innocent's score stays exactly
+// standard normal.
+std::optional<FingerprintBasis> fingerprint_reading(
+    const Mesh& original, const std::vector<std::uint8_t>& carrier, const Eigen::MatrixX3d& VL,
+    const Eigen::MatrixX3i& FL, const Histogram& h, double erase, double ridge,
+    std::string& processing, Eigen::VectorXd& reading) {
   std::size_t counted = 0;
-  for (std::size_t i = 0; i < carrier.size(); ++i)
-    counted += carrier[i] == kCounted, used[i] = carrier[i] == kCounted && m.measured[i];
+  for (const std::uint8_t c : carrier) counted += c == kCounted;
   const int functions = fingerprint_functions(counted);
   if (functions <= 0) return std::nullopt;
-  FingerprintBasis basis = fingerprint_basis(original.V, original.F, carrier, center, functions);
-  Eigen::VectorXd residual(original.V.rows());
-  for (Eigen::Index i = 0; i < residual.size(); ++i)
-    residual(i) = (m.point.row(i).transpose() - center).norm() - reference_radii(i);
-  reading = read_fingerprint(basis, residual, used, &h);
+  const FingerprintBasis basis =
+      fingerprint_basis(original.V, original.F, carrier, h.center, functions);
+  const Crossings x =
+      cross_rays(original.V, original.F, VL, carrier_vertices(VL, FL), h.center, erase);
+  std::vector<Eigen::Index> rows;  // the crossed rows of VL, d's order
+  for (Eigen::Index i = 0; i < VL.rows(); ++i)
+    if (x.crossed[i]) rows.push_back(i);
+  const auto n = static_cast<Eigen::Index>(rows.size());
+  Eigen::VectorXd d(n);
+  Eigen::MatrixX3d ray(n, 3);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const Eigen::Vector3d v = VL.row(rows[j]).transpose() - h.center;
+    d(j) = v.norm() - (x.point.row(rows[j]).transpose() - h.center).norm();
+    ray.row(j) = v.normalized().transpose();
+  }
+  SmoothingFit fit;
+  fit.residual = d;
+  fit_smoothings(
+      original, d,
+      [&](const Eigen::MatrixX3d& P) {
+        Eigen::VectorXd change(n);
+        for (Eigen::Index j = 0; j < n; ++j) {
+          const Eigen::Index i = rows[j];
+          Eigen::Vector3d delta = Eigen::Vector3d::Zero();
+          for (int v = 0; v < 3; ++v) {
+            const int vertex = original.F(x.face[i], v);
+            delta += x.barycentric(i, v) * (P.row(vertex) - original.V.row(vertex)).transpose();
+          }
+          change(j) = along_ray(x.normal.row(i), ray.row(j), delta);
+        }
+        return change;
+      },
+      "the original smoothed", fit);
+  Mesh sampled;
+  sampled.V = x.point, sampled.F = FL;
+  fit_smoothings(
+      sampled, d,
+      [&](const Eigen::MatrixX3d& P) {
+        Eigen::VectorXd change(n);
+        for (Eigen::Index j = 0; j < n; ++j)
+          change(j) = along_ray(x.normal.row(rows[j]), ray.row(j),
+                                (P.row(rows[j]) - x.point.row(rows[j])).transpose());
+        return change;
+      },
+      "the original resampled at the leak's vertices and smoothed", fit);
+  processing = fit.processing;
+  Eigen::VectorXd residual = Eigen::VectorXd::Zero(VL.rows());
+  for (Eigen::Index j = 0; j < n; ++j) residual(rows[j]) = fit.residual(j);
+  const FingerprintBasis at_leak = fingerprint_basis_at(basis, x.point, x.crossed);
+  const Histogram classes = histogram_at(h, x.point, x.crossed);
+  reading = read_fingerprint(at_leak, residual, x.crossed, &classes, ridge);
   return basis;
 }
 
@@ -393,6 +510,9 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
   if (!(o.threshold > 0 && o.threshold < 1))
     throw InvalidArgumentError(fmt::format("the threshold {} is out of (0, 1)", o.threshold));
   if (!(o.erase_distance > 0)) throw InvalidArgumentError("the erase distance must be positive");
+  if (!(o.fingerprint_ridge >= 0 && o.fingerprint_ridge < 1e6))
+    throw InvalidArgumentError(
+        fmt::format("the fingerprint ridge {} is outside [0, 1e6)", o.fingerprint_ridge));
   TraceResult r;
   const std::string fingerprint = key_fingerprint(key);
   std::vector<IssuedCopy> mine;
@@ -462,16 +582,20 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     const Eigen::VectorXd reference_radii = radii(reference, original.V, normals, m, center.point);
     const std::vector<BitEvidence> evidence =
         read_bins(original.V, reference_radii, carrier, h, m, alpha, statistic, gamma);
-    // The fingerprint of copies issued with one (fingerprint.h): the leak's radial residual
-    // against the reference at the measured carrier vertices, fitted with the original's basis.
+    // The fingerprint of copies issued with one (fingerprint.h), read at the leak's vertices.
     // Like the bins, the reading uses no candidate's coefficients.
     const bool fingerprinted = std::any_of(members.begin(), members.end(), [&](std::size_t k) {
       return mine[k].mark_format == kFingerprintMarkFormat;
     });
     std::optional<FingerprintBasis> basis;
     Eigen::VectorXd reading;
-    if (fingerprinted)
-      basis = fingerprint_reading(original, carrier, center.point, m, reference_radii, h, reading);
+    if (fingerprinted) {
+      std::string fingerprint_processing;
+      basis = fingerprint_reading(original, carrier, VL, leaked.F, h, o.erase_distance * diagonal,
+                                  o.fingerprint_ridge, fingerprint_processing, reading);
+      if (basis && r.fingerprint_processing.empty())
+        r.fingerprint_processing = fingerprint_processing;
+    }
     const BitLayout layout = mark_layout(key, bits, true);
     std::vector<IssuedCopy> group_copies;
     for (const std::size_t k : members) group_copies.push_back(mine[k]);

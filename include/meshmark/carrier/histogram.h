@@ -52,6 +52,14 @@ std::vector<std::uint8_t> carrier_vertices(const Eigen::MatrixX3d& V, const Eige
 Histogram build_histogram(const Eigen::MatrixX3d& V, const std::vector<std::uint8_t>& referenced,
                           const Eigen::Vector3d& center, int nbits);
 
+/// The bins of h applied to other points: for each row of P with mask[i] != 0 whose distance
+/// to h.center lies in [h.rho_min, h.rho_max], its distance, bin and position in the bin as
+/// build_histogram computes them (h's range and step unchanged); the others get NaN and bin -1.
+/// argmin and argmax are -1 (no point sets the range). Used to read a leak at its own vertices
+/// on the original's bins.
+Histogram histogram_at(const Histogram& h, const Eigen::MatrixX3d& P,
+                       const std::vector<std::uint8_t>& mask);
+
 /// Per-bin score over bins 1..nb of a histogram: means[j], the mean of
 /// bin_score_term(statistic, t) (the mean of t for BinStatistic::Mean), and counts[j], for
 /// bin j + 1.

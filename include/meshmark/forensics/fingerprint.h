@@ -55,6 +55,8 @@ struct FingerprintBasis {
   double diagonal = 0;       ///< the original's bounding-box diagonal (model units)
   double width = 0;          ///< w (model units)
   std::vector<int> centers;  ///< the K vertices the bumps are centered at
+  Eigen::MatrixX3d points;   ///< K x 3: their positions (model units)
+  double scale = 0;          ///< the factor every bump is multiplied by (see above)
   /// Phi, row by row (compressed rows: vertex i's entries are index/value[row_start[i] ..
   /// row_start[i + 1]]); no entries for vertices off the carrier or twins.
   std::vector<int> row_start, index;
@@ -71,6 +73,13 @@ struct FingerprintBasis {
 FingerprintBasis fingerprint_basis(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                                    const std::vector<std::uint8_t>& carrier,
                                    const Eigen::Vector3d& center, int functions);
+
+/// The same K bumps (basis' points, width and scale) evaluated at other points: row i holds
+/// phi_k(P_i) for the bumps within 3 w of P_i, for the rows with mask[i] != 0 (none for the
+/// others). trace reads a leak at its own vertices with it: a resampled leak's vertices lie on
+/// the marked surface, where the faces between them cut corners.
+FingerprintBasis fingerprint_basis_at(const FingerprintBasis& basis, const Eigen::MatrixX3d& P,
+                                      const std::vector<std::uint8_t>& mask);
 
 /// The K coefficients of buyer `id` under key: independent standard normal values (Box-Muller
 /// on 53-bit uniforms from keyed_hash_bits under derive_key(key, "fingerprint")), the same on
@@ -90,13 +99,17 @@ Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX
                                  double rms, const Histogram* keep = nullptr);
 
 /// b: the least-squares fit Phi b ~ residual over the vertices where measured[i] != 0 and the
-/// basis has entries (a tiny ridge keeps it defined where no vertex covers a bump). With `keep`
+/// basis has entries, with `ridge` times the mean diagonal of Phi^T Phi added to its diagonal
+/// (0: a plain fit, kept defined by a tiny ridge where no vertex covers a bump). Neighbouring
+/// bumps overlap, so a plain fit amplifies whatever the bumps do not explain (resampling and
+/// smoothing leave plenty); a ridge of 1 keeps the reading of a resampled or smoothed leak
+/// (TraceOptions::fingerprint_ridge). With `keep`
 /// (the histogram add_fingerprint kept), the residual and every column of Phi lose their mean
 /// over each radial class first: what a histogram mark moved (a function of the distance to the
 /// center) drops out, and a field added with the same `keep` reads back whole.
 Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::VectorXd& residual,
                                  const std::vector<std::uint8_t>& measured,
-                                 const Histogram* keep = nullptr);
+                                 const Histogram* keep = nullptr, double ridge = 0);
 
 /// A candidate's score: g.b / |b| (0 when b is 0). Exactly standard normal when g is a standard
 /// normal vector independent of b.

@@ -59,6 +59,11 @@ struct TraceOptions {
   double erase_distance = 0.005;  ///< no surface within this fraction of the diagonal: erased
   bool register_leak = true;      ///< false: the leak is already in the original's frame
   RegistrationOptions registration;
+  /// The ridge of the fingerprint's reading (read_fingerprint), relative to the mean diagonal
+  /// of the normal equations: 0 reads an unprocessed copy at its full strength (z about
+  /// sqrt(K)) and loses a resampled one; 1 trades a third of the former for most of the latter
+  /// (docs/forensics.md, "Reading the fingerprint").
+  double fingerprint_ridge = 1.0;
   /// Called as the trace goes (progress.h): phase "tracing", the registration and then each
   /// group of candidates read alike.
   ProgressCallback progress;
@@ -126,11 +131,14 @@ struct TraceTimings {
 /// What trace found.
 struct TraceResult {
   TraceStatus status = TraceStatus::NoBuyer;
-  std::size_t candidates = 0;           ///< copies issued under this key (scored or not)
-  RegistrationResult registration;      ///< leak -> original
-  double measured_fraction = 0;         ///< original carrier vertices measured (not erased)
-  double attenuation = 0;               ///< fitted gamma of the first group of candidates
-  std::string processing;               ///< the smoothing the leak was read against, or "none"
+  std::size_t candidates = 0;       ///< copies issued under this key (scored or not)
+  RegistrationResult registration;  ///< leak -> original
+  double measured_fraction = 0;     ///< original carrier vertices measured (not erased)
+  double attenuation = 0;           ///< fitted gamma of the first group of candidates
+  std::string processing;           ///< the smoothing the leak was read against, or "none"
+  /// What the fingerprint's reading took out of the leak's residuals as smoothing (the first
+  /// group with fingerprinted copies), "none", or empty when no fingerprint was read.
+  std::string fingerprint_processing;
   std::vector<BitEvidence> bits;        ///< per payload bit, first group of candidates
   std::vector<CandidateScore> named;    ///< candidates below the threshold, best first
   std::vector<CandidateScore> ranking;  ///< every candidate, best first
