@@ -24,11 +24,13 @@ average([1003, 1004, 1005], "avg3.ply")
 average([1003, 1004, 1005, 1006, 1008], "avg5.ply")
 PY
 cp fingerprint/c1007.ply copy.ply
+"$mm" attack simplify:0.3 fingerprint/c1007.ply s30.ply >/dev/null
+"$mm" attack remesh:1 fingerprint/c1007.ply rm.ply >/dev/null
 "$mm" attack smooth fingerprint/c1007.ply lap10.ply --strength 10 >/dev/null
 "$mm" attack simplify:0.3,smooth:5 fingerprint/c1007.ply s30l5.ply >/dev/null
 "$mm" attack smooth:10,simplify:0.3 fingerprint/c1007.ply l10s30.ply >/dev/null
 "$mm" attack remesh:1,smooth:10 fingerprint/c1007.ply rml10.ply >/dev/null
-for leak in copy avg3 avg5 lap10 s30l5 l10s30 rml10; do
+for leak in copy avg3 avg5 s30 rm lap10 s30l5 l10s30 rml10; do
   for mode in plain fingerprint; do
     "$mm" trace "$leak.ply" --original "$mesh" --registry "$mode.db" --key-file shop.key \
       --json > "$leak.$mode.json" || true

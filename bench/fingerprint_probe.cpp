@@ -46,7 +46,7 @@ int main(int argc, char** argv) try {
            (mR.point.row(i).transpose() - c.point).norm();
     if (used[i]) sq += r(i) * r(i), n += 1;
   }
-  const Eigen::VectorXd b = read_fingerprint(basis, r, used, &h);
+  const Eigen::VectorXd b = read_fingerprint(basis, r, used, &h, TraceOptions().fingerprint_ridge);
   fmt::print("K {}: residual RMS {:.3g} of the diagonal, buyer {}'s z = {:.2f}\n", K,
              std::sqrt(sq / n) / basis.diagonal, id,
              fingerprint_score(fingerprint_coefficients(key, id, K), b));

@@ -61,15 +61,42 @@ void check_iterations(int iterations) {
 
 }  // namespace
 
-Mesh attack_smooth_laplacian(const Mesh& mesh, int iterations, const LaplacianOptions& o) {
+Smoother::Smoother(const Eigen::MatrixX3i& F, Eigen::Index nv)
+    : adjacency_(vertex_adjacency(F, nv)), boundary_(boundary_vertices(F, nv)) {}
+
+void Smoother::laplacian(Eigen::MatrixX3d& V, int iterations, const LaplacianOptions& o) const {
   check_iterations(iterations);
   if (!std::isfinite(o.lambda))
     throw InvalidArgumentError(fmt::format("smoothing lambda {} is not finite", o.lambda));
-  const Adjacency adj = vertex_adjacency(mesh.F, mesh.V.rows());
-  const std::vector<std::uint8_t> fixed =
-      o.fixed_boundary ? boundary_vertices(mesh.F, mesh.V.rows()) : std::vector<std::uint8_t>{};
+  if (V.rows() != static_cast<Eigen::Index>(boundary_.size()))
+    throw InvalidArgumentError(
+        fmt::format("smoothing {} positions of a mesh of {} vertices", V.rows(), boundary_.size()));
+  const std::vector<std::uint8_t> none;
+  for (int k = 0; k < iterations; ++k)
+    umbrella_step(adjacency_, o.fixed_boundary ? boundary_ : none, o.lambda, o.weighting, V);
+}
+
+void Smoother::taubin(Eigen::MatrixX3d& V, int iterations, const TaubinOptions& o) const {
+  check_iterations(iterations);
+  if (!(o.lambda > 0 && std::isfinite(o.lambda)))
+    throw InvalidArgumentError(fmt::format("Taubin lambda {} must be positive", o.lambda));
+  const double mu = o.mu != 0 ? o.mu : 1.0 / (o.k_pb - 1.0 / o.lambda);
+  if (!(mu < 0 && std::isfinite(mu)))
+    throw InvalidArgumentError(fmt::format("Taubin mu {} must be negative", mu));
+  if (V.rows() != static_cast<Eigen::Index>(boundary_.size()))
+    throw InvalidArgumentError(
+        fmt::format("smoothing {} positions of a mesh of {} vertices", V.rows(), boundary_.size()));
+  const std::vector<std::uint8_t> none;
+  const std::vector<std::uint8_t>& fixed = o.fixed_boundary ? boundary_ : none;
+  for (int k = 0; k < iterations; ++k) {
+    umbrella_step(adjacency_, fixed, o.lambda, o.weighting, V);
+    umbrella_step(adjacency_, fixed, mu, o.weighting, V);
+  }
+}
+
+Mesh attack_smooth_laplacian(const Mesh& mesh, int iterations, const LaplacianOptions& o) {
   Mesh out = mesh;
-  for (int k = 0; k < iterations; ++k) umbrella_step(adj, fixed, o.lambda, o.weighting, out.V);
+  Smoother(mesh.F, mesh.V.rows()).laplacian(out.V, iterations, o);
   return out;
 }
 
@@ -80,20 +107,8 @@ Mesh attack_smooth_laplacian(const Mesh& mesh, int iterations, double lambda) {
 }
 
 Mesh attack_smooth_taubin(const Mesh& mesh, int iterations, const TaubinOptions& o) {
-  check_iterations(iterations);
-  if (!(o.lambda > 0 && std::isfinite(o.lambda)))
-    throw InvalidArgumentError(fmt::format("Taubin lambda {} must be positive", o.lambda));
-  const double mu = o.mu != 0 ? o.mu : 1.0 / (o.k_pb - 1.0 / o.lambda);
-  if (!(mu < 0 && std::isfinite(mu)))
-    throw InvalidArgumentError(fmt::format("Taubin mu {} must be negative", mu));
-  const Adjacency adj = vertex_adjacency(mesh.F, mesh.V.rows());
-  const std::vector<std::uint8_t> fixed =
-      o.fixed_boundary ? boundary_vertices(mesh.F, mesh.V.rows()) : std::vector<std::uint8_t>{};
   Mesh out = mesh;
-  for (int k = 0; k < iterations; ++k) {
-    umbrella_step(adj, fixed, o.lambda, o.weighting, out.V);
-    umbrella_step(adj, fixed, mu, o.weighting, out.V);
-  }
+  Smoother(mesh.F, mesh.V.rows()).taubin(out.V, iterations, o);
   return out;
 }
 

@@ -5,7 +5,9 @@
 #include <fmt/format.h>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <Eigen/Sparse>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -260,13 +262,34 @@ Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::Vec
   std::vector<Eigen::Matrix2d> G(classes, Eigen::Matrix2d::Zero());
   std::vector<Eigen::Vector2d> R(classes, Eigen::Vector2d::Zero());
   std::vector<Eigen::MatrixX2d> M(classes, Eigen::MatrixX2d::Zero(K, 2));
+  // Phi^T Phi as a sparse product over the basis' compressed rows (each vertex touches a few
+  // dozen bumps), those of the unused vertices emptied in a copy when there are any.
+  std::vector<int> start, index;
+  std::vector<double> value;
+  const bool all_used = [&] {
+    for (Eigen::Index i = 0; i < n; ++i)
+      if (!used[i] && basis.row_start[i + 1] > basis.row_start[i]) return false;
+    return true;
+  }();
+  if (!all_used) {
+    start.assign(1, 0);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      if (used[i])
+        for (int e = basis.row_start[i]; e < basis.row_start[i + 1]; ++e)
+          index.push_back(basis.index[e]), value.push_back(basis.value[e]);
+      start.push_back(static_cast<int>(index.size()));
+    }
+  }
+  const std::vector<int>& rs = all_used ? basis.row_start : start;
+  const std::vector<int>& ix = all_used ? basis.index : index;
+  const std::vector<double>& vs = all_used ? basis.value : value;
+  const Eigen::Map<const Eigen::SparseMatrix<double, Eigen::RowMajor, int>> Phi(
+      n, K, static_cast<Eigen::Index>(ix.size()), rs.data(), ix.data(), vs.data());
+  A = Eigen::MatrixXd(Phi.transpose() * Phi);
   for (Eigen::Index i = 0; i < n; ++i) {
     if (!used[i]) continue;
-    for (int e = basis.row_start[i]; e < basis.row_start[i + 1]; ++e) {
+    for (int e = basis.row_start[i]; e < basis.row_start[i + 1]; ++e)
       y(basis.index[e]) += basis.value[e] * residual(i);
-      for (int f = basis.row_start[i]; f < basis.row_start[i + 1]; ++f)
-        A(basis.index[e], basis.index[f]) += basis.value[e] * basis.value[f];
-    }
     if (!keep) continue;
     const int c = radial_class(*keep, i);
     const Eigen::Vector2d x(1, keep->t(i));
@@ -274,12 +297,20 @@ Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::Vec
     for (int e = basis.row_start[i]; e < basis.row_start[i + 1]; ++e)
       M[c].row(basis.index[e]) += basis.value[e] * x.transpose();
   }
+  // sum_c M_c G_c^-1 M_c^T as one product W W^T, W's columns M_c S_c with S_c S_c^T = G_c^-1
+  // (G_c^-1 is symmetric and positive semi-definite).
+  Eigen::MatrixXd W = Eigen::MatrixXd::Zero(K, 2 * static_cast<Eigen::Index>(classes));
   for (int c = 0; c < classes; ++c) {
     if (G[c](0, 0) == 0) continue;
     const Eigen::Matrix2d Ginv = line_fit_operator(G[c]);
-    A.noalias() -= M[c] * Ginv * M[c].transpose();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(Ginv);
+    const Eigen::Matrix2d S =
+        eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+    W.middleCols(2 * c, 2) = M[c] * S;
     y.noalias() -= M[c] * (Ginv * R[c]);
   }
+  if (classes > 0) A.selfadjointView<Eigen::Lower>().rankUpdate(W, -1.0);
+  A.triangularView<Eigen::StrictlyUpper>() = A.transpose();
   if (!(ridge >= 0 && ridge < 1e6))
     throw InvalidArgumentError(fmt::format("the fingerprint ridge {} is outside [0, 1e6)", ridge));
   A.diagonal().array() += std::max(ridge, 1e-9) * std::max(A.trace() / K, 1e-300);

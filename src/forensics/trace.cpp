@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <map>
 #include <optional>
 #include <tuple>
@@ -238,13 +239,17 @@ Eigen::MatrixX3d processed_reference(const Mesh& original, const Eigen::MatrixX3
   Eigen::MatrixX3d reference = original.V;
   processing = "none";
   Eigen::VectorXd change(d.size());
+  const Smoother smoother(original.F, original.V.rows());
   for (const bool taubin : {false, true}) {
-    Mesh current = original;
+    Eigen::MatrixX3d current = original.V;
     double series_best = unprocessed;
     int worse = 0;  // iterations since the series' best
     for (int k = 1; k <= 40 && worse < 5; ++k) {
-      current = taubin ? attack_smooth_taubin(current, 1) : attack_smooth_laplacian(current, 1);
-      const Eigen::VectorXd now = radii(current.V, original.V, normals, m, center);
+      if (taubin)
+        smoother.taubin(current, 1);
+      else
+        smoother.laplacian(current, 1);
+      const Eigen::VectorXd now = radii(current, original.V, normals, m, center);
       for (std::size_t j = 0; j < rows.size(); ++j)
         change(static_cast<Eigen::Index>(j)) = now(rows[j]) - base(rows[j]);
       const double norm2 = change.squaredNorm();
@@ -254,7 +259,7 @@ Eigen::MatrixX3d processed_reference(const Mesh& original, const Eigen::MatrixX3
       series_best = std::min(series_best, e);
       if (e < best) {
         best = e;
-        reference = original.V + scale * (current.V - original.V);
+        reference = original.V + scale * (current - original.V);
         processing = fmt::format("{} smoothing x {} scaled by {:.2f}",
                                  taubin ? "Taubin" : "Laplacian", k, scale);
       }
@@ -274,17 +279,18 @@ struct SmoothingFit {
 // several iteration counts together (least squares: a low-pass filter of another shape than any
 // one count's), change_of(smoothed positions of base) being an effect at d's places. Replaces
 // fit's residual when it is lower and 5 % below d's; `name` becomes fit's processing.
-void fit_smoothings(const Mesh& base, const Eigen::VectorXd& d,
+void fit_smoothings(const Smoother& smoother, const Eigen::MatrixX3d& base,
+                    const Eigen::VectorXd& d,
                     const std::function<Eigen::VectorXd(const Eigen::MatrixX3d&)>& change_of,
                     const char* name, SmoothingFit& fit) {
   constexpr std::array<int, 9> kLevels = {1, 2, 4, 7, 11, 17, 26, 40, 60};
   Eigen::MatrixXd C(d.size(), static_cast<Eigen::Index>(kLevels.size()));
-  Mesh current = base;
+  Eigen::MatrixX3d current = base;
   int done = 0;
   for (std::size_t l = 0; l < kLevels.size(); ++l) {
-    current = attack_smooth_laplacian(current, kLevels[l] - done);
+    smoother.laplacian(current, kLevels[l] - done);
     done = kLevels[l];
-    C.col(static_cast<Eigen::Index>(l)) = change_of(current.V);
+    C.col(static_cast<Eigen::Index>(l)) = change_of(current);
   }
   Eigen::MatrixXd G = C.transpose() * C;
   G.diagonal().array() += 1e-12 * std::max(G.trace(), 1e-300);
@@ -301,44 +307,51 @@ double along_ray(const Eigen::Vector3d& n, const Eigen::Vector3d& u, const Eigen
   return std::abs(along) > 0.1 ? n.dot(delta) / along : u.dot(delta);
 }
 
-// The fingerprint of a leak (fingerprint.h), read at the leak's own vertices: for each counted
-// leak vertex within `erase` of the original, the radial residual between it and where the ray
-// from the center through it crosses the original (cross_rays). A resampled leak's vertices lie
-// on the marked surface (decimation and remeshing place them there); its faces cut corners
-// between them, which a reading at the original's vertices would take for a mark. What smoothing
-// explains is taken out of the residuals (fit_smoothings: the original smoothed, its motion
-// interpolated at each crossing; and the original sampled at the crossings, on the leak's faces,
-// smoothed as a resampled leak would have been). The original's bumps and bins are evaluated at
-// the crossings. No basis when the original has too few counted vertices for one. Like the
-// bins, the reading uses no candidate's coefficients, so an innocent's score stays exactly
-// standard normal.
-std::optional<FingerprintBasis> fingerprint_reading(
-    const Mesh& original, const std::vector<std::uint8_t>& carrier, const Eigen::MatrixX3d& VL,
-    const Eigen::MatrixX3i& FL, const Histogram& h, double erase, double ridge,
-    std::string& processing, Eigen::VectorXd& reading) {
-  std::size_t counted = 0;
-  for (const std::uint8_t c : carrier) counted += c == kCounted;
-  const int functions = fingerprint_functions(counted);
-  if (functions <= 0) return std::nullopt;
-  const FingerprintBasis basis =
-      fingerprint_basis(original.V, original.F, carrier, h.center, functions);
-  const Crossings x =
-      cross_rays(original.V, original.F, VL, carrier_vertices(VL, FL), h.center, erase);
+// A leak's radial residuals at its own vertices, against a surface on the original's faces
+// (the original, or the original processed as the leak seems to have been): for each counted
+// leak vertex within `erase` of that surface, the residual between it and where the ray from
+// the center through it crosses the surface (cross_rays). A resampled leak's vertices lie on the
+// marked surface (decimation and remeshing place them there); its faces cut corners between
+// them, which a reading at the original's vertices would take for a mark. What smoothing
+// explains is taken out (fit_smoothings: the surface smoothed, its motion interpolated at each
+// crossing; and the surface sampled at the crossings, on the leak's faces, smoothed as a
+// resampled leak would have been).
+struct LeakResiduals {
+  Eigen::VectorXd residual;           ///< #VL (0 where not crossed)
+  std::vector<std::uint8_t> crossed;  ///< #VL
+  Eigen::MatrixX3d on_original;       ///< #VL x 3: each crossing's place on the original
+  std::size_t count = 0;              ///< crossed vertices
+  double rms = 0;                     ///< of the residuals left
+  std::string processing = "none";    ///< what the fit took out
+};
+
+LeakResiduals leak_residuals(const Mesh& original, const Smoother& on_original,
+                             const Smoother& on_leak, const Eigen::MatrixX3d& surface,
+                             const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
+                             const std::vector<std::uint8_t>& leak_carrier,
+                             const Eigen::Vector3d& center, double erase) {
+  const Crossings x = cross_rays(surface, original.F, VL, leak_carrier, center, erase);
   std::vector<Eigen::Index> rows;  // the crossed rows of VL, d's order
   for (Eigen::Index i = 0; i < VL.rows(); ++i)
     if (x.crossed[i]) rows.push_back(i);
   const auto n = static_cast<Eigen::Index>(rows.size());
   Eigen::VectorXd d(n);
   Eigen::MatrixX3d ray(n, 3);
+  LeakResiduals out;
+  out.on_original = VL;
   for (Eigen::Index j = 0; j < n; ++j) {
-    const Eigen::Vector3d v = VL.row(rows[j]).transpose() - h.center;
-    d(j) = v.norm() - (x.point.row(rows[j]).transpose() - h.center).norm();
+    const Eigen::Index i = rows[j];
+    const Eigen::Vector3d v = VL.row(i).transpose() - center;
+    d(j) = v.norm() - (x.point.row(i).transpose() - center).norm();
     ray.row(j) = v.normalized().transpose();
+    out.on_original.row(i).setZero();
+    for (int c = 0; c < 3; ++c)
+      out.on_original.row(i) += x.barycentric(i, c) * original.V.row(original.F(x.face[i], c));
   }
   SmoothingFit fit;
   fit.residual = d;
   fit_smoothings(
-      original, d,
+      on_original, surface, d,
       [&](const Eigen::MatrixX3d& P) {
         Eigen::VectorXd change(n);
         for (Eigen::Index j = 0; j < n; ++j) {
@@ -346,17 +359,15 @@ std::optional<FingerprintBasis> fingerprint_reading(
           Eigen::Vector3d delta = Eigen::Vector3d::Zero();
           for (int v = 0; v < 3; ++v) {
             const int vertex = original.F(x.face[i], v);
-            delta += x.barycentric(i, v) * (P.row(vertex) - original.V.row(vertex)).transpose();
+            delta += x.barycentric(i, v) * (P.row(vertex) - surface.row(vertex)).transpose();
           }
           change(j) = along_ray(x.normal.row(i), ray.row(j), delta);
         }
         return change;
       },
-      "the original smoothed", fit);
-  Mesh sampled;
-  sampled.V = x.point, sampled.F = FL;
+      "the reference smoothed", fit);
   fit_smoothings(
-      sampled, d,
+      on_leak, x.point, d,
       [&](const Eigen::MatrixX3d& P) {
         Eigen::VectorXd change(n);
         for (Eigen::Index j = 0; j < n; ++j)
@@ -364,13 +375,49 @@ std::optional<FingerprintBasis> fingerprint_reading(
                                 (P.row(rows[j]) - x.point.row(rows[j])).transpose());
         return change;
       },
-      "the original resampled at the leak's vertices and smoothed", fit);
-  processing = fit.processing;
-  Eigen::VectorXd residual = Eigen::VectorXd::Zero(VL.rows());
-  for (Eigen::Index j = 0; j < n; ++j) residual(rows[j]) = fit.residual(j);
-  const FingerprintBasis at_leak = fingerprint_basis_at(basis, x.point, x.crossed);
-  const Histogram classes = histogram_at(h, x.point, x.crossed);
-  reading = read_fingerprint(at_leak, residual, x.crossed, &classes, ridge);
+      "the reference resampled at the leak's vertices and smoothed", fit);
+  out.residual = Eigen::VectorXd::Zero(VL.rows());
+  for (Eigen::Index j = 0; j < n; ++j) out.residual(rows[j]) = fit.residual(j);
+  out.crossed = x.crossed;
+  out.count = rows.size();
+  out.rms = n > 0 ? fit.residual.norm() / std::sqrt(static_cast<double>(n)) : 0;
+  out.processing = fit.processing;
+  return out;
+}
+
+// The fingerprint of a leak (fingerprint.h), read at the leak's own vertices (leak_residuals)
+// against the original and, when the bins were read against a processed original, against that
+// too: one reading or two (score_group takes a candidate's best z, times the number of readings
+// in its p). The original's bumps and bins are evaluated at the crossings' places on it. No
+// basis when the original has too few counted vertices for one. Like the bins, the readings use
+// no candidate's coefficients, so an innocent's score in each is exactly standard normal.
+std::optional<FingerprintBasis> fingerprint_reading(
+    const Mesh& original, const std::vector<std::uint8_t>& carrier,
+    const Eigen::MatrixX3d& reference, bool processed, const Eigen::MatrixX3d& VL,
+    const Eigen::MatrixX3i& FL, const Histogram& h, double erase, double ridge,
+    std::string& processing, std::vector<Eigen::VectorXd>& readings) {
+  readings.clear();
+  std::size_t counted = 0;
+  for (const std::uint8_t c : carrier) counted += c == kCounted;
+  const int functions = fingerprint_functions(counted);
+  if (functions <= 0) return std::nullopt;
+  const FingerprintBasis basis =
+      fingerprint_basis(original.V, original.F, carrier, h.center, functions);
+  const std::vector<std::uint8_t> leak_carrier = carrier_vertices(VL, FL);
+  const Smoother on_original(original.F, original.V.rows()), on_leak(FL, VL.rows());
+  std::vector<std::string> taken;
+  for (const bool against_processed : {false, true}) {
+    if (against_processed && !processed) continue;
+    const LeakResiduals x =
+        leak_residuals(original, on_original, on_leak, against_processed ? reference : original.V,
+                       VL, FL, leak_carrier, h.center, erase);
+    taken.push_back(fmt::format("against the {}original, {} ({} leak vertices)",
+                                against_processed ? "processed " : "", x.processing, x.count));
+    const FingerprintBasis at_leak = fingerprint_basis_at(basis, x.on_original, x.crossed);
+    const Histogram classes = histogram_at(h, x.on_original, x.crossed);
+    readings.push_back(read_fingerprint(at_leak, x.residual, x.crossed, &classes, ridge));
+  }
+  processing = fmt::format("{}", fmt::join(taken, "; "));
   return basis;
 }
 
@@ -383,7 +430,7 @@ std::vector<CandidateScore> score_group(const std::vector<IssuedCopy>& copies,
                                         const std::vector<BitEvidence>& evidence,
                                         const BitLayout& layout, int id_bits, const Key& key,
                                         const FingerprintBasis* basis,
-                                        const Eigen::VectorXd& reading) {
+                                        const std::vector<Eigen::VectorXd>& readings) {
   const int bits = layout.size();
   IdCodeOptions co;
   co.bits = bits;
@@ -411,12 +458,15 @@ std::vector<CandidateScore> score_group(const std::vector<IssuedCopy>& copies,
       if (band == kBands.front() || s.p_value < scores[c].p_value) scores[c] = s;
     }
   }
-  if (basis)
+  if (basis && !readings.empty())
     for (CandidateScore& s : scores)
       if (s.copy.mark_format == kFingerprintMarkFormat) {
-        s.fingerprint_z =
-            fingerprint_score(fingerprint_coefficients(key, s.copy.id, basis->functions), reading);
-        s.fingerprint_p = normal_upper_tail(s.fingerprint_z);
+        const Eigen::VectorXd g = fingerprint_coefficients(key, s.copy.id, basis->functions);
+        s.fingerprint_z = -std::numeric_limits<double>::infinity();
+        for (const Eigen::VectorXd& b : readings)
+          s.fingerprint_z = std::max(s.fingerprint_z, fingerprint_score(g, b));
+        s.fingerprint_p = std::min(
+            1.0, normal_upper_tail(s.fingerprint_z) * static_cast<double>(readings.size()));
         s.p_value = std::min(1.0, 2 * std::min(s.p_value, s.fingerprint_p));
       }
   return scores;
@@ -588,11 +638,12 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
       return mine[k].mark_format == kFingerprintMarkFormat;
     });
     std::optional<FingerprintBasis> basis;
-    Eigen::VectorXd reading;
+    std::vector<Eigen::VectorXd> readings;
     if (fingerprinted) {
       std::string fingerprint_processing;
-      basis = fingerprint_reading(original, carrier, VL, leaked.F, h, o.erase_distance * diagonal,
-                                  o.fingerprint_ridge, fingerprint_processing, reading);
+      basis = fingerprint_reading(original, carrier, reference, r.processing != "none", VL,
+                                  leaked.F, h, o.erase_distance * diagonal, o.fingerprint_ridge,
+                                  fingerprint_processing, readings);
       if (basis && r.fingerprint_processing.empty())
         r.fingerprint_processing = fingerprint_processing;
     }
@@ -600,7 +651,7 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     std::vector<IssuedCopy> group_copies;
     for (const std::size_t k : members) group_copies.push_back(mine[k]);
     for (CandidateScore& s : score_group(group_copies, evidence, layout, id_bits, key,
-                                         basis ? &*basis : nullptr, reading)) {
+                                         basis ? &*basis : nullptr, readings)) {
       s.corrected_p = std::min(1.0, s.p_value * static_cast<double>(mine.size()));
       r.ranking.push_back(s);
     }

@@ -113,6 +113,26 @@ Mesh attack_smooth_taubin(const Mesh& mesh, int iterations, const TaubinOptions&
 /// The same with lambda and k_pb alone (uniform weights, boundary moving).
 Mesh attack_smooth_taubin(const Mesh& mesh, int iterations, double lambda, double k_pb = 0.1);
 
+/// Repeated smoothing of the positions of one mesh's faces, the one-rings built once: what
+/// attack_smooth_laplacian and attack_smooth_taubin do, for a caller that smooths step by step
+/// (trace fits the smoothing a leak went through one iteration at a time).
+class Smoother {
+ public:
+  /// For positions of nv vertices on the triangles F. Options' fixed_boundary and weighting are
+  /// taken from each call.
+  Smoother(const Eigen::MatrixX3i& F, Eigen::Index nv);
+  /// `iterations` Laplacian steps on V (nv rows). \throw InvalidArgumentError for iterations < 0,
+  /// a lambda that is not finite, or V of another size.
+  void laplacian(Eigen::MatrixX3d& V, int iterations, const LaplacianOptions& options = {}) const;
+  /// `iterations` Taubin pairs of steps on V. \throw InvalidArgumentError as
+  /// attack_smooth_taubin.
+  void taubin(Eigen::MatrixX3d& V, int iterations, const TaubinOptions& options = {}) const;
+
+ private:
+  Adjacency adjacency_;
+  std::vector<std::uint8_t> boundary_;
+};
+
 /// 1 for every vertex on a boundary edge of F (an edge of exactly one triangle), else 0.
 /// Size nv.
 std::vector<std::uint8_t> boundary_vertices(const Eigen::MatrixX3i& F, Eigen::Index nv);
