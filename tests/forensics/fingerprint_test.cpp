@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "meshmark/attacks/attack.h"
@@ -23,6 +24,9 @@
 #include "meshmark/forensics/registry.h"
 #include "meshmark/forensics/trace.h"
 #include "meshmark/io/io.h"
+#include "meshmark/mark/embed.h"
+#include "meshmark/protocol/coding.h"
+#include "meshmark/protocol/watermark.h"
 #include "test_data.h"
 
 namespace meshmark {
@@ -269,9 +273,11 @@ TEST(Fingerprint, KeepingAHistogramLeavesItsBinMeansAndRangeAndReadsBackWhole) {
 
 // Issued and traced through the library as the CLI does: 20 consecutive IDs of bunny00 with
 // the fingerprint (a real scan, 37,706 vertices). An unprocessed copy names its buyer with the
-// fingerprint at about its full strength; vertex-wise averages of three and five copies, which
-// the histogram mark alone does not survive (issue 30), name colluders and nobody else.
-TEST(Fingerprint, IssuedCopiesTraceAndAveragesOfThreeAndFiveNameOnlyColluders) {
+// fingerprint at the strength its reading allows; vertex-wise averages of three and five copies,
+// which the histogram mark alone does not survive (issue 30), name colluders and nobody else; a
+// decimated copy, a copy smoothed then decimated, and a copy re-marked with the public key name
+// their buyer alone.
+TEST(Fingerprint, IssuedCopiesNameTheirBuyerAfterAveragingResamplingAndRemarking) {
   const std::string original = test::cgal_mesh("bunny00.off");
   MESHMARK_REQUIRE(original, "libcgal-demo's bunny00.off");
   const std::string dir = test::scratch_dir() + "/fingerprint-issue";
@@ -345,6 +351,40 @@ TEST(Fingerprint, IssuedCopiesTraceAndAveragesOfThreeAndFiveNameOnlyColluders) {
     EXPECT_EQ(r.named[0].copy.id, 1007u) << chain;
     EXPECT_LT(r.named[0].fingerprint_p * 2 * 20, TraceOptions().threshold) << chain;
     RecordProperty(std::string("z_") + chain, std::to_string(r.named[0].fingerprint_z));
+  }
+  // Re-marked by anyone with meshmark's public key (another ID's histogram mark over the buyer's,
+  // at the default strength), which removes the buyer's histogram mark: named by the fingerprint.
+  const EmbedResult remarked = embed(copy.V, copy.F, id_bins(IdCode(), 5, std::nullopt));
+  ASSERT_EQ(remarked.status, EmbedStatus::Embedded) << remarked.message;
+  Mesh laundered = copy;
+  laundered.V = remarked.V;
+  const TraceResult r = trace_of(laundered);
+  ASSERT_EQ(r.status, TraceStatus::Named) << "re-marked: " << r.message;
+  ASSERT_EQ(r.named.size(), 1u);
+  EXPECT_EQ(r.named[0].copy.id, 1007u);
+  EXPECT_LT(r.named[0].fingerprint_p * 2 * 20, TraceOptions().threshold);
+  RecordProperty("z_remarked", std::to_string(r.named[0].fingerprint_z));
+  // Registries without the leakers: the same leaks against the other 19 (or 17, 15) rows name
+  // nobody, and every innocent's fingerprint p stays above the threshold over 20.
+  const std::vector<IssuedCopy> all = read_registry(settings.registry);
+  const auto without = [&](std::uint64_t first, std::uint64_t count) {
+    std::vector<IssuedCopy> rows;
+    for (const IssuedCopy& c : all)
+      if (c.id < first || c.id >= first + count) rows.push_back(c);
+    return rows;
+  };
+  Mesh average3 = read_mesh(requests[2].output);
+  for (int j = 1; j < 3; ++j) average3.V += read_mesh(requests[2 + j].output).V;
+  average3.V /= 3;
+  for (const auto& [leak, first, count] :
+       {std::tuple<const Mesh*, std::uint64_t, std::uint64_t>{&copy, 1007, 1},
+        {&laundered, 1007, 1},
+        {&average3, 1003, 3}}) {
+    const TraceResult innocent = trace(*leak, O, without(first, count), *settings.key);
+    EXPECT_EQ(innocent.status, TraceStatus::NoBuyer) << first << ": " << innocent.message;
+    EXPECT_TRUE(innocent.named.empty()) << first;
+    for (const CandidateScore& c : innocent.ranking)
+      EXPECT_GT(c.fingerprint_p * 2 * 20, TraceOptions().threshold) << "innocent " << c.copy.id;
   }
 }
 
