@@ -138,17 +138,19 @@ void read_protocols(const std::string& file, const json& j, CampaignConfig& c) {
   c.calibration = c.protocols.front().calibration;
 }
 
-// The trace mode's settings ("mode", "copies", "collusion", "spread"), refused in blind mode.
+// The trace mode's settings ("mode", "copies", "collusion", "spread", "fingerprint"), refused
+// in blind mode.
 void read_trace_settings(const std::string& file, const json& j, CampaignConfig& c) {
   const std::string mode = j.value("mode", "blind");
   if (mode != "blind" && mode != "trace")
     bad(file, fmt::format("mode \"{}\" is neither \"blind\" nor \"trace\"", mode));
   c.trace = mode == "trace";
-  for (const char* k : {"copies", "collusion", "spread"})
+  for (const char* k : {"copies", "collusion", "spread", "fingerprint"})
     if (!c.trace && j.contains(k)) bad(file, fmt::format("\"{}\" needs \"mode\": \"trace\"", k));
   if (!c.trace) return;
   c.copies = j.value("copies", c.copies);
   c.collusion = j.value("collusion", c.collusion);
+  c.fingerprint = j.value("fingerprint", c.fingerprint);
   c.spread = j.value("spread", c.spread);
   if (c.copies < 2 || c.copies > 1000000)
     bad(file, fmt::format("copies {} is out of 2..1000000", c.copies));
@@ -172,10 +174,10 @@ CampaignConfig load_campaign(const std::string& path) {
     bad(path, fmt::format("not valid JSON (byte {}): {}", e.byte, e.what()));
   }
   if (!j.is_object()) bad(path, "a campaign is a JSON object");
-  check_keys(
-      path, j, "campaign",
-      {"name", "description", "models", "variants", "bits", "payloads", "draws", "seed",
-       "calibration", "protocols", "strength", "attacks", "mode", "copies", "collusion", "spread"});
+  check_keys(path, j, "campaign",
+             {"name", "description", "models", "variants", "bits", "payloads", "draws", "seed",
+              "calibration", "protocols", "strength", "attacks", "mode", "copies", "collusion",
+              "spread", "fingerprint"});
   const fs::path base = fs::absolute(path).parent_path();
   CampaignConfig c;
   c.source = path;

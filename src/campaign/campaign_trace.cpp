@@ -6,13 +6,17 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <map>
+#include <optional>
 
 #include "campaign/campaign_internal.h"
 #include "campaign/campaign_parts.h"
 #include "meshmark/campaign/campaign.h"
+#include "meshmark/carrier/histogram.h"
 #include "meshmark/carrier/variant.h"
 #include "meshmark/core/error.h"
+#include "meshmark/forensics/fingerprint.h"
 #include "meshmark/forensics/trace.h"
 #include "meshmark/metrics/metrics.h"
 #include "meshmark/protocol/coding.h"
@@ -78,6 +82,7 @@ std::vector<IssuedCopy> campaign_copies(const CampaignConfig& c, const std::stri
     copy.bin_offset = bin_offset;
     copy.strength_spread = c.spread;
     copy.key_fingerprint = fingerprint;
+    if (c.fingerprint) copy.mark_format = kFingerprintMarkFormat;
   }
   return copies;
 }
@@ -155,6 +160,11 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
   std::vector<Mesh> marked;
   const IdCode code(IdCodeOptions{c.bits});
   eo.strengths = mark_strengths(key, c.bits, true, eo.strength, c.spread);
+  std::optional<FingerprintFrame> frame;
+  if (c.fingerprint && base.status == "ok") {
+    frame = fingerprint_frame(mesh.V, mesh.F, eo.variant.center, c.bits);
+    if (!frame) base.status = "too few vertices for a fingerprint";
+  }
   for (std::size_t k = 0; k < (averaged ? 2u : 1u) && base.status == "ok"; ++k) {
     const auto t0 = Clock::now();
     const EmbedResult e = embed(mesh.V, mesh.F, id_bins(code, pair[k], key), eo);
@@ -166,7 +176,22 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
     }
     marked.push_back(mesh);
     marked.back().V = e.V;
-    if (k == 0) base.rms_percent = e.rms_percent, base.msdm = msdm(mesh.V, e.V, mesh.F).global;
+    if (frame)  // as issue_copies adds it
+      marked.back().V = add_fingerprint(
+          e.V, mesh.V, frame->basis, fingerprint_coefficients(key, pair[k], frame->basis.functions),
+          FingerprintOptions().rms, &frame->histogram);
+    if (k == 0) {
+      base.rms_percent = e.rms_percent;
+      if (frame) {  // both marks, as embed measures one (each position once)
+        const std::vector<std::uint8_t> carrier = carrier_vertices(mesh.V, mesh.F);
+        double sum = 0, n = 0;
+        for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+          if (carrier[i] == kCounted)
+            sum += (marked.back().V.row(i) - mesh.V.row(i)).squaredNorm(), n += 1;
+        base.rms_percent = 100 * std::sqrt(sum / n) / bounding_box_diagonal(mesh.V, carrier);
+      }
+      base.msdm = msdm(mesh.V, marked.back().V, mesh.F).global;
+    }
   }
   Mesh average;
   if (averaged && marked.size() == 2) {

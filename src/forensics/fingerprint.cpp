@@ -161,6 +161,18 @@ FingerprintBasis fingerprint_basis_at(const FingerprintBasis& basis, const Eigen
   return b;
 }
 
+std::optional<FingerprintFrame> fingerprint_frame(const Eigen::MatrixX3d& V,
+                                                  const Eigen::MatrixX3i& F, CenterKind kind,
+                                                  int nbits) {
+  const std::vector<std::uint8_t> carrier = carrier_vertices(V, F);
+  const int functions = fingerprint_functions(
+      static_cast<std::size_t>(std::count(carrier.begin(), carrier.end(), kCounted)));
+  if (functions <= 0) return std::nullopt;
+  const Center c = center_of_mass(V, F, carrier, kind);
+  return FingerprintFrame{fingerprint_basis(V, F, carrier, c.point, functions),
+                          build_histogram(V, carrier, c.point, nbits)};
+}
+
 Eigen::VectorXd fingerprint_coefficients(const Key& key, std::uint64_t id, int functions) {
   const Key k = derive_key(key, "fingerprint");
   Eigen::VectorXd g(functions);

@@ -281,11 +281,10 @@ std::shared_ptr<const Original> prepare_original(const CopyRequest& request,
   if (settings.fingerprint) {
     const std::vector<std::uint8_t> carrier = carrier_vertices(mesh.V, mesh.F);
     counted = static_cast<std::size_t>(std::count(carrier.begin(), carrier.end(), kCounted));
-    const int functions = fingerprint_functions(counted);
-    if (functions > 0) {
-      const Center c = center_of_mass(mesh.V, mesh.F, carrier, settings.embedding.variant.center);
-      basis = fingerprint_basis(mesh.V, mesh.F, carrier, c.point, functions);
-      histogram = build_histogram(mesh.V, carrier, c.point, settings.bits);
+    if (std::optional<FingerprintFrame> frame =
+            fingerprint_frame(mesh.V, mesh.F, settings.embedding.variant.center, settings.bits)) {
+      basis = std::move(frame->basis);
+      histogram = std::move(frame->histogram);
     }
   }
   return std::make_shared<const Original>(Original{

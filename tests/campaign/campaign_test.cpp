@@ -17,6 +17,7 @@
 #include "campaign/campaign_parts.h"
 #include "meshmark/campaign/campaign.h"
 #include "meshmark/core/error.h"
+#include "meshmark/forensics/fingerprint.h"
 #include "meshmark/io/io.h"
 #include "meshmark/mark/calibrate.h"
 #include "meshmark/metrics/metrics.h"
@@ -75,6 +76,8 @@ TEST(Campaign, RejectsBadFilesNamingFileAndKey) {
       {head + ", \"mode\": \"trace\", \"spread\": -1}", "spread -1 is out of [0, 4]"},
       {head + ", \"mode\": \"trace\", \"bits\": 16}", "bits 16 cannot carry a 32-bit ID"},
       {head + ", \"mode\": \"trace\", \"collusion\": 1}", "wrong type"},
+      {head + ", \"fingerprint\": true}", "\"fingerprint\" needs \"mode\": \"trace\""},
+      {head + ", \"mode\": \"trace\", \"fingerprint\": \"yes\"}", "wrong type"},
       // Attack parameters and protocols.
       {head + ", \"attacks\": [{\"kind\": \"noise\", \"lambda\": 0.03, \"strengths\": [1]}]}",
        "attacks[0]: no step of the attack reads 'lambda'"},
@@ -141,6 +144,12 @@ TEST(Campaign, TraceModeIssuesConsecutiveIdsAndPlansAveragedTrials) {
     EXPECT_EQ(copies[i].key_fingerprint, key_fingerprint(campaign_key(c)));
     EXPECT_EQ(copies[i].strength_spread, 0.25);
   }
+  EXPECT_FALSE(c.fingerprint);
+  for (const IssuedCopy& copy : copies) EXPECT_EQ(copy.mark_format, kMarkFormatVersion);
+  CampaignConfig f = c;
+  f.fingerprint = true;  // "fingerprint": true: the records say mark format 3
+  for (const IssuedCopy& copy : campaign_copies(f, "spot", "VRS", 0.05))
+    EXPECT_EQ(copy.mark_format, kFingerprintMarkFormat);
   for (int p = 0; p < 3; ++p) {
     EXPECT_GE(campaign_leaker(c, p), campaign_first_id(c));
     EXPECT_LT(campaign_leaker(c, p), campaign_first_id(c) + 50);

@@ -56,7 +56,9 @@
 /// named). "collusion": true repeats every attack on the average of the vertex positions of
 /// the leaker's copy and the next ID's (the previous one's for the last ID): right is then at
 /// least one colluder named and no innocent. Rows carry both outcomes; keys of averaged trials
-/// end in "|avg2". bits and the 32-bit ID must make an IdCode (coding.h).
+/// end in "|avg2". "fingerprint": true issues every copy with the fingerprint (the leakers'
+/// copies get theirs, the records mark format 3). bits and the 32-bit ID must make an IdCode
+/// (coding.h).
 ///
 /// This header holds what a user of campaigns calls: the configuration, the rows and
 /// calibrations a run writes (and their JSON lines), the statistics and the report;
@@ -120,7 +122,10 @@ struct CampaignConfig {
   bool trace = false;                       ///< "mode": "trace" (else "blind", the default)
   int copies = 1000;                        ///< trace: IDs issued per model and variant (>= 2)
   bool collusion = false;  ///< trace: every attack also on an average of two copies
-  double spread = 0.25;    ///< trace: keyed strength spread (watermark.h)
+  /// trace: copies issued with the fingerprint (mark format 3, fingerprint.h), as `embed
+  /// --registry DB --fingerprint` issues them
+  bool fingerprint = false;
+  double spread = 0.25;  ///< trace: keyed strength spread (watermark.h)
 };
 
 /// Reads a campaign file. \throw InvalidInputError naming the file and the bad key or value;

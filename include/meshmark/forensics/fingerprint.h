@@ -18,8 +18,10 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
+#include "meshmark/carrier/center.h"
 #include "meshmark/carrier/histogram.h"
 #include "meshmark/protocol/key.h"
 
@@ -80,6 +82,19 @@ FingerprintBasis fingerprint_basis(const Eigen::MatrixX3d& V, const Eigen::Matri
 /// the marked surface, where the faces between them cut corners.
 FingerprintBasis fingerprint_basis_at(const FingerprintBasis& basis, const Eigen::MatrixX3d& P,
                                       const std::vector<std::uint8_t>& mask);
+
+/// What adding and reading a fingerprint needs of an original: its basis and the histogram
+/// the field keeps (its bins' means and range), around the center of `kind`.
+struct FingerprintFrame {
+  FingerprintBasis basis;
+  Histogram histogram;  ///< of nbits bits around the basis' center
+};
+
+/// The frame of (V, F) for a histogram mark of nbits bits centered as `kind` says, with
+/// fingerprint_functions' K; none when the original has too few counted carrier vertices.
+std::optional<FingerprintFrame> fingerprint_frame(const Eigen::MatrixX3d& V,
+                                                  const Eigen::MatrixX3i& F, CenterKind kind,
+                                                  int nbits);
 
 /// The K coefficients of buyer `id` under key: independent standard normal values (Box-Muller
 /// on 53-bit uniforms from keyed_hash_bits under derive_key(key, "fingerprint")), the same on
