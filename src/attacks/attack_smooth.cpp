@@ -64,13 +64,17 @@ void check_iterations(int iterations) {
 Smoother::Smoother(const Eigen::MatrixX3i& F, Eigen::Index nv)
     : adjacency_(vertex_adjacency(F, nv)), boundary_(boundary_vertices(F, nv)) {}
 
+void Smoother::check_size(const Eigen::MatrixX3d& V) const {
+  if (V.rows() != static_cast<Eigen::Index>(boundary_.size()))
+    throw InvalidArgumentError(
+        fmt::format("smoothing {} positions of a mesh of {} vertices", V.rows(), boundary_.size()));
+}
+
 void Smoother::laplacian(Eigen::MatrixX3d& V, int iterations, const LaplacianOptions& o) const {
   check_iterations(iterations);
   if (!std::isfinite(o.lambda))
     throw InvalidArgumentError(fmt::format("smoothing lambda {} is not finite", o.lambda));
-  if (V.rows() != static_cast<Eigen::Index>(boundary_.size()))
-    throw InvalidArgumentError(
-        fmt::format("smoothing {} positions of a mesh of {} vertices", V.rows(), boundary_.size()));
+  check_size(V);
   const std::vector<std::uint8_t> none;
   for (int k = 0; k < iterations; ++k)
     umbrella_step(adjacency_, o.fixed_boundary ? boundary_ : none, o.lambda, o.weighting, V);
@@ -83,9 +87,7 @@ void Smoother::taubin(Eigen::MatrixX3d& V, int iterations, const TaubinOptions& 
   const double mu = o.mu != 0 ? o.mu : 1.0 / (o.k_pb - 1.0 / o.lambda);
   if (!(mu < 0 && std::isfinite(mu)))
     throw InvalidArgumentError(fmt::format("Taubin mu {} must be negative", mu));
-  if (V.rows() != static_cast<Eigen::Index>(boundary_.size()))
-    throw InvalidArgumentError(
-        fmt::format("smoothing {} positions of a mesh of {} vertices", V.rows(), boundary_.size()));
+  check_size(V);
   const std::vector<std::uint8_t> none;
   const std::vector<std::uint8_t>& fixed = o.fixed_boundary ? boundary_ : none;
   for (int k = 0; k < iterations; ++k) {

@@ -55,6 +55,24 @@ Eigen::Vector2d fit_line(const Eigen::Matrix2d& G, const Eigen::Vector2d& m) {
   return line_fit_operator(G) * m;
 }
 
+// Fills b's rows with its bumps (b.points, width, scale) evaluated at the rows of P with
+// mask[i] != 0, cut at 3 w; no entries for the others.
+void evaluate_bumps(FingerprintBasis& b, const Eigen::MatrixX3d& P,
+                    const std::vector<std::uint8_t>& mask) {
+  const double cut2 = 9 * b.width * b.width, inv = 1 / (2 * b.width * b.width);
+  b.row_start.assign(1, 0);
+  b.index.clear(), b.value.clear();
+  for (Eigen::Index i = 0; i < P.rows(); ++i) {
+    if (mask[i])
+      for (int k = 0; k < b.functions; ++k) {
+        const double d2 = (P.row(i) - b.points.row(k)).squaredNorm();
+        if (d2 > cut2) continue;
+        b.index.push_back(k), b.value.push_back(b.scale * std::exp(-d2 * inv));
+      }
+    b.row_start.push_back(static_cast<int>(b.index.size()));
+  }
+}
+
 }  // namespace
 
 int fingerprint_functions(std::size_t counted, const FingerprintOptions& options) {
@@ -114,26 +132,18 @@ FingerprintBasis fingerprint_basis(const Eigen::MatrixX3d& V, const Eigen::Matri
     }
     pick = next;
   }
-  // The bumps, cut at 3 w, row by row.
-  const double cut2 = 9 * b.width * b.width, inv = 1 / (2 * b.width * b.width);
-  b.row_start.assign(1, 0);
+  b.points.resize(functions, 3);
+  for (int k = 0; k < functions; ++k) b.points.row(k) = V.row(b.centers[k]);
+  // The bumps at the counted vertices, then scaled to a mean square of 1 over them.
+  std::vector<std::uint8_t> mask(carrier.size());
+  for (std::size_t i = 0; i < mask.size(); ++i) mask[i] = carrier[i] == kCounted;
+  b.scale = 1;
+  evaluate_bumps(b, V, mask);
   double mean_square = 0;
-  for (Eigen::Index i = 0; i < V.rows(); ++i) {
-    if (carrier[i] == kCounted)
-      for (int k = 0; k < functions; ++k) {
-        const double d2 = (V.row(i) - V.row(b.centers[k])).squaredNorm();
-        if (d2 > cut2) continue;
-        const double phi = std::exp(-d2 * inv);
-        b.index.push_back(k), b.value.push_back(phi);
-        mean_square += phi * phi;
-      }
-    b.row_start.push_back(static_cast<int>(b.index.size()));
-  }
+  for (const double phi : b.value) mean_square += phi * phi;
   mean_square /= static_cast<double>(counted.size());
   b.scale = 1 / std::sqrt(mean_square);
   for (double& v : b.value) v *= b.scale;
-  b.points.resize(functions, 3);
-  for (int k = 0; k < functions; ++k) b.points.row(k) = V.row(b.centers[k]);
   return b;
 }
 
@@ -147,17 +157,7 @@ FingerprintBasis fingerprint_basis_at(const FingerprintBasis& basis, const Eigen
   b.functions = basis.functions, b.center = basis.center, b.diagonal = basis.diagonal;
   b.width = basis.width, b.centers = basis.centers, b.points = basis.points;
   b.scale = basis.scale;
-  const double cut2 = 9 * b.width * b.width, inv = 1 / (2 * b.width * b.width);
-  b.row_start.assign(1, 0);
-  for (Eigen::Index i = 0; i < P.rows(); ++i) {
-    if (mask[i])
-      for (int k = 0; k < b.functions; ++k) {
-        const double d2 = (P.row(i) - b.points.row(k)).squaredNorm();
-        if (d2 > cut2) continue;
-        b.index.push_back(k), b.value.push_back(b.scale * std::exp(-d2 * inv));
-      }
-    b.row_start.push_back(static_cast<int>(b.index.size()));
-  }
+  evaluate_bumps(b, P, mask);
   return b;
 }
 
@@ -254,6 +254,8 @@ Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX
 Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::VectorXd& residual,
                                  const std::vector<std::uint8_t>& measured, const Histogram* keep,
                                  double ridge) {
+  if (!(ridge >= 0 && ridge < 1e6))
+    throw InvalidArgumentError(fmt::format("the fingerprint ridge {} is outside [0, 1e6)", ridge));
   const int K = basis.functions;
   const Eigen::Index n = static_cast<Eigen::Index>(basis.row_start.size()) - 1;
   if (residual.size() != n || measured.size() != static_cast<std::size_t>(n))
@@ -323,8 +325,6 @@ Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::Vec
   }
   if (classes > 0) A.selfadjointView<Eigen::Lower>().rankUpdate(W, -1.0);
   A.triangularView<Eigen::StrictlyUpper>() = A.transpose();
-  if (!(ridge >= 0 && ridge < 1e6))
-    throw InvalidArgumentError(fmt::format("the fingerprint ridge {} is outside [0, 1e6)", ridge));
   A.diagonal().array() += std::max(ridge, 1e-9) * std::max(A.trace() / K, 1e-300);
   return A.ldlt().solve(y);
 }

@@ -129,6 +129,7 @@ class Smoother {
   void taubin(Eigen::MatrixX3d& V, int iterations, const TaubinOptions& options = {}) const;
 
  private:
+  void check_size(const Eigen::MatrixX3d& V) const;  // \throw unless V has nv rows
   Adjacency adjacency_;
   std::vector<std::uint8_t> boundary_;
 };
