@@ -260,7 +260,7 @@ void register_embed(CLI::App& app, int& exit_code) {
   sub->add_flag("--fingerprint", args->fingerprint,
                 "coded IDs: also add the buyer's fingerprint, which trace reads with the "
                 "original (survives averages of copies and smoothing; a further RMS of 0.01 % "
-                "of the diagonal; mark format 3)");
+                "of the diagonal; mark format 4)");
   sub->add_option("--bin-offset", args->embed.bin_offset,
                   "G in [0, 1/2): vertices stay in [G, 1-G] of their bin");
   sub->add_option("--max-rounds", args->embed.max_rounds, "linearize-and-solve rounds at most")

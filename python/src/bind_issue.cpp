@@ -248,7 +248,7 @@ void init_issue(py::module_& m) {
       "reserved in one transaction before any is written, and the rows of those written "
       "completed in another; coded IDs without a key are refused unless "
       "public_key=True (anyone can read, remove or forge them); fingerprint=True adds each "
-      "buyer's fingerprint, which trace reads with the original (mark format 3). options: an "
+      "buyer's fingerprint, which trace reads with the original (mark format 4). options: an "
       "EmbedOptions "
       "(strength, variant, method); further keywords set its fields, as embed() takes them "
       "(variant='VRS', strength=0.05, ...). Returns one dict per copy: id, status, ok, "

@@ -143,7 +143,7 @@ def test_issue_and_trace_take_meshes_in_memory(fandisk, tmp_path):
 
 
 def test_the_fingerprint_is_issued_and_scored(fandisk, tmp_path):
-    """issue(fingerprint=True) records mark format 3; trace scores every such candidate's
+    """issue(fingerprint=True) records mark format 4; trace scores every such candidate's
     fingerprint (a float z), names the buyer, and keeps None for copies without one."""
     db = str(tmp_path / "shop.db")
     copies = [{"input": fandisk, "output": tmp_path / f"f-{i}.ply", "id": i,
@@ -152,7 +152,7 @@ def test_the_fingerprint_is_issued_and_scored(fandisk, tmp_path):
     assert [o["status"] for o in out] == ["written"] * 3, out
     rows = [json.loads(line) for line in run_cli(
         "registry", "export", db, "--format", "jsonl").splitlines()]
-    assert sorted(r["mark_format"] for r in rows) == [3, 3, 3]
+    assert sorted(r["mark_format"] for r in rows) == [4, 4, 4]
     found = meshmark.trace(tmp_path / "f-62.ply", fandisk, db, key=KEY)
     assert [n["id"] for n in found["named"]] == [62], found
     # A copy's own fingerprint at full strength: z near sqrt(K), far above any innocent's.

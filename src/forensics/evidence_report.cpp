@@ -316,12 +316,15 @@ std::string score_plot(const TraceResult& r, double threshold, bool redact) {
   if (r.ranking.empty())
     return s + fmt::format("<text x='{}' y='{}'>no candidates</text>\n</svg>\n", ml, H / 2);
   const double line = -std::log10(threshold);
+  // Every candidate's score (the ranking may keep only the best), or the ranking's.
+  std::vector<double> all(r.log_scores.begin(), r.log_scores.end());
+  if (all.empty())
+    for (const CandidateScore& c : r.ranking) all.push_back(score_of(c));
   double top = std::max(1.0, 1.15 * line);
-  for (const CandidateScore& c : r.ranking) top = std::max(top, 1.05 * score_of(c));
+  for (const double v : all) top = std::max(top, 1.05 * v);
   const int bins = 50;
   std::vector<int> count(bins, 0);
-  for (const CandidateScore& c : r.ranking)
-    ++count[std::min(bins - 1, static_cast<int>(score_of(c) / top * bins))];
+  for (const double v : all) ++count[std::clamp(static_cast<int>(v / top * bins), 0, bins - 1)];
   const double most = *std::max_element(count.begin(), count.end());
   auto X = [&](double x) { return ml + x / top * pw; };
   auto Y = [&](double n) { return mt + ph - std::sqrt(n / most) * ph; };
@@ -343,7 +346,7 @@ std::string score_plot(const TraceResult& r, double threshold, bool redact) {
       "candidates (higher: stronger evidence)</text>\n"
       "<text x='16' y='{}' text-anchor='middle' transform='rotate(-90 16 {})'>candidates "
       "(square-root scale)</text>\n",
-      ml + pw / 2, H - 8, r.ranking.size(), mt + ph / 2, mt + ph / 2);
+      ml + pw / 2, H - 8, all.size(), mt + ph / 2, mt + ph / 2);
   s += fmt::format(
       "<line x1='{0:.1f}' y1='{1}' x2='{0:.1f}' y2='{2}' stroke='#d62728' stroke-width='2' "
       "stroke-dasharray='6,3'/>\n<text x='{3:.1f}' y='{4}' fill='#d62728'>threshold "

@@ -3,6 +3,7 @@
 #include "meshmark/forensics/fingerprint.h"
 
 #include <fmt/format.h>
+#include <sodium.h>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -173,7 +174,25 @@ std::optional<FingerprintFrame> fingerprint_frame(const Eigen::MatrixX3d& V,
                           build_histogram(V, carrier, c.point, nbits)};
 }
 
-Eigen::VectorXd fingerprint_coefficients(const Key& key, std::uint64_t id, int functions) {
+namespace {
+
+// Buyer id's signs (format 4) into out (bytes bytes): the ChaCha20 keystream of
+// derive_key(key, "fingerprint-signs") with the ID as its nonce (8 bytes, least significant
+// first); sign i is bit 7 - i % 8 of byte i / 8, 1 giving +1.
+void sign_bytes(const Key& sign_key, std::uint64_t id, std::size_t bytes, std::uint8_t* out) {
+  std::array<unsigned char, crypto_stream_chacha20_NONCEBYTES> nonce;
+  for (std::size_t s = 0; s < nonce.size(); ++s)
+    nonce[s] = static_cast<unsigned char>(id >> (8 * s));
+  crypto_stream_chacha20(out, bytes, nonce.data(), sign_key.bytes.data());
+}
+
+Key sign_key(const Key& key) {
+  static_assert(crypto_stream_chacha20_KEYBYTES == 32 && crypto_stream_chacha20_NONCEBYTES == 8);
+  if (sodium_init() < 0) throw Error("libsodium could not be initialized");
+  return derive_key(key, "fingerprint-signs");
+}
+
+Eigen::VectorXd gaussian_coefficients(const Key& key, std::uint64_t id, int functions) {
   const Key k = derive_key(key, "fingerprint");
   Eigen::VectorXd g(functions);
   const double two_pi = 6.283185307179586476925286766559;
@@ -196,6 +215,27 @@ Eigen::VectorXd fingerprint_coefficients(const Key& key, std::uint64_t id, int f
       if (filled < functions) g(filled++) = r * std::sin(t);
     }
   }
+  return g;
+}
+
+void check_format(int format) {
+  if (!has_fingerprint(format))
+    throw InvalidArgumentError(fmt::format("mark format {} carries no fingerprint", format));
+}
+
+}  // namespace
+
+Eigen::VectorXd fingerprint_coefficients(const Key& key, std::uint64_t id, int functions,
+                                         int format) {
+  check_format(format);
+  if (functions < 1)
+    throw InvalidArgumentError(
+        fmt::format("a fingerprint needs at least 1 function, not {}", functions));
+  if (format == kGaussianFingerprintFormat) return gaussian_coefficients(key, id, functions);
+  std::vector<std::uint8_t> signs(static_cast<std::size_t>(functions + 7) / 8);
+  sign_bytes(sign_key(key), id, signs.size(), signs.data());
+  Eigen::VectorXd g(functions);
+  for (int i = 0; i < functions; ++i) g(i) = (signs[i / 8] >> (7 - i % 8)) & 1 ? 1.0 : -1.0;
   return g;
 }
 
@@ -338,6 +378,77 @@ double fingerprint_score(const Eigen::VectorXd& g, const Eigen::VectorXd& b) {
 
 double normal_upper_tail(double z) {
   return 0.5 * std::erfc(z / std::sqrt(2.0));
+}
+
+double rademacher_tail_factor() {
+  static const double c = 1 / (4 * normal_upper_tail(std::sqrt(2.0)));
+  return c;
+}
+
+double fingerprint_p_value(double z, int format) {
+  check_format(format);
+  if (format == kGaussianFingerprintFormat) return normal_upper_tail(z);
+  return std::min(1.0, rademacher_tail_factor() * normal_upper_tail(z));
+}
+
+double combined_p_value(double p_bins, double p_fingerprint) {
+  if (!(p_bins >= 0 && p_bins <= 1 && p_fingerprint >= 0 && p_fingerprint <= 1))
+    throw InvalidArgumentError(
+        fmt::format("p-values {} and {} are not both in [0, 1]", p_bins, p_fingerprint));
+  const double bonferroni = 2 * std::min(p_bins, p_fingerprint);
+  double product = 0;  // t (1 - ln t), in logarithms (t may underflow)
+  if (p_bins > 0 && p_fingerprint > 0) {
+    const double log_t = std::log(p_bins) + std::log(p_fingerprint);
+    product = std::exp(log_t) * (1 - log_t);
+  }
+  return std::min(1.0, 2 * std::min(bonferroni, product));
+}
+
+FingerprintScorer::FingerprintScorer(const Key& key, int functions,
+                                     std::vector<Eigen::VectorXd> readings)
+    : key_(key), sign_key_(sign_key(key)), functions_(functions), readings_(std::move(readings)) {
+  if (functions < 1)
+    throw InvalidArgumentError(
+        fmt::format("a fingerprint needs at least 1 function, not {}", functions));
+  const int bytes = (functions + 7) / 8;
+  for (const Eigen::VectorXd& b : readings_) {
+    if (b.size() != functions)
+      throw InvalidArgumentError(
+          fmt::format("a reading of {} coefficients for a fingerprint of {}", b.size(), functions));
+    const double norm = b.norm();
+    std::vector<double> table(static_cast<std::size_t>(bytes) * 256, 0.0);
+    if (norm > 0)
+      for (int c = 0; c < bytes; ++c)
+        for (int v = 0; v < 256; ++v) {
+          double sum = 0;
+          for (int bit = 0; bit < 8 && 8 * c + bit < functions; ++bit)
+            sum += ((v >> (7 - bit)) & 1 ? 1.0 : -1.0) * b(8 * c + bit);
+          table[static_cast<std::size_t>(c) * 256 + v] = sum / norm;
+        }
+    tables_.push_back(std::move(table));
+  }
+}
+
+double FingerprintScorer::best_z(std::uint64_t id, int format) const {
+  check_format(format);
+  double best = -std::numeric_limits<double>::infinity();
+  if (format == kGaussianFingerprintFormat) {
+    const Eigen::VectorXd g = gaussian_coefficients(key_, id, functions_);
+    for (const Eigen::VectorXd& b : readings_) best = std::max(best, fingerprint_score(g, b));
+    return best;
+  }
+  // The signs' bytes (on the stack for K <= 512, the default), then each reading's table.
+  const int bytes = (functions_ + 7) / 8;
+  std::array<std::uint8_t, 64> small;
+  std::vector<std::uint8_t> large(bytes > 64 ? static_cast<std::size_t>(bytes) : 0);
+  std::uint8_t* signs = bytes > 64 ? large.data() : small.data();
+  sign_bytes(sign_key_, id, static_cast<std::size_t>(bytes), signs);
+  for (const std::vector<double>& table : tables_) {
+    double z = 0;
+    for (int c = 0; c < bytes; ++c) z += table[static_cast<std::size_t>(c) * 256 + signs[c]];
+    best = std::max(best, z);
+  }
+  return best;
 }
 
 }  // namespace meshmark

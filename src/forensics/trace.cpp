@@ -13,6 +13,7 @@
 #include <optional>
 #include <tuple>
 
+#include "core/parallel.h"
 #include "core/progress_counter.h"
 #include "meshmark/attacks/attack.h"
 #include "meshmark/carrier/histogram.h"
@@ -327,7 +328,7 @@ struct LeakResiduals {
 
 LeakResiduals leak_residuals(const Mesh& original, const Smoother& on_original,
                              const Smoother& on_leak, const Eigen::MatrixX3d& surface,
-                             const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
+                             const Eigen::MatrixX3d& VL,
                              const std::vector<std::uint8_t>& leak_carrier,
                              const Eigen::Vector3d& center, double erase) {
   const Crossings x = cross_rays(surface, original.F, VL, leak_carrier, center, erase);
@@ -410,7 +411,7 @@ std::optional<FingerprintBasis> fingerprint_reading(
     if (against_processed && !processed) continue;
     const LeakResiduals x =
         leak_residuals(original, on_original, on_leak, against_processed ? reference : original.V,
-                       VL, FL, leak_carrier, h.center, erase);
+                       VL, leak_carrier, h.center, erase);
     taken.push_back(fmt::format("against the {}original, {} ({} leak vertices)",
                                 against_processed ? "processed " : "", x.processing, x.count));
     const FingerprintBasis at_leak = fingerprint_basis_at(basis, x.on_original, x.crossed);
@@ -423,62 +424,97 @@ std::optional<FingerprintBasis> fingerprint_reading(
 
 // The scores of a group of candidates read alike (same variant, bits, ID bits, strengths and
 // method): each one's best exact p over the readings of kBands' widths times their number, and
-// for a copy with a fingerprint (and a basis) twice the smaller of that and the fingerprint's
-// p (Bonferroni over the two tests keeps it exact or conservative whichever mark the leak
-// kept). Not yet corrected for the number of candidates.
-std::vector<CandidateScore> score_group(const std::vector<IssuedCopy>& copies,
-                                        const std::vector<BitEvidence>& evidence,
-                                        const BitLayout& layout, int id_bits, const Key& key,
-                                        const FingerprintBasis* basis,
-                                        const std::vector<Eigen::VectorXd>& readings) {
+// for a copy with a fingerprint (and a basis) that combined with the fingerprint's p
+// (combined_p_value: conservative whichever mark the leak kept). Not yet corrected for the number
+// of candidates. Codewords are packed (matches are popcounts) and the candidates are cut into
+// chunks on the thread budget: each score depends on its candidate alone.
+struct Score {  // a candidate's evidence before the ranking (CandidateScore without the row)
+  const IssuedCopy* copy = nullptr;
+  std::size_t order = 0;  // its place among the candidates, for ties
+  int matches = 0, compared = 0;
+  double p_value = 1, corrected_p = 1;
+  double fingerprint_z = std::numeric_limits<double>::quiet_NaN(), fingerprint_p = 1;
+};
+
+std::vector<Score> score_group(const std::vector<const IssuedCopy*>& copies,
+                               const std::vector<BitEvidence>& evidence, const BitLayout& layout,
+                               int id_bits, const Key& key, const FingerprintBasis* basis,
+                               const std::vector<Eigen::VectorXd>& readings) {
   const int bits = layout.size();
   IdCodeOptions co;
   co.bits = bits;
   co.id_bits = id_bits;
   const IdCode code(co);
-  std::vector<Payload> codewords;
-  codewords.reserve(copies.size());
-  for (const IssuedCopy& c : copies) codewords.push_back(code.encode(c.id, key));
-  std::vector<CandidateScore> scores(copies.size());
+  const CodewordEncoder encoder(code, key);
+  const int words = encoder.words();
+  // The distinct readings of the bands, packed: the bits read (known) and those read as 1.
+  struct Reading {
+    std::vector<std::uint64_t> known, ones;
+    int compared = 0;
+    CodewordNull null;
+  };
+  std::vector<Reading> bands;
   std::vector<std::uint8_t> previous;
   for (const double band : kBands) {
     const std::vector<std::uint8_t> read = layout.from_bins(banded_bits(evidence, band));
     if (read == previous) continue;  // the same reading: the same p-values
     previous = read;
-    const CodewordNull null(code, read, key);
-    for (std::size_t c = 0; c < copies.size(); ++c) {
-      CandidateScore s;
-      s.copy = copies[c];
-      s.compared = 0;
-      for (int j = 0; j < bits; ++j) {
-        s.compared += read[j] <= 1;
-        s.matches += read[j] <= 1 && read[j] == codewords[c].bits[j];
-      }
-      s.p_value = std::min(1.0, null.p_value(s.matches) * static_cast<double>(kBands.size()));
-      if (band == kBands.front() || s.p_value < scores[c].p_value) scores[c] = s;
+    Reading r{std::vector<std::uint64_t>(words, 0), std::vector<std::uint64_t>(words, 0), 0,
+              CodewordNull(code, read, key)};
+    for (int j = 0; j < bits; ++j) {
+      if (read[j] > 1) continue;
+      r.known[j / 64] |= std::uint64_t{1} << (j % 64), ++r.compared;
+      if (read[j] == 1) r.ones[j / 64] |= std::uint64_t{1} << (j % 64);
     }
+    bands.push_back(std::move(r));
   }
-  if (basis && !readings.empty())
-    for (CandidateScore& s : scores)
-      if (s.copy.mark_format == kFingerprintMarkFormat) {
-        const Eigen::VectorXd g = fingerprint_coefficients(key, s.copy.id, basis->functions);
-        s.fingerprint_z = -std::numeric_limits<double>::infinity();
-        for (const Eigen::VectorXd& b : readings)
-          s.fingerprint_z = std::max(s.fingerprint_z, fingerprint_score(g, b));
-        s.fingerprint_p = std::min(
-            1.0, normal_upper_tail(s.fingerprint_z) * static_cast<double>(readings.size()));
-        s.p_value = std::min(1.0, 2 * std::min(s.p_value, s.fingerprint_p));
-      }
+  const std::optional<FingerprintScorer> fingerprint =
+      basis && !readings.empty()
+          ? std::optional<FingerprintScorer>(std::in_place, key, basis->functions, readings)
+          : std::nullopt;
+  std::vector<Score> scores(copies.size());
+  detail::parallel_chunks(
+      static_cast<std::int64_t>(copies.size()), [&](int, std::int64_t begin, std::int64_t end) {
+        constexpr std::int64_t kBatch = 256;  // codewords encoded together (CodewordEncoder)
+        std::vector<std::uint64_t> ids, codewords(static_cast<std::size_t>(kBatch * words));
+        for (std::int64_t c = begin; c < end; ++c) {
+          const IssuedCopy& copy = *copies[c];
+          Score& best = scores[c];
+          best.copy = &copy;
+          if ((c - begin) % kBatch == 0) {
+            ids.clear();
+            for (std::int64_t i = c; i < std::min(end, c + kBatch); ++i)
+              ids.push_back(copies[i]->id);
+            encoder.encode(ids.data(), ids.size(), codewords.data());
+          }
+          const std::uint64_t* codeword =
+              codewords.data() + static_cast<std::size_t>((c - begin) % kBatch * words);
+          for (std::size_t k = 0; k < bands.size(); ++k) {
+            const Reading& r = bands[k];
+            int matches = 0;
+            for (int w = 0; w < words; ++w)
+              matches += __builtin_popcountll(r.known[w] & ~(codeword[w] ^ r.ones[w]));
+            const double p =
+                std::min(1.0, r.null.p_value(matches) * static_cast<double>(kBands.size()));
+            if (k == 0 || p < best.p_value)
+              best.compared = r.compared, best.matches = matches, best.p_value = p;
+          }
+          if (fingerprint && has_fingerprint(copy.mark_format)) {
+            best.fingerprint_z = fingerprint->best_z(copy.id, copy.mark_format);
+            best.fingerprint_p =
+                std::min(1.0, fingerprint_p_value(best.fingerprint_z, copy.mark_format) *
+                                  static_cast<double>(readings.size()));
+            best.p_value = combined_p_value(best.p_value, best.fingerprint_p);
+          }
+        }
+      });
   return scores;
 }
 
-// Sorts the ranking and names the candidates below the threshold. A row edited after it was
-// recorded is never named (its buyer or its ID may be anyone's); a row without a MAC is, with a
-// warning, and so is a reserved one. Sets the status and the message.
+// Names the candidates of the ranking (sorted, best first) below the threshold. A row edited
+// after it was recorded is never named (its buyer or its ID may be anyone's); a row without a
+// MAC is, with a warning, and so is a reserved one. Sets the status and the message.
 void name_buyers(TraceResult& r, const Key& key, double threshold) {
-  std::stable_sort(
-      r.ranking.begin(), r.ranking.end(),
-      [](const CandidateScore& a, const CandidateScore& b) { return a.p_value < b.p_value; });
   std::size_t edited = 0;
   for (CandidateScore& s : r.ranking) {
     s.auth = check_row(key, s.copy);
@@ -507,9 +543,10 @@ void name_buyers(TraceResult& r, const Key& key, double threshold) {
   }
   if (edited > 0)
     r.warnings.push_back(fmt::format(
-        "{} of the {} candidate rows fail their authentication code (meshmark registry verify "
-        "lists them)",
-        edited, r.ranking.size()));
+        "{} of the {} {}candidate rows fail their authentication code (meshmark registry verify "
+        "lists them{})",
+        edited, r.ranking.size(), r.ranking.size() < r.candidates ? "best-ranked " : "",
+        r.ranking.size() < r.candidates ? ", and checks all of them" : ""));
   r.status = r.named.empty() ? TraceStatus::NoBuyer : TraceStatus::Named;
   if (r.named.empty() && !r.warnings.empty() && r.ranking.front().corrected_p < threshold &&
       r.ranking.front().auth == RowAuth::Edited) {
@@ -565,9 +602,9 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
         fmt::format("the fingerprint ridge {} is outside [0, 1e6)", o.fingerprint_ridge));
   TraceResult r;
   const std::string fingerprint = key_fingerprint(key);
-  std::vector<IssuedCopy> mine;
+  std::vector<const IssuedCopy*> mine;  // the candidates under this key, in their order
   for (const IssuedCopy& c : candidates)
-    if (c.key_fingerprint == fingerprint) mine.push_back(c);
+    if (c.key_fingerprint == fingerprint) mine.push_back(&c);
   r.candidates = mine.size();
   if (mine.empty()) {
     r.status = TraceStatus::NoCandidates;
@@ -581,10 +618,12 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
   // Groups of candidates read alike.
   using GroupKey = std::tuple<char, int, int, double, double, std::string>;
   std::map<GroupKey, std::vector<std::size_t>> groups;
-  for (std::size_t k = 0; k < mine.size(); ++k)
-    groups[{mine[k].variant.empty() ? 'D' : mine[k].variant[0], mine[k].bits, mine[k].id_bits,
-            mine[k].strength, mine[k].strength_spread, mine[k].method}]
+  for (std::size_t k = 0; k < mine.size(); ++k) {
+    const IssuedCopy& c = *mine[k];
+    groups[{c.variant.empty() ? 'D' : c.variant[0], c.bits, c.id_bits, c.strength,
+            c.strength_spread, c.method}]
         .push_back(k);
+  }
   // Progress: the registration, then each group measured and scored.
   detail::ProgressCounter progress(o.progress, "tracing", 1 + static_cast<long>(groups.size()));
   Clock::time_point t = Clock::now();
@@ -610,6 +649,8 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
   const Eigen::MatrixX3d normals = vertex_normals(original.V, original.F);
   r.processing = "none";
   bool first = true;
+  std::vector<Score> scores;
+  scores.reserve(mine.size());
   for (const auto& [group, members] : groups) {
     const auto& [letter, bits, id_bits, strength, spread, method] = group;
     const BinStatistic statistic = bin_statistic(parse_method(method));
@@ -635,7 +676,7 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     // The fingerprint of copies issued with one (fingerprint.h), read at the leak's vertices.
     // Like the bins, the reading uses no candidate's coefficients.
     const bool fingerprinted = std::any_of(members.begin(), members.end(), [&](std::size_t k) {
-      return mine[k].mark_format == kFingerprintMarkFormat;
+      return has_fingerprint(mine[k]->mark_format);
     });
     std::optional<FingerprintBasis> basis;
     std::vector<Eigen::VectorXd> readings;
@@ -648,13 +689,16 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
         r.fingerprint_processing = fingerprint_processing;
     }
     const BitLayout layout = mark_layout(key, bits, true);
-    std::vector<IssuedCopy> group_copies;
+    std::vector<const IssuedCopy*> group_copies;
+    group_copies.reserve(members.size());
     for (const std::size_t k : members) group_copies.push_back(mine[k]);
-    for (CandidateScore& s : score_group(group_copies, evidence, layout, id_bits, key,
-                                         basis ? &*basis : nullptr, readings)) {
-      s.corrected_p = std::min(1.0, s.p_value * static_cast<double>(mine.size()));
-      r.ranking.push_back(s);
+    std::vector<Score> scored = score_group(group_copies, evidence, layout, id_bits, key,
+                                            basis ? &*basis : nullptr, readings);
+    for (std::size_t i = 0; i < scored.size(); ++i) {
+      scored[i].order = members[i];
+      scored[i].corrected_p = std::min(1.0, scored[i].p_value * static_cast<double>(mine.size()));
     }
+    scores.insert(scores.end(), scored.begin(), scored.end());
     const std::vector<std::uint8_t> read = layout.from_bins(banded_bits(evidence, 0.0));
     r.seconds.scoring += since(t);
     progress.step(1, fmt::format("{} candidates scored", members.size()));
@@ -668,9 +712,33 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
       }
     }
   }
-  std::stable_sort(
-      r.ranking.begin(), r.ranking.end(),
-      [](const CandidateScore& a, const CandidateScore& b) { return a.p_value < b.p_value; });
+  // The ranking: the best o.ranking candidates (ties in the candidates' order), every one below
+  // the threshold, and the copy whose file the leak is; every candidate's score for plots.
+  const auto better = [](const Score& a, const Score& b) {
+    return a.p_value != b.p_value ? a.p_value < b.p_value : a.order < b.order;
+  };
+  r.log_scores.reserve(scores.size());
+  for (const Score& x : scores)
+    r.log_scores.push_back(static_cast<float>(-std::log10(std::max(x.corrected_p, 1e-300))));
+  auto kept = scores.end();
+  if (o.ranking > 0 && o.ranking < scores.size()) {
+    kept = scores.begin() + static_cast<std::ptrdiff_t>(o.ranking);
+    std::nth_element(scores.begin(), kept, scores.end(), better);
+    kept = std::partition(kept, scores.end(), [&](const Score& x) {
+      return x.corrected_p < o.threshold ||
+             (!o.leaked_hash.empty() && x.copy->output_hash == o.leaked_hash);
+    });
+  }
+  std::sort(scores.begin(), kept, better);
+  r.ranking.reserve(static_cast<std::size_t>(kept - scores.begin()));
+  for (auto x = scores.begin(); x != kept; ++x) {
+    CandidateScore c;
+    c.copy = *x->copy;
+    c.matches = x->matches, c.compared = x->compared;
+    c.p_value = x->p_value, c.corrected_p = x->corrected_p;
+    c.fingerprint_z = x->fingerprint_z, c.fingerprint_p = x->fingerprint_p;
+    r.ranking.push_back(std::move(c));
+  }
   name_buyers(r, key, o.threshold);
   return r;
 }

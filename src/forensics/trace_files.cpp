@@ -60,9 +60,11 @@ TraceFilesResult trace_files(const TraceFilesRequest& request, const Key& key) {
     found.original = read_noting(request.original, request.read, found.warnings);
     found.original_hash = content_hash(read_file(request.original));
   }
+  TraceOptions options = request.options;
+  if (!request.leaked_mesh) options.leaked_hash = hash_of(request.leaked);
   found.trace = trace_issued(found.leaked, found.original, found.original_hash, request.registry,
-                             key, request.options);
-  if (!request.leaked_mesh) compare_with_issued_files(found.trace, hash_of(request.leaked));
+                             key, options);
+  if (!request.leaked_mesh) compare_with_issued_files(found.trace, options.leaked_hash);
   if (!request.report.empty()) write_trace_report(request, found, key);
   if (!request.pdf.empty()) print_pdf(request.report, request.pdf);
   return found;

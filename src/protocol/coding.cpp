@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -192,28 +193,69 @@ double IdCode::false_accept_bound() const {
   return sum + retries_ * std::exp2(id_bits_ - n_ + log2_hamming_ball(n_, retry_rule_.errors));
 }
 
+namespace {
+
+// The Feistel network of IdCode::permute over x = L || R (|L| = a = k/2, |R| = k - a), 8
+// rounds; round i replaces one half by itself XOR F_i(the other half), alternately, so it is
+// undone by the same rounds in reverse order. F_i = BLAKE2b keyed with the code key, of (i, k,
+// id_bits, nb, the half): to_right hashes to k - a bits (the even rounds, which change R from
+// L), to_left to a bits (the odd ones); either is null when its half is empty.
+constexpr int kFeistelRounds = 8;
+
+// The last input and output of round 0, which consecutive IDs share (its input is the high
+// half of the message: check bits and the ID's high bits).
+struct FirstRound {
+  std::array<std::uint8_t, 6 + 64> data{};
+  std::size_t size = 0;
+  std::array<std::uint8_t, 64> f{};
+};
+
+void feistel(std::uint8_t* x, int k, int id_bits, int n, const KeyedHash* to_right,
+             const KeyedHash* to_left, bool inverse, FirstRound* memo = nullptr) {
+  const int a = k / 2;
+  std::array<std::uint8_t, 6 + 64> data{};  // k < 1024: a half fits in 64 bytes
+  std::array<std::uint8_t, 64> f{};
+  for (int step = 0; step < kFeistelRounds; ++step) {
+    const int round = inverse ? kFeistelRounds - 1 - step : step;
+    const bool right = round % 2 == 0;  // even rounds change R from L, odd ones L from R
+    const int from = right ? 0 : a, from_len = right ? a : k - a;
+    const int to = right ? a : 0, to_len = right ? k - a : a;
+    if (to_len == 0) continue;
+    const std::size_t size = 6 + static_cast<std::size_t>(from_len + 7) / 8;
+    std::fill(data.begin(), data.begin() + static_cast<std::ptrdiff_t>(size), 0);
+    data[0] = static_cast<std::uint8_t>(round);
+    data[1] = static_cast<std::uint8_t>(k & 0xFF), data[2] = static_cast<std::uint8_t>(k >> 8);
+    data[3] = static_cast<std::uint8_t>(id_bits);
+    data[4] = static_cast<std::uint8_t>(n & 0xFF), data[5] = static_cast<std::uint8_t>(n >> 8);
+    for (int i = 0; i < from_len; ++i)
+      data[6 + i / 8] |= static_cast<std::uint8_t>(x[from + i] << (7 - i % 8));
+    if (memo && round == 0) {
+      if (memo->size != size ||
+          !std::equal(data.begin(), data.begin() + size, memo->data.begin())) {
+        std::copy(data.begin(), data.begin() + size, memo->data.begin());
+        memo->size = size;
+        to_right->digest(data.data(), size, memo->f.data());
+      }
+      f = memo->f;
+    } else {
+      (right ? to_right : to_left)->digest(data.data(), size, f.data());
+    }
+    for (int i = 0; i < to_len; ++i) x[to + i] ^= (f[i / 8] >> (7 - i % 8)) & 1;
+  }
+}
+
+}  // namespace
+
 std::vector<std::uint8_t> IdCode::permute(std::vector<std::uint8_t> x, const Key& code_key,
                                           bool inverse) const {
-  // Feistel network over x = L || R (|L| = k/2, |R| = k - k/2), 8 rounds; round i replaces one
-  // half by itself XOR F_i(the other half), alternately, so it is undone by the same rounds in
-  // reverse order. F_i = BLAKE2b keyed with the code key, of (i, k, id_bits, nb, the half).
-  constexpr int kRounds = 8;
   const int a = k_ / 2;
-  std::vector<std::uint8_t> data;
-  for (int step = 0; step < kRounds; ++step) {
-    const int round = inverse ? kRounds - 1 - step : step;
-    const bool right = round % 2 == 0;  // even rounds change R from L, odd ones L from R
-    const int from = right ? 0 : a, from_len = right ? a : k_ - a;
-    const int to = right ? a : 0, to_len = right ? k_ - a : a;
-    if (to_len == 0) continue;
-    data.assign({static_cast<std::uint8_t>(round), static_cast<std::uint8_t>(k_ & 0xFF),
-                 static_cast<std::uint8_t>(k_ >> 8), static_cast<std::uint8_t>(id_bits_),
-                 static_cast<std::uint8_t>(n_ & 0xFF), static_cast<std::uint8_t>(n_ >> 8)});
-    data.resize(6 + (from_len + 7) / 8, 0);
-    for (int i = 0; i < from_len; ++i) data[6 + i / 8] |= x[from + i] << (7 - i % 8);
-    const std::vector<std::uint8_t> f = keyed_hash_bits(code_key, "id-feistel", data, to_len);
-    for (int i = 0; i < to_len; ++i) x[to + i] ^= f[i];
-  }
+  const std::optional<KeyedHash> to_right =
+      k_ - a > 0 ? std::optional<KeyedHash>(std::in_place, code_key, "id-feistel", k_ - a)
+                 : std::nullopt;
+  const std::optional<KeyedHash> to_left =
+      a > 0 ? std::optional<KeyedHash>(std::in_place, code_key, "id-feistel", a) : std::nullopt;
+  feistel(x.data(), k_, id_bits_, n_, to_right ? &*to_right : nullptr,
+          to_left ? &*to_left : nullptr, inverse);
   return x;
 }
 
@@ -458,6 +500,47 @@ IdDecodeResult IdCode::decode(const std::vector<std::uint8_t>& bits,
   result.valid = true;
   result.message = fmt::format("ID found, {} of {} bits corrected", result.corrected, n_);
   return result;
+}
+
+CodewordEncoder::CodewordEncoder(const IdCode& code, const Key& key)
+    : n_(code.bits()), k_(code.message_bits()), id_bits_(code.id_bits()) {
+  const Key code_key = derive_key(key, "id-code");
+  const int a = k_ / 2;
+  if (k_ - a > 0) to_right_.emplace(code_key, "id-feistel", k_ - a);
+  if (a > 0) to_left_.emplace(code_key, "id-feistel", a);
+  const int w = words();
+  rows_.assign(static_cast<std::size_t>(k_) * w, 0);
+  std::vector<std::uint8_t> unit(k_, 0);
+  for (int i = 0; i < k_; ++i) {  // the codeword is linear in the message: one row per bit
+    unit[i] = 1;
+    const std::vector<std::uint8_t> c = code.message_codeword(unit);
+    unit[i] = 0;
+    for (int j = 0; j < n_; ++j)
+      if (c[j]) rows_[static_cast<std::size_t>(i) * w + j / 64] |= std::uint64_t{1} << (j % 64);
+  }
+  mask_.assign(w, 0);
+  const std::vector<std::uint8_t> m = code.mask(key);
+  for (int j = 0; j < n_; ++j)
+    if (m[j] & 1) mask_[j / 64] |= std::uint64_t{1} << (j % 64);
+}
+
+void CodewordEncoder::encode(const std::uint64_t* ids, std::size_t count,
+                             std::uint64_t* out) const {
+  FirstRound memo;
+  const int w = words();
+  for (std::size_t c = 0; c < count; ++c, out += w) {
+    const std::uint64_t id = ids[c];
+    if (id_bits_ < 64 && (id >> id_bits_) != 0)
+      throw InvalidArgumentError(fmt::format("ID {} does not fit in {} bits", id, id_bits_));
+    std::array<std::uint8_t, 1024> x{};  // k < 1024: high k - id_bits bits 0, the ID MSB first
+    for (int i = 0; i < id_bits_; ++i) x[k_ - id_bits_ + i] = (id >> (id_bits_ - 1 - i)) & 1;
+    feistel(x.data(), k_, id_bits_, n_, to_right_ ? &*to_right_ : nullptr,
+            to_left_ ? &*to_left_ : nullptr, false, to_right_ ? &memo : nullptr);
+    for (int j = 0; j < w; ++j) out[j] = mask_[j];
+    for (int i = 0; i < k_; ++i)
+      if (x[i])
+        for (int j = 0; j < w; ++j) out[j] ^= rows_[static_cast<std::size_t>(i) * w + j];
+  }
 }
 
 }  // namespace meshmark

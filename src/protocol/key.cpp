@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cstring>
@@ -210,22 +211,37 @@ std::vector<double> BitLayout::values_from_bins(const std::vector<double>& bin_v
   return out;
 }
 
-std::vector<std::uint8_t> keyed_hash_bits(const Key& key, std::string_view domain,
-                                          const std::vector<std::uint8_t>& data, int nbits) {
+KeyedHash::KeyedHash(const Key& key, std::string_view domain, int nbits) {
+  static_assert(sizeof(crypto_generichash_state) <= sizeof(state_) &&
+                alignof(crypto_generichash_state) <= 64);
   if (nbits < 1 || nbits > 512)
     throw InvalidArgumentError(fmt::format("a hash of {} bits is out of 1..512", nbits));
   ensure_sodium();
-  const std::size_t bytes = (static_cast<std::size_t>(nbits) + 7) / 8;
-  const std::size_t out_len = std::max<std::size_t>(bytes, crypto_generichash_BYTES_MIN);
-  crypto_generichash_state state;
-  crypto_generichash_init(&state, key.bytes.data(), key.bytes.size(), out_len);
-  crypto_generichash_update(&state, reinterpret_cast<const unsigned char*>(domain.data()),
+  bytes_ = (nbits + 7) / 8;
+  out_len_ = std::max(bytes_, static_cast<int>(crypto_generichash_BYTES_MIN));
+  auto* state = reinterpret_cast<crypto_generichash_state*>(state_.data());
+  crypto_generichash_init(state, key.bytes.data(), key.bytes.size(),
+                          static_cast<std::size_t>(out_len_));
+  crypto_generichash_update(state, reinterpret_cast<const unsigned char*>(domain.data()),
                             domain.size());
   const unsigned char zero = 0;
-  crypto_generichash_update(&state, &zero, 1);
-  crypto_generichash_update(&state, data.data(), data.size());
-  std::vector<unsigned char> digest(out_len);
-  crypto_generichash_final(&state, digest.data(), out_len);
+  crypto_generichash_update(state, &zero, 1);
+}
+
+void KeyedHash::digest(const std::uint8_t* data, std::size_t size, std::uint8_t* out) const {
+  crypto_generichash_state state;
+  std::memcpy(&state, state_.data(), sizeof(state));
+  crypto_generichash_update(&state, data, size);
+  std::array<unsigned char, 64> full;
+  crypto_generichash_final(&state, full.data(), static_cast<std::size_t>(out_len_));
+  std::memcpy(out, full.data(), static_cast<std::size_t>(bytes_));
+}
+
+std::vector<std::uint8_t> keyed_hash_bits(const Key& key, std::string_view domain,
+                                          const std::vector<std::uint8_t>& data, int nbits) {
+  const KeyedHash hash(key, domain, nbits);
+  std::array<std::uint8_t, 64> digest;
+  hash.digest(data.data(), data.size(), digest.data());
   std::vector<std::uint8_t> bits(nbits);
   for (int i = 0; i < nbits; ++i) bits[i] = (digest[i / 8] >> (7 - i % 8)) & 1;
   return bits;

@@ -292,8 +292,10 @@ TEST(Trace, InnocentScoresFollowThePValueModel) {
   std::vector<std::size_t> below(levels.size(), 0);
   std::size_t scores = 0;
   double smallest = 1;
+  TraceOptions every;
+  every.ranking = 0;  // every candidate in the ranking
   for (const Mesh& leak : leaks) {
-    const TraceResult r = trace(leak, s.original, innocents, s.key);
+    const TraceResult r = trace(leak, s.original, innocents, s.key, every);
     EXPECT_EQ(r.status, TraceStatus::NoBuyer) << r.message;
     for (const CandidateScore& c : r.ranking) {
       ++scores;
@@ -310,6 +312,45 @@ TEST(Trace, InnocentScoresFollowThePValueModel) {
     RecordProperty("innocents_below_" + std::to_string(k), static_cast<int>(below[k]));
   }
   EXPECT_GT(smallest * 10000, 1e-6) << "an innocent would have been named";
+}
+
+// A bounded ranking is the head of the full one (same candidates, same order), keeps every
+// named buyer and the copy whose file the leak is, and every candidate's score for plots.
+TEST(Trace, ABoundedRankingIsTheHeadOfTheFullOne) {
+  MESHMARK_REQUIRE(test::closed_binary_ply(), "bunny00.off");
+  const Shop& s = shop();
+  std::vector<IssuedCopy> issued = s.issued;
+  TraceOptions every, few;
+  every.ranking = 0;
+  few.ranking = 3;
+  few.leaked_hash = "the leak's bytes";
+  const TraceResult all = trace(s.marked, s.original, issued, s.key, every);
+  ASSERT_EQ(all.ranking.size(), issued.size());
+  const std::uint64_t far = all.ranking[500].copy.id;  // a copy far down the ranking
+  for (IssuedCopy& c : issued)
+    if (c.id == far) c.output_hash = "the leak's bytes";
+  const TraceResult head = trace(s.marked, s.original, issued, s.key, few);
+  ASSERT_EQ(head.status, TraceStatus::Named);
+  EXPECT_EQ(head.named.size(), all.named.size());
+  EXPECT_EQ(head.log_scores.size(), issued.size());
+  EXPECT_EQ(all.log_scores.size(), issued.size());
+  // The three best, then the copy of the leak's bytes (kept for its file), as in the full one.
+  ASSERT_EQ(head.ranking.size(), 4u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(head.ranking[i].copy.id, all.ranking[i].copy.id) << i;
+    EXPECT_EQ(head.ranking[i].p_value, all.ranking[i].p_value) << i;
+  }
+  EXPECT_EQ(head.ranking[3].copy.id, far);
+  EXPECT_EQ(head.ranking[3].p_value, all.ranking[500].p_value);
+  // The ranking is sorted, and the scores are the full ranking's, as -log10.
+  for (std::size_t i = 1; i < all.ranking.size(); ++i)
+    EXPECT_LE(all.ranking[i - 1].p_value, all.ranking[i].p_value);
+  std::vector<float> want;
+  for (const CandidateScore& c : all.ranking)
+    want.push_back(static_cast<float>(-std::log10(std::max(c.corrected_p, 1e-300))));
+  std::vector<float> got = head.log_scores;
+  std::sort(want.begin(), want.end()), std::sort(got.begin(), got.end());
+  EXPECT_EQ(got, want);
 }
 
 TEST(Trace, NamesNobodyForAnUnmarkedMeshAnotherKeyOrAnotherLeak) {

@@ -10,6 +10,8 @@
 #include <numeric>
 #include <set>
 
+#include <sodium.h>
+
 #include "meshmark/core/error.h"
 #include "meshmark/core/random.h"
 #include "meshmark/io/io.h"
@@ -338,6 +340,72 @@ TEST(Coding, IdsParseAsDecimalOrHexAndNothingElse) {
 
 // keygen: a new file of 32 random bytes, mode 0600, whose key is key_from_file's; an existing
 // file or a link where it goes is refused and left as it was.
+// KeyedHash against libsodium's BLAKE2b called here as docs/format.md section 1.1 defines
+// keyed_hash_bits: keyed with the key, of domain || 0 || data, max(bytes, 16) bytes long;
+// messages of 0 to 300 bytes (across the 128-byte blocks) and lengths of 1 to 512 bits.
+TEST(Key, KeyedHashIsKeyedBlake2bOfDomainZeroAndData) {
+  ASSERT_GE(sodium_init(), 0);
+  const Key key = key_from_passphrase_v1("keyed hash test");
+  Random rng(5);
+  for (const int nbits : {1, 7, 8, 24, 100, 128, 129, 512})
+    for (const std::size_t size : {0, 1, 9, 110, 127, 128, 129, 300}) {
+      std::vector<std::uint8_t> data(size);
+      for (auto& b : data) b = static_cast<std::uint8_t>(rng.next() >> 56);
+      const KeyedHash hash(key, "some domain", nbits);
+      std::array<std::uint8_t, 64> got{};
+      hash.digest(data.data(), data.size(), got.data());
+      const std::size_t bytes = (static_cast<std::size_t>(nbits) + 7) / 8;
+      const std::size_t out_len = std::max<std::size_t>(bytes, crypto_generichash_BYTES_MIN);
+      std::vector<std::uint8_t> message = {'s', 'o', 'm', 'e', ' ', 'd',
+                                           'o', 'm', 'a', 'i', 'n', 0};
+      message.insert(message.end(), data.begin(), data.end());
+      std::vector<std::uint8_t> want(out_len);
+      crypto_generichash(want.data(), out_len, message.data(), message.size(), key.bytes.data(),
+                         key.bytes.size());
+      ASSERT_TRUE(
+          std::equal(want.begin(), want.begin() + static_cast<std::ptrdiff_t>(bytes), got.begin()))
+          << nbits << " bits of " << size << " bytes";
+      // keyed_hash_bits gives the same bits, most significant first.
+      const std::vector<std::uint8_t> bits = keyed_hash_bits(key, "some domain", data, nbits);
+      for (int i = 0; i < nbits; ++i) ASSERT_EQ(bits[i], (want[i / 8] >> (7 - i % 8)) & 1);
+    }
+  EXPECT_THROW(KeyedHash(key, "d", 0), InvalidArgumentError);
+  EXPECT_THROW(KeyedHash(key, "d", 513), InvalidArgumentError);
+}
+
+// The packed encoder trace scores with against IdCode::encode, bit for bit: several codes,
+// consecutive IDs (which share the permutation's first round), decreasing and random IDs (which
+// do not), the largest ID, and an ID too long.
+TEST(IdCode, PackedEncoderGivesEncodesCodewords) {
+  const Key key = key_from_passphrase_v1("packed encoder test");
+  Random rng(11);
+  for (const auto& [bits, id_bits] :
+       std::vector<std::pair<int, int>>{{64, 32}, {48, 16}, {96, 32}, {128, 20}, {600, 32}}) {
+    IdCodeOptions o;
+    o.bits = bits, o.id_bits = id_bits;
+    const IdCode code(o);
+    const CodewordEncoder encoder(code, key);
+    ASSERT_EQ(encoder.words(), (bits + 63) / 64);
+    const std::uint64_t top = (std::uint64_t{1} << id_bits) - 1;
+    std::vector<std::uint64_t> ids;
+    for (std::uint64_t id = 0; id < 300; ++id) ids.push_back(id);
+    for (std::uint64_t id = 5000; id > 4800; --id) ids.push_back(id);
+    for (int i = 0; i < 200; ++i) ids.push_back(rng.next() & top);
+    ids.push_back(top);
+    std::vector<std::uint64_t> packed(ids.size() * static_cast<std::size_t>(encoder.words()));
+    encoder.encode(ids.data(), ids.size(), packed.data());
+    for (std::size_t c = 0; c < ids.size(); ++c) {
+      const Payload want = code.encode(ids[c], key);
+      const std::uint64_t* got = packed.data() + c * static_cast<std::size_t>(encoder.words());
+      for (int j = 0; j < encoder.words() * 64; ++j)
+        ASSERT_EQ((got[j / 64] >> (j % 64)) & 1, j < bits ? want.bits[j] : 0u)
+            << "nb " << bits << ", ID " << ids[c] << ", bit " << j;
+    }
+    const std::uint64_t too_long = top + 1;
+    EXPECT_THROW(encoder.encode(&too_long, 1, packed.data()), InvalidArgumentError);
+  }
+}
+
 TEST(Key, GeneratedKeyFilesAreNewPrivateAndDistinct) {
   namespace fs = std::filesystem;
   const std::string dir = test::scratch_dir();

@@ -57,7 +57,7 @@
 /// the leaker's copy and the next ID's (the previous one's for the last ID): right is then at
 /// least one colluder named and no innocent. Rows carry both outcomes; keys of averaged trials
 /// end in "|avg2". "fingerprint": true issues every copy with the fingerprint (the leakers'
-/// copies get theirs, the records mark format 3). bits and the 32-bit ID must make an IdCode
+/// copies get theirs, the records mark format 4). bits and the 32-bit ID must make an IdCode
 /// (coding.h).
 ///
 /// This header holds what a user of campaigns calls: the configuration, the rows and
@@ -122,7 +122,7 @@ struct CampaignConfig {
   bool trace = false;                       ///< "mode": "trace" (else "blind", the default)
   int copies = 1000;                        ///< trace: IDs issued per model and variant (>= 2)
   bool collusion = false;  ///< trace: every attack also on an average of two copies
-  /// trace: copies issued with the fingerprint (mark format 3, fingerprint.h), as `embed
+  /// trace: copies issued with the fingerprint (mark format 4, fingerprint.h), as `embed
   /// --registry DB --fingerprint` issues them
   bool fingerprint = false;
   double spread = 0.25;  ///< trace: keyed strength spread (watermark.h)

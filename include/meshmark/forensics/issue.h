@@ -57,7 +57,7 @@ struct IssueSettings {
   /// embedding.strength.
   std::optional<CalibrateOptions> limits;
   /// Coded IDs: also add the buyer's fingerprint (fingerprint.h), which only trace reads,
-  /// with the original; such copies are recorded as mark format 3 (kFingerprintMarkFormat).
+  /// with the original; such copies are recorded as mark format 4 (kFingerprintMarkFormat).
   /// It moves the vertices by a further RMS of FingerprintOptions::rms (0.01 %) of the
   /// diagonal, outside the fidelity limits' search. A raw payload, or an original with fewer
   /// than 128 counted carrier vertices, is refused with it.

@@ -64,6 +64,14 @@ struct TraceOptions {
   /// sqrt(K)) and loses a resampled one; 1 trades a third of the former for most of the latter
   /// (docs/forensics.md, "Reading the fingerprint").
   double fingerprint_ridge = 1.0;
+  /// How many of the best candidates TraceResult::ranking keeps (0: every one); it always
+  /// keeps every candidate below the threshold and the copy whose output_hash is
+  /// leaked_hash. Only the kept rows' authentication codes are checked (name_buyers).
+  std::size_t ranking = 1000;
+  /// The content hash of the leaked file's bytes (content_hash, registry.h) when known, so
+  /// that compare_with_issued_files finds the copy recorded with it in the ranking; "" when
+  /// not known.
+  std::string leaked_hash;
   /// Called as the trace goes (progress.h): phase "tracing", the registration and then each
   /// group of candidates read alike.
   ProgressCallback progress;
@@ -75,11 +83,12 @@ struct CandidateScore {
   int matches = 0;         ///< bits read equal to its codeword's (best reading)
   int compared = 0;        ///< bits compared (not erased) in that reading
   double p_value = 1;      ///< this candidate alone: the smallest exact p over the readings
-                           ///< times their number; for a copy with a fingerprint (mark format
-                           ///< 3), twice the smaller of that and fingerprint_p
+                           ///< times their number; for a copy with a fingerprint (mark formats
+                           ///< 3 and 4), twice the smaller of that and fingerprint_p
   double corrected_p = 1;  ///< min(1, p_value x candidates)
-  /// The fingerprint's score (fingerprint.h: standard normal for an innocent) and its p-value
-  /// (the normal upper tail), for a copy issued with one; NaN and 1 otherwise.
+  /// The fingerprint's best score over the readings (fingerprint.h: about standard normal for
+  /// an innocent) and its p-value (fingerprint_p_value, times the number of readings), for a
+  /// copy issued with one; NaN and 1 otherwise.
   double fingerprint_z = std::numeric_limits<double>::quiet_NaN();
   double fingerprint_p = 1;
   /// The row's authentication code under the trace's key (check_row): an Edited row is
@@ -139,10 +148,15 @@ struct TraceResult {
   /// What the fingerprint's reading took out of the leak's residuals as smoothing (the first
   /// group with fingerprinted copies), "none", or empty when no fingerprint was read.
   std::string fingerprint_processing;
-  std::vector<BitEvidence> bits;        ///< per payload bit, first group of candidates
-  std::vector<CandidateScore> named;    ///< candidates below the threshold, best first
-  std::vector<CandidateScore> ranking;  ///< every candidate, best first
-  std::string message;                  ///< one line for a person
+  std::vector<BitEvidence> bits;      ///< per payload bit, first group of candidates
+  std::vector<CandidateScore> named;  ///< candidates below the threshold, best first
+  /// The best candidates, best first (ties in the candidates' order): TraceOptions::ranking
+  /// of them, every one below the threshold, and the copy of TraceOptions::leaked_hash.
+  std::vector<CandidateScore> ranking;
+  /// -log10 of every candidate's corrected p-value (floored at 1e-300), in no set order: the
+  /// whole registry's evidence for plots, when the ranking keeps fewer.
+  std::vector<float> log_scores;
+  std::string message;  ///< one line for a person
   /// What weakens or qualifies the verdict, one sentence each: candidate rows whose MAC fails
   /// (never named) or that carry none, a leak whose bytes are another row's file.
   std::vector<std::string> warnings;

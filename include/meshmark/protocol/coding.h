@@ -172,6 +172,28 @@ class IdCode {
   std::vector<int> exp_, log_;           // GF(2^m) tables
 };
 
+/// The codewords of many IDs under one code and key, packed 64 bits to a word, at a few
+/// microseconds each: the keyed permutation's round hashes prepared once (KeyedHash), the
+/// message encoded as the XOR of one precomputed codeword per set bit (the code is linear),
+/// the mask added. Gives IdCode::encode's bits: payload bit j is bit j % 64 of word j / 64
+/// (the bits past nb are 0). trace scores its candidates with it.
+class CodewordEncoder {
+ public:
+  CodewordEncoder(const IdCode& code, const Key& key);
+  /// Words of 64 bits a codeword takes: (nb + 63) / 64.
+  int words() const { return (n_ + 63) / 64; }
+  /// The codewords of ids[0 .. count) into out, words() words each. The permutation's first
+  /// round depends on the IDs' high bits alone: IDs in increasing order share its hash.
+  /// \throw InvalidArgumentError when an ID does not fit in the code's id_bits.
+  void encode(const std::uint64_t* ids, std::size_t count, std::uint64_t* out) const;
+
+ private:
+  int n_ = 0, k_ = 0, id_bits_ = 0;
+  std::optional<KeyedHash> to_right_, to_left_;  // the permutation's round functions
+  std::vector<std::uint64_t> rows_;              // k x words(): unit messages' codewords
+  std::vector<std::uint64_t> mask_;              // words()
+};
+
 /// Degree of the generator polynomial of the primitive narrow-sense binary BCH code of
 /// length 2^m - 1 correcting t errors (the number of parity bits). 3 <= m <= 10.
 int bch_parity_bits(int m, int t);
