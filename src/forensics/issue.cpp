@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -304,11 +305,34 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   out.bins = mark_layout(settings.key, nb, coded).to_bins(out.word);
   EmbedOptions& o = out.embedding;
   o.strengths = mark_strengths(settings.key, nb, coded, o.strength, settings.strength_spread);
+  // The fingerprint (fingerprint.h), added after the histogram mark; with fidelity limits,
+  // to every strength tried, so that both marks together fit them.
+  std::function<Eigen::MatrixX3d(const Eigen::MatrixX3d&)> fingerprint;
+  if (settings.fingerprint) {
+    if (!coded) {
+      refuse(out, "a fingerprint goes with a coded ID, not a raw payload");
+      return;
+    }
+    if (!original.fingerprint) {
+      refuse(out, fmt::format("{}: {} counted carrier vertices are too few for a fingerprint "
+                              "({} at least); issue it without one",
+                              request.input, original.counted, 16 * 8));
+      return;
+    }
+    const FingerprintBasis& b = *original.fingerprint;
+    fingerprint = [&original, &b,
+                   g = fingerprint_coefficients(id_key(settings.key), *request.id, b.functions)](
+                      const Eigen::MatrixX3d& V) {
+      return add_fingerprint(V, original.mesh.V, b, g, FingerprintOptions().rms,
+                             &original.histogram);
+    };
+  }
   if (settings.limits) {
     CalibrateOptions co = *settings.limits;
     co.strengths = [&](double alpha) {
       return mark_strengths(settings.key, nb, coded, alpha, settings.strength_spread);
     };
+    co.finish = fingerprint;
     out.calibration = calibrate_strength(original.embedder, out.bins, o, co);
     const CalibrateResult& c = *out.calibration;
     o.strength = c.strength > 0 ? c.strength : co.min_strength;
@@ -339,24 +363,13 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   copy.V = std::move(out.result.V);
   out.result.V.resize(0, 3);
   double fingerprint_rms = 0;  // as a fraction of the diagonal
-  if (settings.fingerprint) {
-    if (!coded) {
-      refuse(out, "a fingerprint goes with a coded ID, not a raw payload");
-      return;
-    }
-    if (!original.fingerprint) {
-      refuse(out, fmt::format("{}: {} counted carrier vertices are too few for a fingerprint "
-                              "({} at least); issue it without one",
-                              request.input, original.counted, 16 * 8));
-      return;
-    }
-    const FingerprintBasis& b = *original.fingerprint;
-    const Eigen::MatrixX3d before = copy.V;
-    copy.V =
-        add_fingerprint(copy.V, original.mesh.V, b,
-                        fingerprint_coefficients(id_key(settings.key), *request.id, b.functions),
-                        FingerprintOptions().rms, &original.histogram);
-    fingerprint_rms = std::sqrt((copy.V - before).rowwise().squaredNorm().mean()) / b.diagonal;
+  if (fingerprint) {
+    // The field alone (it moves each vertex by its own amount along the original's ray,
+    // whatever the positions it is added to); a calibrated embedding already carries it.
+    const Eigen::MatrixX3d& VO = original.mesh.V;
+    fingerprint_rms = std::sqrt((fingerprint(VO) - VO).rowwise().squaredNorm().mean()) /
+                      original.fingerprint->diagonal;
+    if (!out.calibration) copy.V = fingerprint(copy.V);
   }
   ExtractOptions eo;
   eo.center = o.variant.center;
@@ -374,8 +387,10 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   }
   out.message = fmt::format(
       "{} rounds, RMS {:.5f} %{}{}, {:.1f} ms", out.result.rounds, out.result.rms_percent,
-      fingerprint_rms > 0 ? fmt::format(" and fingerprint RMS {:.5f} %", 100 * fingerprint_rms)
-                          : "",
+      fingerprint_rms <= 0 ? ""
+      : out.calibration
+          ? fmt::format(" for both marks (the fingerprint's alone {:.5f} %)", 100 * fingerprint_rms)
+          : fmt::format(" and fingerprint RMS {:.5f} %", 100 * fingerprint_rms),
       out.calibration ? fmt::format(", strength {:.5f}, MSDM {:.4f}", out.calibration->strength,
                                     out.calibration->msdm)
                       : "",

@@ -28,7 +28,7 @@ std::string hash_of(const std::string& path) {
 Mesh read_noting(const std::string& path, const ReadOptions& read,
                  std::vector<std::string>& warnings) {
   Mesh mesh = read_mesh(path, read);
-  for (const std::string& note : mesh.notes) warnings.push_back(path + ": " + note);
+  for (const std::string& note : mesh.notes) warnings.push_back(fmt::format("{}: {}", path, note));
   return mesh;
 }
 

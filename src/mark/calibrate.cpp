@@ -9,6 +9,7 @@
 #include <limits>
 #include <optional>
 
+#include "mark/embed_problem.h"
 #include "meshmark/carrier/carrier_check.h"
 #include "meshmark/core/error.h"
 #include "meshmark/metrics/metrics.h"
@@ -219,6 +220,7 @@ CalibrateResult calibrate_strength(const PreparedEmbedder& embedder, const Paylo
   const Eigen::MatrixX3d& V = embedder.V();
   const Eigen::MatrixX3i& F = embedder.F();
   std::optional<MsdmReference> reference;
+  std::vector<std::uint8_t> counted;  // the carrier, for options.finish's displacement
   auto evaluate = [&](double alpha) {
     Trial t;
     t.alpha = alpha;
@@ -233,6 +235,11 @@ CalibrateResult calibrate_strength(const PreparedEmbedder& embedder, const Paylo
     ++result.evaluations;
     t.result = embedder.embed(payload, eo);
     if (t.result.status != EmbedStatus::Embedded) return t;
+    if (o.finish) {  // the positions as they will be written, measured as embed measures
+      if (counted.empty()) counted = carrier_vertices(V, F);
+      t.result.V = o.finish(t.result.V);
+      detail::measure_displacement(V, counted, t.result);
+    }
     t.rms = t.result.rms_percent;
     t.ratio = t.rms / o.max_rms_percent;
     // MSDM only when RMS passes: it is the expensive one.

@@ -28,7 +28,9 @@
 #include "meshmark/forensics/registry.h"
 #include "meshmark/forensics/trace.h"
 #include "meshmark/io/io.h"
+#include "meshmark/mark/calibrate.h"
 #include "meshmark/mark/embed.h"
+#include "meshmark/metrics/metrics.h"
 #include "meshmark/protocol/coding.h"
 #include "meshmark/protocol/watermark.h"
 #include "test_data.h"
@@ -405,6 +407,60 @@ TEST(Fingerprint, KeepingAHistogramLeavesItsBinMeansAndRangeAndReadsBackWhole) {
 // which the histogram mark alone does not survive (issue 30), name colluders and nobody else; a
 // decimated copy, a copy smoothed then decimated, and a copy re-marked with the public key name
 // their buyer alone.
+// With fidelity limits, both marks fit them together: each written copy's vertex RMS (each
+// position once, % of the carrier's diagonal) and MSDM against the original, computed here
+// from the files, are within the limits, and the histogram mark is calibrated weaker than
+// without the fingerprint; the copies trace to their buyers.
+TEST(Fingerprint, BothMarksFitOneFidelityBudget) {
+  const std::string original = test::cgal_mesh("camel.off");
+  MESHMARK_REQUIRE(original, "libcgal-demo's camel.off");
+  const std::string dir = test::scratch_dir() + "/fingerprint-budget";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  IssueSettings settings;
+  settings.key = key_from_passphrase_v1("fingerprint budget key");
+  settings.limits = CalibrateOptions();  // the paper's: RMS 0.04 %, MSDM 0.25
+  const auto issue = [&](bool fingerprint, const std::string& name) {
+    settings.fingerprint = fingerprint;
+    settings.registry = dir + "/" + name + ".db";
+    std::vector<CopyRequest> requests;
+    for (std::uint64_t id = 71; id <= 73; ++id) {
+      CopyRequest r;
+      r.input = original;
+      r.output = dir + "/" + name + "-" + std::to_string(id) + ".ply";
+      r.id = id;
+      r.buyer = "buyer " + std::to_string(id);
+      requests.push_back(r);
+    }
+    const IssueResult result = issue_copies(requests, settings);
+    EXPECT_EQ(result.count(CopyStatus::Written), requests.size()) << result.copies[0].message;
+    return std::make_pair(requests, result);
+  };
+  const auto [with_requests, with] = issue(true, "with");
+  const auto [plain_requests, plain] = issue(false, "plain");
+  const Mesh O = read_mesh(original);
+  const std::vector<std::uint8_t> carrier = carrier_vertices(O.V, O.F);
+  const double diagonal = bounding_box_diagonal(O.V, carrier);
+  for (std::size_t k = 0; k < with_requests.size(); ++k) {
+    const Mesh copy = read_mesh(with_requests[k].output);
+    ASSERT_EQ(copy.V.rows(), O.V.rows());
+    double sum = 0, n = 0;
+    for (Eigen::Index i = 0; i < O.V.rows(); ++i)
+      if (carrier[i] == kCounted) sum += (copy.V.row(i) - O.V.row(i)).squaredNorm(), n += 1;
+    const double rms = 100 * std::sqrt(sum / n) / diagonal;
+    // The file stores floats: 1e-6 of the limit for rounding.
+    EXPECT_LE(rms, kPaperMaxRmsPercent * (1 + 1e-6)) << with_requests[k].output;
+    EXPECT_LE(msdm(O.V, copy.V, O.F).global, kPaperMaxMsdm * (1 + 1e-6));
+    ASSERT_TRUE(with.copies[k].calibration && plain.copies[k].calibration);
+    EXPECT_LE(with.copies[k].calibration->strength, plain.copies[k].calibration->strength);
+    const TraceResult r =
+        trace_issued(copy, O, content_hash(read_file(original)), dir + "/with.db", *settings.key);
+    ASSERT_EQ(r.status, TraceStatus::Named) << r.message;
+    EXPECT_EQ(r.named[0].copy.id, with_requests[k].id.value());
+    EXPECT_GT(r.named[0].fingerprint_z, 5);
+  }
+}
+
 TEST(Fingerprint, IssuedCopiesNameTheirBuyerAfterAveragingResamplingAndRemarking) {
   const std::string original = test::cgal_mesh("bunny00.off");
   MESHMARK_REQUIRE(original, "libcgal-demo's bunny00.off");

@@ -50,6 +50,10 @@ struct CalibrateOptions {
   /// have their own strengths (watermark.h: mark_strengths). Empty: embed_options.strengths
   /// scaled by alpha / embed_options.strength, or none.
   std::function<std::vector<double>(double alpha)> strengths;
+  /// What is added to every embedding before it is measured, given its positions (an issuer's
+  /// second mark: issue.h adds the fingerprint): the limits then hold for the positions
+  /// returned, which CalibrateResult::embedding holds. Empty: nothing.
+  std::function<Eigen::MatrixX3d(const Eigen::MatrixX3d& V)> finish;
 };
 
 /// Outcome of calibrate_strength.
