@@ -120,12 +120,33 @@ int run(const EmbedArgs& a) {
       c.status == CopyStatus::Written ? embed_status_name(r.status) : copy_status_name(c.status);
   const bool ok = c.status == CopyStatus::Written;
   const std::uint64_t id = request.auto_id ? c.record.id : request.id.value_or(0);
+  if (ok && c.fingerprint_alone) {  // no histogram mark in the copy: nothing of it to print
+    if (a.json) {
+      const nlohmann::json j = {{"status", "fingerprint alone"},
+                                {"message", c.message},
+                                {"input", a.input},
+                                {"output", a.output},
+                                {"id", id},
+                                {"strength", 0.0},
+                                {"fingerprint_alone", true},
+                                {"histogram_mark", calibration ? calibration->message : ""}};
+      fmt::print("{}\n", j.dump(2));
+    } else {
+      fmt::print("embedded: {}\n", c.message);
+      fmt::print("  ID               {} ({} bits, coded)\n", id, a.keys.id_bits);
+      fmt::print("  histogram mark   none: {}\n", calibration ? calibration->message : "");
+      fmt::print("  written          {} (the fingerprint alone, which only trace reads)\n",
+                 printable(a.output));
+    }
+    return kOk;
+  }
   if (a.json) {
     nlohmann::json j = {
         {"status", status},
         {"message", ok ? r.message : c.message},
         {"input", a.input},
         {"output", ok ? a.output : ""},
+        {"fingerprint_alone", false},
         {"method", method_name(used.method)},
         {"variant", a.variant},
         {"solver", enum_name(used.backend)},

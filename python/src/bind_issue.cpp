@@ -83,8 +83,9 @@ py::dict to_dict(const CopyRequest& r, const CopyOutcome& c) {
   out["ok"] = c.ok();
   out["message"] = c.message;
   out["warnings"] = c.warnings;
-  out["strength"] = c.embedding.strength;
-  out["bin_offset"] = c.embedding.bin_offset;
+  out["fingerprint_alone"] = c.fingerprint_alone;
+  out["strength"] = c.fingerprint_alone ? 0.0 : c.embedding.strength;
+  out["bin_offset"] = c.fingerprint_alone ? 0.0 : c.embedding.bin_offset;
   out["rms_percent"] = c.result.rms_percent;
   out["min_margin"] = c.result.min_margin;
   out["rounds"] = c.result.rounds;

@@ -24,6 +24,7 @@
 #include "meshmark/core/error.h"
 #include "meshmark/forensics/fingerprint.h"
 #include "meshmark/forensics/spacing.h"
+#include "meshmark/metrics/metrics.h"
 #include "meshmark/protocol/coding.h"
 #include "meshmark/protocol/watermark.h"
 
@@ -292,6 +293,52 @@ std::shared_ptr<const Original> prepare_original(const CopyRequest& request,
       std::move(mesh), std::move(embedder), std::move(basis), std::move(histogram), counted});
 }
 
+// A copy whose histogram mark cannot fit the limits, issued with the fingerprint alone when
+// that fits them (its row records strength 0: trace then reads the fingerprint only), or
+// refused naming both. `why`: the calibration's message.
+void issue_fingerprint_alone(const CopyRequest& request, const Original& original,
+                             const IssueSettings& settings,
+                             const std::function<Eigen::MatrixX3d(const Eigen::MatrixX3d&)>& add,
+                             const CalibrateOptions& limits, const std::string& why,
+                             CopyOutcome& out) {
+  const Mesh& O = original.mesh;
+  Mesh copy = O;
+  copy.V = add(O.V);
+  // The distortion as calibration measures it: each counted position once, % of the
+  // carrier's diagonal; MSDM against the original.
+  const std::vector<std::uint8_t> carrier = carrier_vertices(O.V, O.F);
+  double sum = 0, n = 0;
+  for (Eigen::Index i = 0; i < O.V.rows(); ++i)
+    if (carrier[i] == kCounted) sum += (copy.V.row(i) - O.V.row(i)).squaredNorm(), n += 1;
+  const double rms = n > 0 ? 100 * std::sqrt(sum / n) / bounding_box_diagonal(O.V, carrier) : 0;
+  const double m = rms <= limits.max_rms_percent ? msdm(O.V, copy.V, O.F).global : -1;
+  if (m < 0 || m > limits.max_msdm) {
+    out.status = CopyStatus::NotWithinFidelity;
+    out.message = fmt::format("{}; the fingerprint alone does not fit either (RMS {:.5f} %{})", why,
+                              rms, m >= 0 ? fmt::format(", MSDM {:.4f}", m) : std::string());
+    return;
+  }
+  std::error_code ec;
+  if (!request.mesh && fs::equivalent(request.output, request.input, ec)) {
+    refuse(out, fmt::format("{}: refusing to overwrite the input file", request.output));
+    return;
+  }
+  try {
+    write_mesh(request.output, copy, settings.write);
+  } catch (const IOError& e) {
+    out.status = CopyStatus::WriteFailed, out.message = e.what();
+    return;
+  }
+  out.record.strength = 0, out.record.bin_offset = 0;
+  out.fingerprint_alone = true;
+  out.message = fmt::format("the fingerprint alone, RMS {:.5f} %, MSDM {:.4f}", rms, m);
+  if (request.auto_id) out.message = fmt::format("ID {}, {}", *request.id, out.message);
+  out.warnings.push_back(fmt::format(
+      "{}: no histogram mark fits the fidelity limits ({}): issued with the fingerprint alone, "
+      "which only trace reads, with the original and the registry",
+      request.input, why));
+}
+
 // Embeds and writes one copy (out[k] pending).
 void make_copy(const CopyRequest& request, const Original& original, const IssueSettings& settings,
                const IdCode* code, CopyOutcome& out) {
@@ -340,7 +387,10 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
     out.result = c.embedding;
     out.calibration->embedding.V.resize(0, 3);
     if (c.status == CalibrateStatus::BelowMinimum) {
-      out.status = CopyStatus::NotWithinFidelity, out.message = c.message;
+      if (fingerprint)
+        issue_fingerprint_alone(request, original, settings, fingerprint, co, c.message, out);
+      else
+        out.status = CopyStatus::NotWithinFidelity, out.message = c.message;
       return;
     }
   } else {

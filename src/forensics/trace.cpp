@@ -453,9 +453,10 @@ std::vector<Score> score_group(const std::vector<const IssuedCopy*>& copies,
     int compared = 0;
     CodewordNull null;
   };
-  std::vector<Reading> bands;
+  std::vector<Reading> bands;  // none without a histogram mark (empty evidence)
   std::vector<std::uint8_t> previous;
-  for (const double band : kBands) {
+  for (const double band : evidence.empty() ? std::vector<double>()
+                                            : std::vector<double>(kBands.begin(), kBands.end())) {
     const std::vector<std::uint8_t> read = layout.from_bins(banded_bits(evidence, band));
     if (read == previous) continue;  // the same reading: the same p-values
     previous = read;
@@ -504,7 +505,8 @@ std::vector<Score> score_group(const std::vector<const IssuedCopy*>& copies,
             best.fingerprint_p =
                 std::min(1.0, fingerprint_p_value(best.fingerprint_z, copy.mark_format) *
                                   static_cast<double>(readings.size()));
-            best.p_value = combined_p_value(best.p_value, best.fingerprint_p);
+            best.p_value = bands.empty() ? best.fingerprint_p  // the fingerprint alone
+                                         : combined_p_value(best.p_value, best.fingerprint_p);
           }
         }
       });
@@ -669,10 +671,14 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     }
     t = Clock::now();
     double gamma = 1;
-    const std::vector<double> alpha = mark_strengths(key, bits, true, strength, spread);
-    const Eigen::VectorXd reference_radii = radii(reference, original.V, normals, m, center.point);
-    const std::vector<BitEvidence> evidence =
-        read_bins(original.V, reference_radii, carrier, h, m, alpha, statistic, gamma);
+    // Strength 0: copies issued with the fingerprint alone (issue.h), no histogram mark to read.
+    std::vector<BitEvidence> evidence;
+    if (strength > 0) {
+      const std::vector<double> alpha = mark_strengths(key, bits, true, strength, spread);
+      const Eigen::VectorXd reference_radii =
+          radii(reference, original.V, normals, m, center.point);
+      evidence = read_bins(original.V, reference_radii, carrier, h, m, alpha, statistic, gamma);
+    }
     // The fingerprint of copies issued with one (fingerprint.h), read at the leak's vertices.
     // Like the bins, the reading uses no candidate's coefficients.
     const bool fingerprinted = std::any_of(members.begin(), members.end(), [&](std::size_t k) {
@@ -699,12 +705,14 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
       scored[i].corrected_p = std::min(1.0, scored[i].p_value * static_cast<double>(mine.size()));
     }
     scores.insert(scores.end(), scored.begin(), scored.end());
-    const std::vector<std::uint8_t> read = layout.from_bins(banded_bits(evidence, 0.0));
     r.seconds.scoring += since(t);
     progress.step(1, fmt::format("{} candidates scored", members.size()));
     if (first) {
       r.measured_fraction = m.fraction, r.attenuation = gamma, first = false;
-      for (int j = 0; j < bits; ++j) {
+      const std::vector<std::uint8_t> read = evidence.empty()
+                                                 ? std::vector<std::uint8_t>()
+                                                 : layout.from_bins(banded_bits(evidence, 0.0));
+      for (int j = 0; j < bits && !evidence.empty(); ++j) {
         BitEvidence e = evidence[layout.bin_of[j]];
         if (layout.whitening[j]) std::swap(e.if_one, e.if_zero);
         e.bit = read[j];

@@ -461,6 +461,56 @@ TEST(Fingerprint, BothMarksFitOneFidelityBudget) {
   }
 }
 
+// Limits no histogram mark fits (strengths from 0.2 only, RMS at most 0.015 %) but the
+// fingerprint (0.01 %) does: the copy is issued with the fingerprint alone, says so, records
+// strength 0, stays within the limits (measured from the file here), and traces to its buyer
+// by the fingerprint alone; the unmarked original names nobody. Without the fingerprint the
+// copy is refused.
+TEST(Fingerprint, ACopyWhoseHistogramMarkCannotFitIsIssuedWithTheFingerprintAlone) {
+  const std::string original = test::cgal_mesh("camel.off");
+  MESHMARK_REQUIRE(original, "libcgal-demo's camel.off");
+  const std::string dir = test::scratch_dir() + "/fingerprint-alone";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  IssueSettings settings;
+  settings.key = key_from_passphrase_v1("fingerprint alone key");
+  settings.limits = CalibrateOptions();
+  settings.limits->max_rms_percent = 0.015;
+  settings.limits->min_strength = 0.2;
+  settings.registry = dir + "/shop.db";
+  CopyRequest r;
+  r.input = original, r.output = dir + "/copy.ply", r.id = 81, r.buyer = "buyer 81";
+  settings.fingerprint = false;
+  const IssueResult refused = issue_copies({r}, settings);
+  EXPECT_EQ(refused.copies[0].status, CopyStatus::NotWithinFidelity);
+  EXPECT_FALSE(std::filesystem::exists(r.output));
+  settings.fingerprint = true;
+  const IssueResult issued = issue_copies({r}, settings);
+  ASSERT_EQ(issued.copies[0].status, CopyStatus::Written) << issued.copies[0].message;
+  EXPECT_NE(issued.copies[0].message.find("fingerprint alone"), std::string::npos);
+  ASSERT_FALSE(issued.copies[0].warnings.empty());
+  EXPECT_NE(issued.copies[0].warnings.back().find("fingerprint alone"), std::string::npos);
+  const std::vector<IssuedCopy> rows = read_registry(settings.registry, {});
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0].strength, 0.0);
+  EXPECT_EQ(rows[0].mark_format, kFingerprintMarkFormat);
+  const Mesh O = read_mesh(original), copy = read_mesh(r.output);
+  const std::vector<std::uint8_t> carrier = carrier_vertices(O.V, O.F);
+  double sum = 0, n = 0;
+  for (Eigen::Index i = 0; i < O.V.rows(); ++i)
+    if (carrier[i] == kCounted) sum += (copy.V.row(i) - O.V.row(i)).squaredNorm(), n += 1;
+  EXPECT_LE(100 * std::sqrt(sum / n) / bounding_box_diagonal(O.V, carrier), 0.015 * (1 + 1e-6));
+  const std::string hash = content_hash(read_file(original));
+  const TraceResult found = trace_issued(copy, O, hash, settings.registry, *settings.key);
+  ASSERT_EQ(found.status, TraceStatus::Named) << found.message;
+  EXPECT_EQ(found.named[0].copy.id, 81u);
+  EXPECT_EQ(found.named[0].compared, 0);  // no histogram mark was read
+  EXPECT_GT(found.named[0].fingerprint_z, 6);
+  EXPECT_EQ(found.named[0].p_value, found.named[0].fingerprint_p);
+  const TraceResult nobody = trace_issued(O, O, hash, settings.registry, *settings.key);
+  EXPECT_EQ(nobody.status, TraceStatus::NoBuyer) << nobody.message;
+}
+
 TEST(Fingerprint, IssuedCopiesNameTheirBuyerAfterAveragingResamplingAndRemarking) {
   const std::string original = test::cgal_mesh("bunny00.off");
   MESHMARK_REQUIRE(original, "libcgal-demo's bunny00.off");

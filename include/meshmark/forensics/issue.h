@@ -134,6 +134,10 @@ struct CopyOutcome {
   std::optional<CalibrateResult> calibration;  ///< the fidelity search, with limits
   IssuedCopy record;                           ///< the registry record (coded IDs with a registry)
   std::int64_t vertices = 0;                   ///< the original's vertex count
+  /// Written with the fingerprint alone: no histogram mark fits the fidelity limits (word,
+  /// bins, embedding and result are then the search's weakest attempt, not in the copy; the
+  /// record's strength is 0).
+  bool fingerprint_alone = false;
   bool ok() const { return status == CopyStatus::Written || status == CopyStatus::Skipped; }
 };
 
