@@ -401,12 +401,24 @@ TEST(Fingerprint, KeepingAHistogramLeavesItsBinMeansAndRangeAndReadsBackWhole) {
   EXPECT_NEAR(fingerprint_score(g, b2) / g.norm(), 1.0, 0.02);
 }
 
-// Issued and traced through the library as the CLI does: 20 consecutive IDs of bunny00 with
-// the fingerprint (a real scan, 37,706 vertices). An unprocessed copy names its buyer with the
-// fingerprint at the strength its reading allows; vertex-wise averages of three and five copies,
-// which the histogram mark alone does not survive (issue 30), name colluders and nobody else; a
-// decimated copy, a copy smoothed then decimated, and a copy re-marked with the public key name
-// their buyer alone.
+// A fresh folder for a test's files.
+std::string fresh_dir(const std::string& name) {
+  const std::string dir = test::scratch_dir() + "/" + name;
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+// A copy's vertex RMS against the original as calibration measures it: each counted carrier
+// position once, % of the carrier's bounding-box diagonal.
+double counted_rms_percent(const Mesh& original, const Mesh& copy) {
+  const std::vector<std::uint8_t> carrier = carrier_vertices(original.V, original.F);
+  double sum = 0, n = 0;
+  for (Eigen::Index i = 0; i < original.V.rows(); ++i)
+    if (carrier[i] == kCounted) sum += (copy.V.row(i) - original.V.row(i)).squaredNorm(), n += 1;
+  return 100 * std::sqrt(sum / n) / bounding_box_diagonal(original.V, carrier);
+}
+
 // With fidelity limits, both marks fit them together: each written copy's vertex RMS (each
 // position once, % of the carrier's diagonal) and MSDM against the original, computed here
 // from the files, are within the limits, and the histogram mark is calibrated weaker than
@@ -414,9 +426,7 @@ TEST(Fingerprint, KeepingAHistogramLeavesItsBinMeansAndRangeAndReadsBackWhole) {
 TEST(Fingerprint, BothMarksFitOneFidelityBudget) {
   const std::string original = test::cgal_mesh("camel.off");
   MESHMARK_REQUIRE(original, "libcgal-demo's camel.off");
-  const std::string dir = test::scratch_dir() + "/fingerprint-budget";
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const std::string dir = fresh_dir("fingerprint-budget");
   IssueSettings settings;
   settings.key = key_from_passphrase_v1("fingerprint budget key");
   settings.limits = CalibrateOptions();  // the paper's: RMS 0.04 %, MSDM 0.25
@@ -439,15 +449,10 @@ TEST(Fingerprint, BothMarksFitOneFidelityBudget) {
   const auto [with_requests, with] = issue(true, "with");
   const auto [plain_requests, plain] = issue(false, "plain");
   const Mesh O = read_mesh(original);
-  const std::vector<std::uint8_t> carrier = carrier_vertices(O.V, O.F);
-  const double diagonal = bounding_box_diagonal(O.V, carrier);
   for (std::size_t k = 0; k < with_requests.size(); ++k) {
     const Mesh copy = read_mesh(with_requests[k].output);
     ASSERT_EQ(copy.V.rows(), O.V.rows());
-    double sum = 0, n = 0;
-    for (Eigen::Index i = 0; i < O.V.rows(); ++i)
-      if (carrier[i] == kCounted) sum += (copy.V.row(i) - O.V.row(i)).squaredNorm(), n += 1;
-    const double rms = 100 * std::sqrt(sum / n) / diagonal;
+    const double rms = counted_rms_percent(O, copy);
     // The file stores floats: 1e-6 of the limit for rounding.
     EXPECT_LE(rms, kPaperMaxRmsPercent * (1 + 1e-6)) << with_requests[k].output;
     EXPECT_LE(msdm(O.V, copy.V, O.F).global, kPaperMaxMsdm * (1 + 1e-6));
@@ -469,9 +474,7 @@ TEST(Fingerprint, BothMarksFitOneFidelityBudget) {
 TEST(Fingerprint, ACopyWhoseHistogramMarkCannotFitIsIssuedWithTheFingerprintAlone) {
   const std::string original = test::cgal_mesh("camel.off");
   MESHMARK_REQUIRE(original, "libcgal-demo's camel.off");
-  const std::string dir = test::scratch_dir() + "/fingerprint-alone";
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const std::string dir = fresh_dir("fingerprint-alone");
   IssueSettings settings;
   settings.key = key_from_passphrase_v1("fingerprint alone key");
   settings.limits = CalibrateOptions();
@@ -495,11 +498,7 @@ TEST(Fingerprint, ACopyWhoseHistogramMarkCannotFitIsIssuedWithTheFingerprintAlon
   EXPECT_EQ(rows[0].strength, 0.0);
   EXPECT_EQ(rows[0].mark_format, kFingerprintMarkFormat);
   const Mesh O = read_mesh(original), copy = read_mesh(r.output);
-  const std::vector<std::uint8_t> carrier = carrier_vertices(O.V, O.F);
-  double sum = 0, n = 0;
-  for (Eigen::Index i = 0; i < O.V.rows(); ++i)
-    if (carrier[i] == kCounted) sum += (copy.V.row(i) - O.V.row(i)).squaredNorm(), n += 1;
-  EXPECT_LE(100 * std::sqrt(sum / n) / bounding_box_diagonal(O.V, carrier), 0.015 * (1 + 1e-6));
+  EXPECT_LE(counted_rms_percent(O, copy), 0.015 * (1 + 1e-6));
   const std::string hash = content_hash(read_file(original));
   const TraceResult found = trace_issued(copy, O, hash, settings.registry, *settings.key);
   ASSERT_EQ(found.status, TraceStatus::Named) << found.message;
@@ -511,12 +510,16 @@ TEST(Fingerprint, ACopyWhoseHistogramMarkCannotFitIsIssuedWithTheFingerprintAlon
   EXPECT_EQ(nobody.status, TraceStatus::NoBuyer) << nobody.message;
 }
 
+// Issued and traced through the library as the CLI does: 20 consecutive IDs of bunny00 with
+// the fingerprint (a real scan, 37,706 vertices). An unprocessed copy names its buyer with the
+// fingerprint at the strength its reading allows; vertex-wise averages of three and five copies,
+// which the histogram mark alone does not survive (issue 30), name colluders and nobody else; a
+// decimated copy, a copy smoothed then decimated, and a copy re-marked with the public key name
+// their buyer alone.
 TEST(Fingerprint, IssuedCopiesNameTheirBuyerAfterAveragingResamplingAndRemarking) {
   const std::string original = test::cgal_mesh("bunny00.off");
   MESHMARK_REQUIRE(original, "libcgal-demo's bunny00.off");
-  const std::string dir = test::scratch_dir() + "/fingerprint-issue";
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const std::string dir = fresh_dir("fingerprint-issue");
   IssueSettings settings;
   settings.key = key_from_passphrase_v1("fingerprint shop key");
   settings.registry = dir + "/shop.db";
