@@ -560,12 +560,11 @@ void name_buyers(TraceResult& r, const Key& key, double threshold) {
   r.message =
       r.named.empty()
           ? fmt::format("no buyer: the best of {} candidates has p = {:.3g} after correction",
-                        r.ranking.size(), r.ranking.front().corrected_p)
+                        r.candidates, r.ranking.front().corrected_p)
           : fmt::format(
                 "{} named: '{}' (ID {}), p = {:.3g} after correction for {} candidates",
                 r.named.size() == 1 ? "one buyer" : fmt::format("{} buyers", r.named.size()),
-                r.named[0].copy.buyer, r.named[0].copy.id, r.named[0].corrected_p,
-                r.ranking.size());
+                r.named[0].copy.buyer, r.named[0].copy.id, r.named[0].corrected_p, r.candidates);
 }
 
 }  // namespace

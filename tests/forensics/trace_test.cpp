@@ -332,6 +332,10 @@ TEST(Trace, ABoundedRankingIsTheHeadOfTheFullOne) {
   const TraceResult head = trace(s.marked, s.original, issued, s.key, few);
   ASSERT_EQ(head.status, TraceStatus::Named);
   EXPECT_EQ(head.named.size(), all.named.size());
+  // The message counts every candidate, not the ranking's few.
+  EXPECT_NE(head.message.find("for " + std::to_string(issued.size()) + " candidates"),
+            std::string::npos)
+      << head.message;
   EXPECT_EQ(head.log_scores.size(), issued.size());
   EXPECT_EQ(all.log_scores.size(), issued.size());
   // The three best, then the copy of the leak's bytes (kept for its file), as in the full one.
