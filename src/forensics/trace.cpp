@@ -455,8 +455,8 @@ std::vector<Score> score_group(const std::vector<const IssuedCopy*>& copies,
   };
   std::vector<Reading> bands;  // none without a histogram mark (empty evidence)
   std::vector<std::uint8_t> previous;
-  for (const double band : evidence.empty() ? std::vector<double>()
-                                            : std::vector<double>(kBands.begin(), kBands.end())) {
+  for (const double band : kBands) {
+    if (evidence.empty()) break;
     const std::vector<std::uint8_t> read = layout.from_bins(banded_bits(evidence, band));
     if (read == previous) continue;  // the same reading: the same p-values
     previous = read;
@@ -482,7 +482,7 @@ std::vector<Score> score_group(const std::vector<const IssuedCopy*>& copies,
           const IssuedCopy& copy = *copies[c];
           Score& best = scores[c];
           best.copy = &copy;
-          if ((c - begin) % kBatch == 0) {
+          if (!bands.empty() && (c - begin) % kBatch == 0) {  // no codeword without bins
             ids.clear();
             for (std::int64_t i = c; i < std::min(end, c + kBatch); ++i)
               ids.push_back(copies[i]->id);

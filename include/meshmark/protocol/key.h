@@ -121,7 +121,8 @@ std::vector<std::uint8_t> keyed_hash_bits(const Key& key, std::string_view domai
 
 /// keyed_hash_bits for one key, domain and length, prepared once for many messages: the hash
 /// state after the key and the domain is kept and copied for each message, so a message costs
-/// one BLAKE2b compression and no allocation (trace scores a million candidates with it). Its
+/// no key setup and no allocation (trace scores a million candidates with it; libsodium still
+/// compresses the key block with each short message: 0.42 µs a digest). Its
 /// digests are keyed_hash_bits' bytes: bit i of keyed_hash_bits is bit 7 - i % 8 of byte i / 8.
 class KeyedHash {
  public:
