@@ -219,6 +219,8 @@ std::unique_ptr<RegistryBackend> open_postgres_registry(const std::string& uri) 
 }  // namespace detail
 
 Registry::Registry(const std::string& location, bool read_only) : impl_(std::make_unique<Impl>()) {
+  if (read_only && !is_postgres(location) && !std::filesystem::exists(location))
+    throw IOError(fmt::format("{}: no such registry", location));
   impl_->location = registry_display_name(location);  // for messages: no password
   impl_->store = is_postgres(location) ? detail::open_postgres_registry(location)
                                        : detail::open_sqlite_registry(location, read_only);
@@ -363,19 +365,37 @@ std::vector<IssuedCopy> Registry::list(const RegistryQuery& query) const {
   return impl_->store->list(query);
 }
 
+std::vector<CandidateRow> Registry::candidates(const RegistryQuery& query,
+                                               const std::string& output_hash) const {
+  return impl_->store->candidates(query, output_hash);
+}
+
+std::vector<IssuedCopy> Registry::rows(const std::vector<std::int64_t>& rows) const {
+  std::vector<IssuedCopy> found = impl_->store->rows(rows);
+  for (std::size_t i = 0; i < rows.size(); ++i)
+    if (i >= found.size() || found[i].row != rows[i])
+      throw IOError(
+          fmt::format("{}: row {} is no longer in the registry (deleted while it was read)",
+                      impl_->location, rows[i]));
+  return found;
+}
+
+bool same_scoring(const CandidateRow& candidate, const IssuedCopy& row) {
+  return candidate.row == row.row && candidate.id == row.id && candidate.id_bits == row.id_bits &&
+         candidate.bits == row.bits && candidate.variant == row.variant &&
+         candidate.strength == row.strength && candidate.strength_spread == row.strength_spread &&
+         candidate.method == row.method && candidate.mark_format == row.mark_format;
+}
+
 std::uint64_t Registry::last_spaced_index(const IssuedCopy& c) const {
   return impl_->store->last_spaced_index(c);
 }
 
 std::vector<IssuedCopy> read_registry(const std::string& where, const RegistryQuery& query) {
-  if (where.find("://") == std::string::npos && !std::filesystem::exists(where))
-    throw IOError(fmt::format("{}: no such registry", where));
   return Registry(where, true).list(query);
 }
 
 RegistryCheck verify_registry(const std::string& where, const Key& key) {
-  if (where.find("://") == std::string::npos && !std::filesystem::exists(where))
-    throw IOError(fmt::format("{}: no such registry", where));
   const Registry registry(where, true);
   RegistryCheck check;
   check.integrity = registry.integrity_check();

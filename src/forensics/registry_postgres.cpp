@@ -4,6 +4,7 @@
 // across machines; the schema version in a table of its own.
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <libpq-fe.h>
 
 #include <cstdlib>
@@ -182,31 +183,53 @@ class PostgresRegistry final : public RegistryBackend {
   }
 
   std::vector<IssuedCopy> list(const RegistryQuery& query) override {
-    std::string where = "TRUE";
     std::vector<std::string> p;
-    auto add = [&](const char* column, const std::string& value) {
-      p.push_back(value);
-      where += fmt::format(" AND {} = ${}", column, p.size());
-    };
-    if (query.original_hash && query.original_geometry) {
-      p.push_back(*query.original_hash), p.push_back(*query.original_geometry);
-      where += fmt::format(" AND (original_hash = ${} OR original_geometry = ${})", p.size() - 1,
-                           p.size());
-    } else if (query.original_hash) {
-      add("original_hash", *query.original_hash);
-    } else if (query.original_geometry) {
-      add("original_geometry", *query.original_geometry);
-    }
-    if (query.buyer) add("buyer", *query.buyer);
-    if (query.key_fingerprint) add("key_fingerprint", *query.key_fingerprint);
-    if (query.id) add("id", std::to_string(*query.id));
-    if (query.bits) add("bits", std::to_string(*query.bits));
-    if (query.id_bits) add("id_bits", std::to_string(*query.id_bits));
-    if (query.state) add("state", *query.state);
-    if (query.spaced) where += *query.spaced ? " AND spaced_index > 0" : " AND spaced_index = 0";
+    const std::string where = where_of(query, p);
     const Result r = run(
         fmt::format("SELECT row, {} FROM copies WHERE {} ORDER BY row", kRegistryColumns, where),
         p);
+    std::vector<IssuedCopy> out;
+    out.reserve(static_cast<std::size_t>(r.rows()));
+    for (int i = 0; i < r.rows(); ++i) out.push_back(r.copy(i));
+    return out;
+  }
+
+  std::vector<CandidateRow> candidates(const RegistryQuery& query,
+                                       const std::string& output_hash) override {
+    std::vector<std::string> p;
+    const std::string where = where_of(query, p);
+    p.push_back(output_hash);
+    const Result r = run(fmt::format("SELECT row, id, id_bits, bits, variant, strength, "
+                                     "strength_spread, method, mark_format, output_hash = ${} "
+                                     "FROM copies WHERE {} ORDER BY row",
+                                     p.size(), where),
+                         p);
+    std::vector<CandidateRow> out;
+    out.reserve(static_cast<std::size_t>(r.rows()));
+    for (int i = 0; i < r.rows(); ++i) {
+      CandidateRow c;
+      c.row = std::strtoll(PQgetvalue(r.get(), i, 0), nullptr, 10);
+      c.id = std::strtoull(PQgetvalue(r.get(), i, 1), nullptr, 10);
+      c.id_bits = std::atoi(PQgetvalue(r.get(), i, 2));
+      c.bits = std::atoi(PQgetvalue(r.get(), i, 3));
+      c.variant = r.text(i, 4);
+      c.strength = std::strtod(PQgetvalue(r.get(), i, 5), nullptr);
+      c.strength_spread = std::strtod(PQgetvalue(r.get(), i, 6), nullptr);
+      c.method = r.text(i, 7);
+      c.mark_format = std::atoi(PQgetvalue(r.get(), i, 8));
+      c.same_bytes = r.text(i, 9) == "t";
+      out.push_back(std::move(c));
+    }
+    return out;
+  }
+
+  std::vector<IssuedCopy> rows(const std::vector<std::int64_t>& rows) override {
+    // One query for them all; WITH ORDINALITY keeps the order asked for.
+    const Result r =
+        run(fmt::format("SELECT c.row, {} FROM unnest($1::bigint[]) WITH ORDINALITY AS w(row, k) "
+                        "JOIN copies c ON c.row = w.row ORDER BY w.k",
+                        kRegistryColumns),
+            {fmt::format("{{{}}}", fmt::join(rows, ","))});
     std::vector<IssuedCopy> out;
     out.reserve(static_cast<std::size_t>(r.rows()));
     for (int i = 0; i < r.rows(); ++i) out.push_back(r.copy(i));
@@ -243,6 +266,32 @@ class PostgresRegistry final : public RegistryBackend {
   bool has_copies_table() {
     const Result r = run("SELECT to_regclass('copies') IS NOT NULL");
     return r.text(0, 0) == "t";
+  }
+
+  // The WHERE condition of query, its parameters appended to p ($1 on).
+  static std::string where_of(const RegistryQuery& query, std::vector<std::string>& p) {
+    std::string where = "TRUE";
+    auto add = [&](const char* column, const std::string& value) {
+      p.push_back(value);
+      where += fmt::format(" AND {} = ${}", column, p.size());
+    };
+    if (query.original_hash && query.original_geometry) {
+      p.push_back(*query.original_hash), p.push_back(*query.original_geometry);
+      where += fmt::format(" AND (original_hash = ${} OR original_geometry = ${})", p.size() - 1,
+                           p.size());
+    } else if (query.original_hash) {
+      add("original_hash", *query.original_hash);
+    } else if (query.original_geometry) {
+      add("original_geometry", *query.original_geometry);
+    }
+    if (query.buyer) add("buyer", *query.buyer);
+    if (query.key_fingerprint) add("key_fingerprint", *query.key_fingerprint);
+    if (query.id) add("id", std::to_string(*query.id));
+    if (query.bits) add("bits", std::to_string(*query.bits));
+    if (query.id_bits) add("id_bits", std::to_string(*query.id_bits));
+    if (query.state) add("state", *query.state);
+    if (query.spaced) where += *query.spaced ? " AND spaced_index > 0" : " AND spaced_index = 0";
+    return where;
   }
 
   Result run(const std::string& sql, const std::vector<std::string>& params = {}) {

@@ -429,14 +429,14 @@ std::optional<FingerprintBasis> fingerprint_reading(
 // of candidates. Codewords are packed (matches are popcounts) and the candidates are cut into
 // chunks on the thread budget: each score depends on its candidate alone.
 struct Score {  // a candidate's evidence before the ranking (CandidateScore without the row)
-  const IssuedCopy* copy = nullptr;
+  const CandidateRow* copy = nullptr;
   std::size_t order = 0;  // its place among the candidates, for ties
   int matches = 0, compared = 0;
   double p_value = 1, corrected_p = 1;
   double fingerprint_z = std::numeric_limits<double>::quiet_NaN(), fingerprint_p = 1;
 };
 
-std::vector<Score> score_group(const std::vector<const IssuedCopy*>& copies,
+std::vector<Score> score_group(const std::vector<const CandidateRow*>& copies,
                                const std::vector<BitEvidence>& evidence, const BitLayout& layout,
                                int id_bits, const Key& key, const FingerprintBasis* basis,
                                const std::vector<Eigen::VectorXd>& readings) {
@@ -479,7 +479,7 @@ std::vector<Score> score_group(const std::vector<const IssuedCopy*>& copies,
         constexpr std::int64_t kBatch = 256;  // codewords encoded together (CodewordEncoder)
         std::vector<std::uint64_t> ids, codewords(static_cast<std::size_t>(kBatch * words));
         for (std::int64_t c = begin; c < end; ++c) {
-          const IssuedCopy& copy = *copies[c];
+          const CandidateRow& copy = *copies[c];
           Score& best = scores[c];
           best.copy = &copy;
           if (!bands.empty() && (c - begin) % kBatch == 0) {  // no codeword without bins
@@ -592,9 +592,16 @@ Resampled resample_at_original(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3
   return measure(VL, FL, VO, carrier, center, erase_distance);
 }
 
-TraceResult trace(const Mesh& leaked, const Mesh& original,
-                  const std::vector<IssuedCopy>& candidates, const Key& key,
-                  const TraceOptions& o) {
+namespace {
+
+// The whole rows of the candidates at these positions, in that order.
+using FetchRows = std::function<std::vector<IssuedCopy>(const std::vector<std::size_t>&)>;
+
+// trace() on candidates all issued under key, given by their scoring fields; whole rows are
+// fetched for the ranking alone.
+TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
+                             const std::vector<CandidateRow>& mine, const FetchRows& fetch,
+                             const Key& key, const TraceOptions& o) {
   if (!(o.threshold > 0 && o.threshold < 1))
     throw InvalidArgumentError(fmt::format("the threshold {} is out of (0, 1)", o.threshold));
   if (!(o.erase_distance > 0)) throw InvalidArgumentError("the erase distance must be positive");
@@ -602,10 +609,6 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     throw InvalidArgumentError(
         fmt::format("the fingerprint ridge {} is outside [0, 1e6)", o.fingerprint_ridge));
   TraceResult r;
-  const std::string fingerprint = key_fingerprint(key);
-  std::vector<const IssuedCopy*> mine;  // the candidates under this key, in their order
-  for (const IssuedCopy& c : candidates)
-    if (c.key_fingerprint == fingerprint) mine.push_back(&c);
   r.candidates = mine.size();
   if (mine.empty()) {
     r.status = TraceStatus::NoCandidates;
@@ -620,7 +623,7 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
   using GroupKey = std::tuple<char, int, int, double, double, std::string>;
   std::map<GroupKey, std::vector<std::size_t>> groups;
   for (std::size_t k = 0; k < mine.size(); ++k) {
-    const IssuedCopy& c = *mine[k];
+    const CandidateRow& c = mine[k];
     groups[{c.variant.empty() ? 'D' : c.variant[0], c.bits, c.id_bits, c.strength,
             c.strength_spread, c.method}]
         .push_back(k);
@@ -681,7 +684,7 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     // The fingerprint of copies issued with one (fingerprint.h), read at the leak's vertices.
     // Like the bins, the reading uses no candidate's coefficients.
     const bool fingerprinted = std::any_of(members.begin(), members.end(), [&](std::size_t k) {
-      return has_fingerprint(mine[k]->mark_format);
+      return has_fingerprint(mine[k].mark_format);
     });
     std::optional<FingerprintBasis> basis;
     std::vector<Eigen::VectorXd> readings;
@@ -694,9 +697,9 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
         r.fingerprint_processing = fingerprint_processing;
     }
     const BitLayout layout = mark_layout(key, bits, true);
-    std::vector<const IssuedCopy*> group_copies;
+    std::vector<const CandidateRow*> group_copies;
     group_copies.reserve(members.size());
-    for (const std::size_t k : members) group_copies.push_back(mine[k]);
+    for (const std::size_t k : members) group_copies.push_back(&mine[k]);
     std::vector<Score> scored = score_group(group_copies, evidence, layout, id_bits, key,
                                             basis ? &*basis : nullptr, readings);
     for (std::size_t i = 0; i < scored.size(); ++i) {
@@ -732,15 +735,17 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
     kept = scores.begin() + static_cast<std::ptrdiff_t>(o.ranking);
     std::nth_element(scores.begin(), kept, scores.end(), better);
     kept = std::partition(kept, scores.end(), [&](const Score& x) {
-      return x.corrected_p < o.threshold ||
-             (!o.leaked_hash.empty() && x.copy->output_hash == o.leaked_hash);
+      return x.corrected_p < o.threshold || x.copy->same_bytes;
     });
   }
   std::sort(scores.begin(), kept, better);
-  r.ranking.reserve(static_cast<std::size_t>(kept - scores.begin()));
+  std::vector<std::size_t> ranked;
+  for (auto x = scores.begin(); x != kept; ++x) ranked.push_back(x->order);
+  std::vector<IssuedCopy> rows = fetch(ranked);
+  r.ranking.reserve(ranked.size());
   for (auto x = scores.begin(); x != kept; ++x) {
     CandidateScore c;
-    c.copy = *x->copy;
+    c.copy = std::move(rows[static_cast<std::size_t>(x - scores.begin())]);
     c.matches = x->matches, c.compared = x->compared;
     c.p_value = x->p_value, c.corrected_p = x->corrected_p;
     c.fingerprint_z = x->fingerprint_z, c.fingerprint_p = x->fingerprint_p;
@@ -748,6 +753,32 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
   }
   name_buyers(r, key, o.threshold);
   return r;
+}
+
+}  // namespace
+
+TraceResult trace(const Mesh& leaked, const Mesh& original,
+                  const std::vector<IssuedCopy>& candidates, const Key& key,
+                  const TraceOptions& o) {
+  const std::string fingerprint = key_fingerprint(key);
+  std::vector<const IssuedCopy*> mine;  // the candidates under this key, in their order
+  std::vector<CandidateRow> rows;
+  for (const IssuedCopy& c : candidates) {
+    if (c.key_fingerprint != fingerprint) continue;
+    mine.push_back(&c);
+    rows.push_back({c.row, c.id, c.id_bits, c.bits, c.variant, c.strength, c.strength_spread,
+                    c.method, c.mark_format,
+                    !o.leaked_hash.empty() && c.output_hash == o.leaked_hash});
+  }
+  return trace_candidates(
+      leaked, original, rows,
+      [&](const std::vector<std::size_t>& at) {
+        std::vector<IssuedCopy> out;
+        out.reserve(at.size());
+        for (const std::size_t k : at) out.push_back(*mine[k]);
+        return out;
+      },
+      key, o);
 }
 
 void compare_with_issued_files(TraceResult& r, const std::string& leaked_hash) {
@@ -776,16 +807,36 @@ void compare_with_issued_files(TraceResult& r, const std::string& leaked_hash) {
 
 TraceResult trace_issued(const Mesh& leaked, const Mesh& original, const std::string& original_hash,
                          const std::string& registry, const Key& key, const TraceOptions& options) {
+  const Registry store(registry, true);
   RegistryQuery q;  // the copies of this file, and of its geometry in any other file
   q.original_hash = original_hash;
   q.original_geometry = geometry_hash(original.V, original.F);
   q.key_fingerprint = key_fingerprint(key);
-  const std::vector<IssuedCopy> candidates = read_registry(registry, q);
-  TraceResult r = trace(leaked, original, candidates, key, options);
+  // The scoring fields of every candidate, whole rows for the ranking alone: a row read twice
+  // must not have changed in between (a reserved copy completed meanwhile is traced again).
+  const auto start = std::chrono::steady_clock::now();
+  const std::vector<CandidateRow> candidates = store.candidates(q, options.leaked_hash);
+  const std::chrono::duration<double> reading = std::chrono::steady_clock::now() - start;
+  TraceResult r = trace_candidates(
+      leaked, original, candidates,
+      [&](const std::vector<std::size_t>& at) {
+        std::vector<std::int64_t> numbers;
+        numbers.reserve(at.size());
+        for (const std::size_t k : at) numbers.push_back(candidates[k].row);
+        std::vector<IssuedCopy> rows = store.rows(numbers);
+        for (std::size_t i = 0; i < at.size(); ++i)
+          if (!same_scoring(candidates[at[i]], rows[i]))
+            throw IOError(fmt::format(
+                "{}: row {} changed while it was read (a copy completed meanwhile?): trace again",
+                registry_display_name(registry), rows[i].row));
+        return rows;
+      },
+      key, options);
+  r.seconds.registry = reading.count();
   if (r.status == TraceStatus::NoCandidates) {
     RegistryQuery by_key;
     by_key.key_fingerprint = q.key_fingerprint;
-    if (const std::size_t others = read_registry(registry, by_key).size(); others > 0)
+    if (const std::size_t others = store.candidates(by_key).size(); others > 0)
       r.message = fmt::format(
           "no copy of this original was issued under this key ({} copies of other originals "
           "were: is the original the file the copies were made from?)",

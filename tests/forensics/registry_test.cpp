@@ -10,6 +10,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <csignal>
 #include <filesystem>
@@ -231,6 +232,17 @@ TEST(Registry, ASchemaOneStoreIsMigratedAndItsCopiesReadAsQp) {
       "PRAGMA user_version = 1;";
   ASSERT_EQ(sqlite3_exec(db, v1, nullptr, nullptr, nullptr), SQLITE_OK);
   sqlite3_close(db);
+  {  // read as it is, without migrating: trace's columns as list() reads them
+    const Registry old(path, true);
+    EXPECT_EQ(old.schema_version(), 1);
+    const std::vector<CandidateRow> c = old.candidates({}, "ch");
+    ASSERT_EQ(c.size(), 1u);
+    EXPECT_EQ(c[0].id, 7u);
+    EXPECT_EQ(c[0].method, "qp");
+    EXPECT_EQ(c[0].strength, 0.03);
+    EXPECT_TRUE(c[0].same_bytes);
+    EXPECT_EQ(old.rows({1})[0].buyer, "Ann");
+  }
   Registry r(path);
   EXPECT_EQ(r.schema_version(), kRegistrySchemaVersion);  // through every migration
   std::vector<IssuedCopy> all = r.list();
@@ -725,6 +737,111 @@ TEST(RegistryPostgres, TraceGivesTheSameResultWithEitherRegistry) {
     reports.push_back(r.out);
   }
   EXPECT_EQ(reports[0], reports[1]);
+}
+
+// What trace reads of a registry (Registry::candidates, Registry::rows) against what list()
+// reads of it, in SQLite and in PostgreSQL: the scoring fields of the same rows in the same
+// order, the row whose file hash was given and no other, whole rows in the order asked for,
+// and a row that is not there refused by name.
+void check_candidates_against_list(const std::string& where) {
+  Registry r(where);
+  std::vector<IssuedCopy> batch;
+  for (std::uint64_t id = 51; id >= 40; --id) {  // rows and IDs in opposite orders
+    IssuedCopy c = copy_of(id, "buyer " + std::to_string(id));
+    c.output_hash = std::string(63, 'b') + static_cast<char>('a' + id % 16);
+    c.variant = id % 3 == 0 ? "DRS" : "VSS";
+    c.method = id % 4 == 0 ? "cho-mean" : "qp";
+    c.strength = id % 5 == 0 ? 0.0 : 0.01 + 1e-3 * static_cast<double>(id);  // 0: fingerprint alone
+    c.strength_spread = 0.1 + 0.2;                                           // not short in decimal
+    c.mark_format = id % 2 == 0 ? 4 : 3;
+    c.bits = id == 47 ? 96 : 64;
+    c.id_bits = id == 47 ? 40 : 32;
+    batch.push_back(c);
+  }
+  IssuedCopy other = copy_of(60, "another original's");
+  other.original_hash = std::string(64, 'e');
+  other.original_geometry = std::string(64, 'e');
+  batch.push_back(other);
+  r.record(batch);
+  RegistryQuery q;
+  q.original_hash = std::string(64, 'a');
+  q.original_geometry = std::string(64, 'd');
+  q.key_fingerprint = std::string(32, 'f');
+  // First this original's copies are most of the registry (SQLite reads it in one pass), then
+  // a few among many others (through the indexes).
+  for (const bool crowded : {false, true}) {
+    if (crowded) {
+      std::vector<IssuedCopy> others;
+      for (std::uint64_t id = 100; id < 160; ++id) {
+        IssuedCopy o = copy_of(id, "another original's");
+        o.original_hash = o.original_geometry = std::string(64, '0' + id % 7);
+        others.push_back(o);
+      }
+      r.record(others);
+    }
+    SCOPED_TRACE(crowded ? "among many others" : "most of the registry");
+    const std::vector<IssuedCopy> listed = r.list(q);
+    const std::string wanted = batch[5].output_hash;  // ID 46's file
+    const std::vector<CandidateRow> candidates = r.candidates(q, wanted);
+    ASSERT_EQ(candidates.size(), 12u);
+    ASSERT_EQ(listed.size(), candidates.size());
+    for (std::size_t i = 0; i < listed.size(); ++i) {
+      const CandidateRow& c = candidates[i];
+      const IssuedCopy& l = listed[i];
+      EXPECT_EQ(c.row, l.row);
+      EXPECT_EQ(c.id, l.id);
+      EXPECT_EQ(c.id_bits, l.id_bits);
+      EXPECT_EQ(c.bits, l.bits);
+      EXPECT_EQ(c.variant, l.variant);
+      EXPECT_EQ(c.strength, l.strength);  // bit for bit
+      EXPECT_EQ(c.strength_spread, l.strength_spread);
+      EXPECT_EQ(c.method, l.method);
+      EXPECT_EQ(c.mark_format, l.mark_format);
+      EXPECT_EQ(c.same_bytes, l.output_hash == wanted) << "row " << l.row;
+      EXPECT_TRUE(same_scoring(c, l));
+    }
+    EXPECT_EQ(std::count_if(candidates.begin(), candidates.end(),
+                            [](const CandidateRow& c) { return c.same_bytes; }),
+              1);
+    for (const CandidateRow& c : r.candidates(q)) EXPECT_FALSE(c.same_bytes);  // no hash given
+  }
+  const std::vector<IssuedCopy> listed = r.list(q);
+  const std::vector<CandidateRow> candidates = r.candidates(q);
+  const std::vector<std::int64_t> asked = {listed[7].row, listed[0].row, listed[11].row};
+  const std::vector<IssuedCopy> rows = r.rows(asked);
+  ASSERT_EQ(rows.size(), 3u);
+  for (std::size_t i = 0; i < asked.size(); ++i) {
+    EXPECT_EQ(rows[i].row, asked[i]);
+    const IssuedCopy& l = *std::find_if(listed.begin(), listed.end(),
+                                        [&](const IssuedCopy& x) { return x.row == asked[i]; });
+    EXPECT_EQ(rows[i].buyer, l.buyer);
+    EXPECT_EQ(rows[i].output_hash, l.output_hash);
+    EXPECT_EQ(rows[i].mac, l.mac);
+  }
+  try {
+    r.rows({listed[0].row, 999999});
+    ADD_FAILURE() << "a row that is not there was read";
+  } catch (const IOError& e) {
+    EXPECT_NE(std::string(e.what()).find("row 999999 is no longer in the registry"),
+              std::string::npos)
+        << e.what();
+  }
+  IssuedCopy changed = listed[3];
+  CandidateRow read = candidates[3];
+  EXPECT_TRUE(same_scoring(read, changed));
+  changed.strength *= 1 + 1e-15;  // completed since it was listed
+  EXPECT_FALSE(same_scoring(read, changed));
+}
+
+TEST(Registry, TraceReadsTheScoringFieldsOfTheRowsListAndWholeRowsByNumber) {
+  const std::string db = test::scratch_dir() + "/r.db";
+  std::filesystem::remove(db);
+  check_candidates_against_list(db);
+}
+
+TEST(RegistryPostgres, TraceReadsTheScoringFieldsOfTheRowsListAndWholeRowsByNumber) {
+  MESHMARK_REQUIRE_POSTGRES();
+  check_candidates_against_list(PostgresServer::get().fresh_database("candidates"));
 }
 
 TEST(RegistryPostgres, ConcurrentWritersLoseNothingAndNeverShareAnId) {

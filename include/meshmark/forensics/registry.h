@@ -72,6 +72,27 @@ struct IssuedCopy {
   std::uint64_t spaced_index = 0;
 };
 
+/// What trace needs of a candidate to score it (Registry::candidates): its row and the
+/// settings both marks were embedded with. A registry of a million rows is read this way in a
+/// fraction of what whole rows cost; whole rows are read for the ranking alone (Registry::rows).
+struct CandidateRow {
+  std::int64_t row = 0;                  ///< registry row
+  std::uint64_t id = 0;                  ///< the coded ID
+  int id_bits = 32;                      ///< ID length
+  int bits = 64;                         ///< payload length nb
+  std::string variant = "DRS";           ///< embedding variant
+  double strength = 0.05;                ///< alpha (0: the fingerprint alone)
+  double strength_spread = 0;            ///< keyed per-bit strength spread
+  std::string method = "qp";             ///< embedding method (method_name)
+  int mark_format = kMarkFormatVersion;  ///< mark format version
+  /// Whether the row's output_hash is the hash Registry::candidates was given (the leak's
+  /// bytes are this copy's).
+  bool same_bytes = false;
+};
+
+/// Whether a candidate's scoring fields are those of the row (a row read twice is the same).
+bool same_scoring(const CandidateRow& candidate, const IssuedCopy& row);
+
 /// What the authentication code of a row says (check_row).
 enum class RowAuth {
   Authentic,        ///< the MAC matches: the row is as it was recorded
@@ -188,6 +209,13 @@ class Registry {
 
   /// The copies that match query, in the order they were recorded.
   std::vector<IssuedCopy> list(const RegistryQuery& query = {}) const;
+  /// The scoring fields of the copies that match query, in the order they were recorded;
+  /// same_bytes tells the row whose output_hash is output_hash ("": none).
+  std::vector<CandidateRow> candidates(const RegistryQuery& query,
+                                       const std::string& output_hash = "") const;
+  /// The whole rows numbered rows, in that order. \throw IOError when one of them is not in
+  /// the registry (deleted since it was listed).
+  std::vector<IssuedCopy> rows(const std::vector<std::int64_t>& rows) const;
   /// The largest spaced_index among the copies of c's original (by file or geometry), key,
   /// bits and ID length, 0 when there is none: one indexed lookup, whatever the registry's size.
   std::uint64_t last_spaced_index(const IssuedCopy& c) const;

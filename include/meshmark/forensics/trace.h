@@ -131,6 +131,7 @@ struct BitEvidence {
 
 /// Where trace spent its time (seconds, wall clock).
 struct TraceTimings {
+  double registry = 0;      ///< reading the candidates of a registry (trace_issued)
   double registration = 0;  ///< register_similarity
   double reference = 0;     ///< the search for the smoothing the leak resembles
   double resampling = 0;    ///< the leak measured at the original's vertices (every group)
