@@ -29,8 +29,9 @@ struct EmbedArgs {
   InputOptions in;
   OutputOptions out;
   bool json = false;
-  bool public_key = false;   // --public-key: coded IDs without a secret key
-  bool fingerprint = false;  // --fingerprint: coded IDs also carry the fingerprint
+  bool public_key = false;      // --public-key: coded IDs without a secret key
+  bool fingerprint = false;     // --fingerprint: every coded copy carries the fingerprint
+  bool no_fingerprint = false;  // --no-fingerprint: none does
 };
 
 // The limits of --fidelity, --max-rms and --max-msdm, or none (a fixed --strength).
@@ -76,7 +77,7 @@ int run(const EmbedArgs& a) {
   settings.strength_spread = a.strength_spread;
   settings.registry = a.registry;
   settings.allow_public_key = a.public_key;
-  settings.fingerprint = a.fingerprint;
+  if (a.fingerprint || a.no_fingerprint) settings.fingerprint = a.fingerprint;
   if (a.keys.file) settings.kept_files.emplace_back("the key file", *a.keys.file);
   if (!a.batch.empty()) settings.kept_files.emplace_back("the manifest", a.batch);
   if (!a.batch.empty()) {
@@ -278,10 +279,17 @@ void register_embed(CLI::App& app, int& exit_code) {
                   "keyed or coded marks: bit j's strength is alpha (1 + spread u_j), u_j drawn "
                   "from the key in [0, 1), so the histogram does not show alpha; 0 = uniform")
       ->check(CLI::Range(0.0, 4.0));
-  sub->add_flag("--fingerprint", args->fingerprint,
-                "coded IDs: also add the buyer's fingerprint, which trace reads with the "
-                "original (survives averages of copies and smoothing; a further RMS of 0.01 % "
-                "of the diagonal; mark format 4)");
+  CLI::Option* fingerprint = sub->add_flag(
+      "--fingerprint", args->fingerprint,
+      "every coded copy carries the buyer's fingerprint, registered or not (refused for an "
+      "original with fewer than 128 counted carrier vertices). Without it, copies recorded in a "
+      "registry carry it where their original can: a second mark, which trace reads with the "
+      "original (survives averages of copies and smoothing; a further RMS of 0.01 % of the "
+      "diagonal, within the fidelity limits; mark format 4)");
+  sub->add_flag("--no-fingerprint", args->no_fingerprint,
+                "no copy carries the fingerprint (only the histogram mark: copies are then "
+                "easier to defeat by averaging or smoothing)")
+      ->excludes(fingerprint);
   sub->add_option("--bin-offset", args->embed.bin_offset,
                   "G in [0, 1/2): vertices stay in [G, 1-G] of their bin");
   sub->add_option("--max-rounds", args->embed.max_rounds, "linearize-and-solve rounds at most")

@@ -41,7 +41,8 @@ struct ServeArgs {
   std::size_t originals = 16;
   double max_upload_mib = 512;
   double strength = 0.05;
-  bool fingerprint = false;
+  bool fingerprint = false;     // --fingerprint
+  bool no_fingerprint = false;  // --no-fingerprint
 };
 
 // The formats a copy may be asked in, with their content types.
@@ -420,7 +421,7 @@ int run(const ServeArgs& a) {
   settings.id_bits = a.keys.id_bits;
   settings.read = read_options(a.in);
   settings.embedding.strength = a.strength;
-  settings.fingerprint = a.fingerprint;
+  if (a.fingerprint || a.no_fingerprint) settings.fingerprint = a.fingerprint;
   settings.threads = 1;  // one copy per request; requests run side by side
   Service service(a, settings, *key);
   if (Registry* registry = service.registry())
@@ -477,8 +478,14 @@ void register_serve(CLI::App& app, int& exit_code) {
   sub->add_option("--max-upload", args->max_upload_mib, "largest request body, in MiB")
       ->capture_default_str();
   sub->add_option("--strength", args->strength, "the mark's strength alpha")->capture_default_str();
-  sub->add_flag("--fingerprint", args->fingerprint,
-                "also add each buyer's fingerprint (docs/forensics.md)");
+  CLI::Option* fingerprint =
+      sub->add_flag("--fingerprint", args->fingerprint,
+                    "every copy carries the buyer's fingerprint: an original too small for one "
+                    "is refused (by default, copies of such an original are issued without; "
+                    "docs/forensics.md)");
+  sub->add_flag("--no-fingerprint", args->no_fingerprint,
+                "no copy carries the fingerprint (only the histogram mark)")
+      ->excludes(fingerprint);
   add_key_options(*sub, args->keys);
   add_input_options(*sub, args->in);
   sub->callback([args, &exit_code] { exit_code = run(*args); });

@@ -115,10 +115,10 @@ py::dict score_dict(const CandidateScore& s) {
 // embedding's fields, as embed() takes them (variant="VRS", ...).
 IssueSettings issue_settings(const std::string& registry, py::handle key, py::handle key_file,
                              int bits, int id_bits, double strength_spread, py::handle options,
-                             bool public_key, bool fingerprint, const py::kwargs& kwargs) {
+                             bool public_key, py::handle fingerprint, const py::kwargs& kwargs) {
   IssueSettings s;
   s.allow_public_key = public_key;
-  s.fingerprint = fingerprint;
+  if (!fingerprint.is_none()) s.fingerprint = fingerprint.cast<bool>();
   s.registry = registry;
   s.key = resolve_key(key, key_file);
   s.bits = bits;
@@ -140,7 +140,7 @@ void init_issue(py::module_& m) {
       "embedding and writing alone. The same rules as issue().")
       .def(py::init([](const std::string& registry, py::handle key, py::handle key_file, int bits,
                        int id_bits, double strength_spread, py::handle options, bool public_key,
-                       bool fingerprint, std::size_t originals, const py::kwargs& kwargs) {
+                       py::handle fingerprint, std::size_t originals, const py::kwargs& kwargs) {
              IssueSettings s =
                  issue_settings(registry, key, key_file, bits, id_bits, strength_spread, options,
                                 public_key, fingerprint, kwargs);
@@ -150,7 +150,8 @@ void init_issue(py::module_& m) {
            py::kw_only(), py::arg("registry") = "", py::arg("key") = py::none(),
            py::arg("key_file") = py::none(), py::arg("bits") = 64, py::arg("id_bits") = 32,
            py::arg("strength_spread") = 0.25, py::arg("options") = py::none(),
-           py::arg("public_key") = false, py::arg("fingerprint") = false, py::arg("originals") = 16)
+           py::arg("public_key") = false, py::arg("fingerprint") = py::none(),
+           py::arg("originals") = 16)
       .def(
           "prepare",
           [](Issuer& self, py::handle original) {
@@ -217,7 +218,8 @@ void init_issue(py::module_& m) {
       "issue",
       [](const py::iterable& copies, const std::string& registry, py::handle key,
          py::handle key_file, int bits, int id_bits, double strength_spread, py::handle options,
-         int threads, bool resume, bool public_key, bool fingerprint, const py::kwargs& kwargs) {
+         int threads, bool resume, bool public_key, py::handle fingerprint,
+         const py::kwargs& kwargs) {
         std::vector<CopyRequest> requests;
         std::size_t k = 0;
         MeshCache seen;
@@ -239,7 +241,7 @@ void init_issue(py::module_& m) {
       py::arg("copies"), py::kw_only(), py::arg("registry") = "", py::arg("key") = py::none(),
       py::arg("key_file") = py::none(), py::arg("bits") = 64, py::arg("id_bits") = 32,
       py::arg("strength_spread") = 0.25, py::arg("options") = py::none(), py::arg("threads") = 0,
-      py::arg("resume") = true, py::arg("public_key") = false, py::arg("fingerprint") = false,
+      py::arg("resume") = true, py::arg("public_key") = false, py::arg("fingerprint") = py::none(),
       "Issues watermarked copies as the CLI's embed --batch does: copies is a list of dicts "
       "{input (a path, or a meshmark.Mesh or (V, F) pair in memory: the registry then "
       "knows the original by its geometry), output, id (a coded buyer ID, or 'auto': the "
@@ -248,8 +250,11 @@ void init_issue(py::module_& m) {
       "issued before, given twice or with codewords too close are refused and the copies "
       "reserved in one transaction before any is written, and the rows of those written "
       "completed in another; coded IDs without a key are refused unless "
-      "public_key=True (anyone can read, remove or forge them); fingerprint=True adds each "
-      "buyer's fingerprint, which trace reads with the original (mark format 4). options: an "
+      "public_key=True (anyone can read, remove or forge them). fingerprint: None (the "
+      "default) gives copies recorded in a registry the buyer's fingerprint, a second mark "
+      "which trace reads with the original (mark format 4), where their original has enough "
+      "vertices for one; True gives it to every coded copy (refused for an original too "
+      "small); False to none. options: an "
       "EmbedOptions "
       "(strength, variant, method); further keywords set its fields, as embed() takes them "
       "(variant='VRS', strength=0.05, ...). Returns one dict per copy: id, status, ok, "

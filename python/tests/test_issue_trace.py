@@ -143,12 +143,13 @@ def test_issue_and_trace_take_meshes_in_memory(fandisk, tmp_path):
 
 
 def test_the_fingerprint_is_issued_and_scored(fandisk, tmp_path):
-    """issue(fingerprint=True) records mark format 4; trace scores every such candidate's
-    fingerprint (a float z), names the buyer, and keeps None for copies without one."""
+    """issue() with a registry gives every copy the fingerprint by default (mark format 4);
+    trace scores every such candidate's fingerprint (a float z), names the buyer, and keeps None
+    for copies issued with fingerprint=False."""
     db = str(tmp_path / "shop.db")
     copies = [{"input": fandisk, "output": tmp_path / f"f-{i}.ply", "id": i,
                "buyer": f"fp {i}"} for i in (61, 62, 63)]
-    out = meshmark.issue(copies, registry=db, key=KEY, fingerprint=True)
+    out = meshmark.issue(copies, registry=db, key=KEY)
     assert [o["status"] for o in out] == ["written"] * 3, out
     rows = [json.loads(line) for line in run_cli(
         "registry", "export", db, "--format", "jsonl").splitlines()]
@@ -159,10 +160,11 @@ def test_the_fingerprint_is_issued_and_scored(fandisk, tmp_path):
     assert found["named"][0]["fingerprint_z"] > 8
     others = [c for c in found["ranking"] if c["id"] != 62]
     assert all(isinstance(c["fingerprint_z"], float) and c["fingerprint_z"] < 5 for c in others)
-    # The same copy traced against a registry issued without the fingerprint: no score.
+    # The same copy issued without the fingerprint (fingerprint=False; a registered copy carries
+    # it by default): no score.
     plain = str(tmp_path / "plain.db")
     meshmark.issue([{"input": fandisk, "output": tmp_path / "p-62.ply", "id": 62}],
-                   registry=plain, key=KEY)
+                   registry=plain, key=KEY, fingerprint=False)
     nofp = meshmark.trace(tmp_path / "p-62.ply", fandisk, plain, key=KEY)
     assert nofp["named"][0]["fingerprint_z"] is None and nofp["named"][0]["fingerprint_p"] is None
 
@@ -189,3 +191,27 @@ def test_an_issuer_prepares_once_and_issues_copies_that_trace(fandisk, tmp_path)
         issuer.issue("0" * 64, tmp_path / "x.ply", buyer="x")
     refused = issuer.issue(first["original"], tmp_path / "d.ply", buyer="d", id=out[0]["id"])
     assert refused["status"] == "refused" and "already issued" in refused["message"]
+
+
+def test_a_copy_the_fingerprint_would_unmark_is_issued_without_it(spot, tmp_path):
+    """Under this key, the default fingerprint would flip two histogram bits of spot's copy for
+    ID 127 (found by issuing IDs 1 to 199: 127 and 196 are the ones): the copy is written
+    without it, a warning says so, its row records the histogram mark's format (2) and its
+    file decodes and traces without a fingerprint score; ID 128's copy carries it (format 4).
+    Issued again, both are skipped as issued before: the fallback is part of the record."""
+    db = str(tmp_path / "shop.db")
+    copies = [{"input": spot, "output": tmp_path / f"s-{i}.obj", "id": i, "buyer": f"b{i}"}
+              for i in (127, 128)]
+    out = meshmark.issue(copies, registry=db, key="fallback shop key")
+    assert [o["status"] for o in out] == ["written"] * 2, out
+    assert any("with the fingerprint" in w and "issued without the fingerprint" in w
+               for w in out[0]["warnings"]), out[0]
+    assert not any("fingerprint" in w for w in out[1]["warnings"]), out[1]
+    rows = {r["id"]: r for r in (json.loads(line) for line in run_cli(
+        "registry", "export", db, "--format", "jsonl").splitlines())}
+    assert rows[127]["mark_format"] == 2 and rows[128]["mark_format"] == 4
+    found = meshmark.trace(tmp_path / "s-127.obj", spot, db, key="fallback shop key")
+    assert [n["id"] for n in found["named"]] == [127], found
+    assert found["named"][0]["fingerprint_z"] is None
+    again = meshmark.issue(copies, registry=db, key="fallback shop key")
+    assert [o["status"] for o in again] == ["skipped"] * 2, again

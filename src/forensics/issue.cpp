@@ -114,11 +114,23 @@ void refuse_clashes(const std::vector<CopyRequest>& requests, const IssueSetting
 // Whether the recorded copy is this one, issued by an earlier run, with its file as recorded.
 // searched: the strength and G were searched within fidelity limits, so the recorded ones are
 // whatever the search found for that copy.
+// What an issue of `wanted` may have decided for itself, taken from the row `taken` records:
+// the strength and G a fidelity search found (searched), and a copy issued without the
+// fingerprint it was to carry by default because it would have cost the file its histogram
+// mark (make_copy).
+void as_decided(const IssuedCopy& taken, IssuedCopy& wanted, bool searched,
+                const IssueSettings& settings) {
+  if (searched) wanted.strength = taken.strength, wanted.bin_offset = taken.bin_offset;
+  if (wanted.mark_format == kFingerprintMarkFormat && taken.mark_format == kMarkFormatVersion &&
+      !settings.fingerprint.value_or(false))
+    wanted.mark_format = taken.mark_format;
+}
+
 bool resumable(const IssuedCopy& taken, IssuedCopy wanted, const std::string& output,
-               bool searched) {
+               const IssueSettings& settings) {
   if (taken.state != "issued") return false;
   wanted.output_path = normalized_path(output);
-  if (searched) wanted.strength = taken.strength, wanted.bin_offset = taken.bin_offset;
+  as_decided(taken, wanted, settings.limits.has_value(), settings);
   if (!same_copy(taken, wanted)) return false;
   try {
     return content_hash(read_file(output)) == taken.output_hash;
@@ -158,7 +170,6 @@ void check_registry(const Registry& registry, std::vector<CopyRequest>& requests
       out[k].record = it->second;
       out[k].record.buyer = requests[k].buyer;
       out[k].record.id = requests[k].id.value_or(0);
-      if (settings.fingerprint) out[k].record.mark_format = kFingerprintMarkFormat;
       candidates.push_back(k);
       if (requests[k].auto_id)
         automatic.push_back(k), chosen.push_back(out[k].record);
@@ -205,7 +216,7 @@ void check_registry(const Registry& registry, std::vector<CopyRequest>& requests
         // settings, output) is finished under the same row, whatever its file holds now.
         IssuedCopy request = out[k].record;
         request.output_path = normalized_path(requests[k].output);
-        request.strength = taken.strength, request.bin_offset = taken.bin_offset;
+        as_decided(taken, request, true, settings);
         if (same_copy(taken, request)) {
           out[k].record.row = taken.row;
           out[k].record.issued_at = taken.issued_at;
@@ -223,7 +234,7 @@ void check_registry(const Registry& registry, std::vector<CopyRequest>& requests
         continue;
       }
       if (taken.row && settings.resume &&
-          resumable(taken, out[k].record, requests[k].output, settings.limits.has_value())) {
+          resumable(taken, out[k].record, requests[k].output, settings)) {
         out[k].status = CopyStatus::Skipped;
         out[k].message = fmt::format("already issued to '{}' on {} and its file is intact: skipped",
                                      taken.buyer, taken.issued_at);
@@ -254,6 +265,12 @@ void check_registry(const Registry& registry, std::vector<CopyRequest>& requests
                                    c.copy.id, c.distance, c.near.id, c.near.buyer, kIssuedSpacing));
 }
 
+// Whether coded copies are to carry the fingerprint (IssueSettings::fingerprint: unset, those
+// recorded in a registry), where their original can carry one.
+bool wants_fingerprint(const IssueSettings& settings) {
+  return settings.fingerprint.value_or(!settings.registry.empty());
+}
+
 // An original, read and prepared once for every copy made from it.
 struct Original {
   Mesh mesh;
@@ -280,7 +297,7 @@ std::shared_ptr<const Original> prepare_original(const CopyRequest& request,
   std::optional<FingerprintBasis> basis;
   Histogram histogram;
   std::size_t counted = 0;
-  if (settings.fingerprint) {
+  if (wants_fingerprint(settings)) {
     const std::vector<std::uint8_t> carrier = carrier_vertices(mesh.V, mesh.F);
     counted = static_cast<std::size_t>(std::count(carrier.begin(), carrier.end(), kCounted));
     if (std::optional<FingerprintFrame> frame =
@@ -355,17 +372,22 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   // The fingerprint (fingerprint.h), added after the histogram mark; with fidelity limits,
   // to every strength tried, so that both marks together fit them.
   std::function<Eigen::MatrixX3d(const Eigen::MatrixX3d&)> fingerprint;
-  if (settings.fingerprint) {
-    if (!coded) {
-      refuse(out, "a fingerprint goes with a coded ID, not a raw payload");
+  const bool required = settings.fingerprint.value_or(false);
+  if (required && !coded) {
+    refuse(out, "a fingerprint goes with a coded ID, not a raw payload");
+    return;
+  }
+  if (coded && wants_fingerprint(settings) && !original.fingerprint) {
+    const std::string few =
+        fmt::format("{}: {} counted carrier vertices are too few for a fingerprint ({} at least)",
+                    request.input, original.counted, 16 * 8);
+    if (required) {
+      refuse(out, few + "; issue it without one");
       return;
     }
-    if (!original.fingerprint) {
-      refuse(out, fmt::format("{}: {} counted carrier vertices are too few for a fingerprint "
-                              "({} at least); issue it without one",
-                              request.input, original.counted, 16 * 8));
-      return;
-    }
+    out.warnings.push_back(few + ": issued with the histogram mark alone");
+  }
+  if (coded && original.fingerprint) {
     const FingerprintBasis& b = *original.fingerprint;
     fingerprint = [&original, &b,
                    g = fingerprint_coefficients(id_key(settings.key), *request.id, b.functions)](
@@ -413,20 +435,37 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   copy.V = std::move(out.result.V);
   out.result.V.resize(0, 3);
   double fingerprint_rms = 0;  // as a fraction of the diagonal
+  // The copy without the fingerprint, at a fixed strength when the fingerprint was not asked
+  // for: written instead if the fingerprint would cost the file its histogram mark.
+  std::optional<Eigen::MatrixX3d> bare;
   if (fingerprint) {
     // The field alone (it moves each vertex by its own amount along the original's ray,
     // whatever the positions it is added to); a calibrated embedding already carries it.
     const Eigen::MatrixX3d& VO = original.mesh.V;
     fingerprint_rms = std::sqrt((fingerprint(VO) - VO).rowwise().squaredNorm().mean()) /
                       original.fingerprint->diagonal;
-    if (!out.calibration) copy.V = fingerprint(copy.V);
+    if (!out.calibration) {
+      if (!required) bare = copy.V;
+      copy.V = fingerprint(copy.V);
+    }
   }
   ExtractOptions eo;
   eo.center = o.variant.center;
   eo.method = o.method;
   try {
-    const WrittenCheck written = write_marked_mesh(request.output, copy, settings.write,
-                                                   settings.read, out.bins, eo, 0.5 * o.strength);
+    WrittenCheck written = write_marked_mesh(request.output, copy, settings.write, settings.read,
+                                             out.bins, eo, 0.5 * o.strength);
+    if (!written.carried && bare) {
+      out.warnings.push_back(
+          fmt::format("{}: with the fingerprint, {}: issued without the fingerprint (trace then "
+                      "reads the histogram mark alone)",
+                      request.input, written.message));
+      copy.V = std::move(*bare);
+      fingerprint_rms = 0;
+      out.record.mark_format = kMarkFormatVersion;
+      written = write_marked_mesh(request.output, copy, settings.write, settings.read, out.bins, eo,
+                                  0.5 * o.strength);
+    }
     if (!written.carried) {
       out.status = CopyStatus::NotCarried, out.message = written.message;
       return;
@@ -488,6 +527,12 @@ IssuedCopy issued_copy(const Mesh& original, const std::string& name, const std:
   c.key_fingerprint = key_fingerprint(id_key(settings.key));
   c.key_derivation = id_key(settings.key).derivation;
   c.method = method_name(settings.embedding.method);
+  if (wants_fingerprint(settings)) {
+    const std::vector<std::uint8_t> carrier = carrier_vertices(original.V, original.F);
+    if (fingerprint_functions(
+            static_cast<std::size_t>(std::count(carrier.begin(), carrier.end(), kCounted))) > 0)
+      c.mark_format = kFingerprintMarkFormat;
+  }
   return c;
 }
 

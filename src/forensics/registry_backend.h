@@ -28,7 +28,8 @@ class RegistryBackend {
   virtual bool find(const IssuedCopy& c, IssuedCopy& recorded) = 0;
   /// Inserts c (inside transaction()); returns its row.
   virtual std::int64_t insert(const IssuedCopy& c) = 0;
-  /// Rewrites the row c.row with c's fields (inside transaction()); false when no reserved row
+  /// Rewrites the row c.row with c's fields (those Registry::complete names; inside
+  /// transaction()); false when no reserved row
   /// has that number.
   virtual bool complete(const IssuedCopy& c) = 0;
   /// Deletes the row if it is reserved (inside transaction()).

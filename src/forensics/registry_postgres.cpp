@@ -250,11 +250,12 @@ class PostgresRegistry final : public RegistryBackend {
   }
 
   bool complete(const IssuedCopy& c) override {
-    const Result r =
-        run("UPDATE copies SET strength = $1, bin_offset = $2, issued_at = $3, output_path = $4, "
-            "output_hash = $5, mac = $6, state = $7 WHERE row = $8 AND state = 'reserved'",
-            {fmt::format("{}", c.strength), fmt::format("{}", c.bin_offset), c.issued_at,
-             c.output_path, c.output_hash, c.mac, c.state, std::to_string(c.row)});
+    const Result r = run(
+        "UPDATE copies SET strength = $1, bin_offset = $2, issued_at = $3, output_path = $4, "
+        "output_hash = $5, mac = $6, state = $7, mark_format = $9 WHERE row = $8 AND "
+        "state = 'reserved'",
+        {fmt::format("{}", c.strength), fmt::format("{}", c.bin_offset), c.issued_at, c.output_path,
+         c.output_hash, c.mac, c.state, std::to_string(c.row), std::to_string(c.mark_format)});
     return std::string(PQcmdTuples(r.get())) == "1";
   }
 

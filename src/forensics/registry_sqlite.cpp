@@ -259,7 +259,7 @@ class SqliteRegistry final : public RegistryBackend {
     if (read_only_) throw IOError(fmt::format("{}: the registry is open read-only", path_));
     Statement s(db_, path_,
                 "UPDATE copies SET strength = ?1, bin_offset = ?2, issued_at = ?3, "
-                "output_path = ?4, output_hash = ?5, mac = ?6, state = ?7 "
+                "output_path = ?4, output_hash = ?5, mac = ?6, state = ?7, mark_format = ?9 "
                 "WHERE row = ?8 AND state = 'reserved'");
     s.bind(1, c.strength);
     s.bind(2, c.bin_offset);
@@ -269,6 +269,7 @@ class SqliteRegistry final : public RegistryBackend {
     s.bind(6, c.mac);
     s.bind(7, c.state);
     s.bind(8, c.row);
+    s.bind(9, c.mark_format);
     if (sqlite3_step(s.get()) != SQLITE_DONE) fail(db_, path_, "cannot complete a copy's row");
     return sqlite3_changes(db_) == 1;
   }

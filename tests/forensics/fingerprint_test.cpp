@@ -466,6 +466,86 @@ TEST(Fingerprint, BothMarksFitOneFidelityBudget) {
   }
 }
 
+// The default (IssueSettings::fingerprint unset): a copy recorded in a registry carries the
+// fingerprint (its row says mark format 4, trace reads a z above 5, the copy differs from the
+// same copy issued with false by a field whose RMS is within a factor 2 of
+// FingerprintOptions::rms); false records the histogram mark's format and trace reads no
+// fingerprint; a copy issued without a registry carries none (the same positions as false's).
+// An original with too few counted carrier vertices for one (ellipsoid simplified to 122) is
+// issued without by default, with a warning, and refused when the fingerprint is asked for;
+// so is a raw payload.
+TEST(Fingerprint, RegisteredCopiesCarryItByDefault) {
+  const std::string original = test::cgal_mesh("camel.off");
+  MESHMARK_REQUIRE(original, "libcgal-demo's camel.off");
+  const std::string dir = fresh_dir("fingerprint-default");
+  const Mesh O = read_mesh(original);
+  const std::string hash = content_hash(read_file(original));
+  IssueSettings settings;
+  settings.key = key_from_passphrase_v1("fingerprint default key");
+  const auto issue = [&](std::optional<bool> fingerprint, const std::string& name,
+                         bool registered) {
+    settings.fingerprint = fingerprint;
+    settings.registry = registered ? dir + "/" + name + ".db" : "";
+    CopyRequest r;
+    r.input = original, r.output = dir + "/" + name + ".ply", r.id = 91, r.buyer = "buyer 91";
+    const IssueResult result = issue_copies({r}, settings);
+    EXPECT_EQ(result.copies[0].status, CopyStatus::Written) << result.copies[0].message;
+    return read_mesh(r.output);
+  };
+  const Mesh by_default = issue(std::nullopt, "default", true);
+  const Mesh plain = issue(false, "plain", true);
+  const Mesh unregistered = issue(std::nullopt, "unregistered", false);
+  EXPECT_EQ(read_registry(dir + "/default.db")[0].mark_format, kFingerprintMarkFormat);
+  EXPECT_EQ(read_registry(dir + "/plain.db")[0].mark_format, kMarkFormatVersion);
+  ASSERT_EQ(unregistered.V.rows(), plain.V.rows());
+  EXPECT_EQ((unregistered.V - plain.V).cwiseAbs().maxCoeff(), 0.0);
+  const double field = counted_rms_percent(plain, by_default) / 100;
+  EXPECT_GT(field, FingerprintOptions().rms / 2);
+  EXPECT_LT(field, FingerprintOptions().rms * 2);
+  const TraceResult with = trace_issued(by_default, O, hash, dir + "/default.db", *settings.key);
+  ASSERT_EQ(with.status, TraceStatus::Named) << with.message;
+  EXPECT_EQ(with.named[0].copy.id, 91u);
+  EXPECT_GT(with.named[0].fingerprint_z, 5);
+  const TraceResult without = trace_issued(plain, O, hash, dir + "/plain.db", *settings.key);
+  ASSERT_EQ(without.status, TraceStatus::Named) << without.message;
+  EXPECT_TRUE(std::isnan(without.named[0].fingerprint_z));
+
+  // Too small for a fingerprint: 122 counted carrier vertices, fewer than 16 per function for 8.
+  const std::string ellipsoid = test::cgal_mesh("ellipsoid.off");
+  MESHMARK_REQUIRE(ellipsoid, "libcgal-demo's ellipsoid.off");
+  Mesh small = apply_attack_chain(read_mesh(ellipsoid), parse_attack_chain("simplify:0.75"), 1);
+  const std::vector<std::uint8_t> carrier = carrier_vertices(small.V, small.F);
+  ASSERT_EQ(fingerprint_functions(
+                static_cast<std::size_t>(std::count(carrier.begin(), carrier.end(), kCounted))),
+            0);
+  settings.bits = 32, settings.id_bits = 4;
+  settings.registry = dir + "/small.db";
+  CopyRequest r;
+  r.mesh = std::make_shared<const Mesh>(std::move(small));
+  r.input = "small ellipsoid", r.output = dir + "/small.ply", r.id = 5, r.buyer = "buyer 5";
+  settings.fingerprint.reset();
+  const CopyOutcome issued = issue_copies({r}, settings).copies[0];
+  EXPECT_NE(issued.status, CopyStatus::Refused) << issued.message;
+  EXPECT_TRUE(std::any_of(issued.warnings.begin(), issued.warnings.end(), [](const auto& w) {
+    return w.find("too few for a fingerprint") != std::string::npos &&
+           w.find("histogram mark alone") != std::string::npos;
+  })) << issued.message;
+  settings.fingerprint = true;
+  const CopyOutcome refused = issue_copies({r}, settings).copies[0];
+  EXPECT_EQ(refused.status, CopyStatus::Refused);
+  EXPECT_NE(refused.message.find("too few for a fingerprint"), std::string::npos)
+      << refused.message;
+  CopyRequest raw;
+  raw.input = original, raw.output = dir + "/raw.ply", raw.payload_hex = "00ff00ff";
+  settings.registry.clear();
+  const CopyOutcome payload = issue_copies({raw}, settings).copies[0];
+  EXPECT_EQ(payload.status, CopyStatus::Refused);
+  EXPECT_NE(payload.message.find("a fingerprint goes with a coded ID"), std::string::npos)
+      << payload.message;
+  settings.fingerprint.reset();
+  EXPECT_EQ(issue_copies({raw}, settings).copies[0].status, CopyStatus::Written);
+}
+
 // Limits no histogram mark fits (strengths from 0.2 only, RMS at most 0.015 %) but the
 // fingerprint (0.01 %) does: the copy is issued with the fingerprint alone, says so, records
 // strength 0, stays within the limits (measured from the file here), and traces to its buyer

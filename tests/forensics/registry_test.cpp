@@ -20,6 +20,7 @@
 #include <thread>
 
 #include "meshmark/core/error.h"
+#include "meshmark/forensics/fingerprint.h"
 #include "meshmark/forensics/registry.h"
 #include "meshmark/io/io.h"
 #include "postgres_server.h"
@@ -178,8 +179,11 @@ TEST(Registry, CopiesMarkedWithinFidelityLimitsRecordTheirOwnStrengthAndResume) 
     EXPECT_GT(c.strength, 0.001);
     EXPECT_LE(c.bin_offset, c.strength);  // G = min(0.05, alpha)
     const std::string again = dir + "/again" + std::to_string(c.id) + ".obj";
-    r = test::run_cli(fmt::format("embed {} {} --id {} --key shop --strength {} --bin-offset {}",
-                                  spot, again, c.id, c.strength, c.bin_offset));
+    // A registered copy carries the fingerprint (mark format 4) unless it would have cost the
+    // file its histogram mark: asked for here, as the row says.
+    r = test::run_cli(fmt::format("embed {} {} --id {} --key shop --strength {} --bin-offset {}{}",
+                                  spot, again, c.id, c.strength, c.bin_offset,
+                                  c.mark_format == kFingerprintMarkFormat ? " --fingerprint" : ""));
     ASSERT_EQ(r.code, 0) << r.out;
     EXPECT_EQ(read_file(again), read_file(c.output_path)) << c.id;
   }

@@ -56,12 +56,18 @@ struct IssueSettings {
   /// Fidelity limits: each copy gets the strongest mark within them; none: every copy at
   /// embedding.strength.
   std::optional<CalibrateOptions> limits;
-  /// Coded IDs: also add the buyer's fingerprint (fingerprint.h), which only trace reads,
-  /// with the original; such copies are recorded as mark format 4 (kFingerprintMarkFormat).
-  /// It moves the vertices by a further RMS of FingerprintOptions::rms (0.01 %) of the
-  /// diagonal, outside the fidelity limits' search. A raw payload, or an original with fewer
-  /// than 128 counted carrier vertices, is refused with it.
-  bool fingerprint = false;
+  /// The buyer's fingerprint (fingerprint.h), a second mark that only trace reads, with the
+  /// original; a copy with one is recorded as mark format 4 (kFingerprintMarkFormat). It moves
+  /// the vertices by a further RMS of FingerprintOptions::rms (0.01 %) of the diagonal; with
+  /// fidelity limits both marks together stay within them, and a copy whose histogram mark
+  /// cannot fit is issued with the fingerprint alone (CopyOutcome::fingerprint_alone).
+  /// - unset (the default): every copy recorded in a registry (a coded ID) carries one, unless
+  ///   its original has fewer counted carrier vertices than a fingerprint needs (128,
+  ///   fingerprint_functions()): such copies are issued without, with a warning;
+  /// - true: every coded copy, registered or not; a raw payload, or an original too small for
+  ///   one, is refused;
+  /// - false: none.
+  std::optional<bool> fingerprint;
   std::string registry;  ///< record coded copies there (SQLite file or postgresql:// URI); "" none
   bool resume = true;    ///< skip copies an earlier run issued and recorded, their files intact
   int threads = 0;       ///< copies embedded at once; 0: one per hardware thread
@@ -223,7 +229,9 @@ IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::
                        const IssueSettings& settings);
 
 /// The same for an original in memory named `name` (CopyRequest::mesh): its original_hash is
-/// its geometry_hash, its original_path the name as given.
+/// its geometry_hash, its original_path the name as given. Both record mark format 4
+/// (kFingerprintMarkFormat) when settings give such a copy the fingerprint
+/// (IssueSettings::fingerprint), else kMarkFormatVersion.
 IssuedCopy issued_copy(const Mesh& original, const std::string& name, const std::string& buyer,
                        std::uint64_t id, const IssueSettings& settings);
 

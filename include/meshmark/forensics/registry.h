@@ -200,8 +200,8 @@ class Registry {
   /// take their IDs and an issue killed while writing leaves rows, never a copy without one.
   std::vector<IssuedCopy> reserve(std::vector<IssuedCopy> copies, const Key& key);
   /// Completes reserved rows in one transaction: each copy's row (by IssuedCopy::row) takes its
-  /// strength, bin_offset, output_path and output_hash, state "issued", issued_at now and its
-  /// MAC anew. \throw IOError when a row is no longer reserved (nothing completed).
+  /// strength, bin_offset, mark_format, output_path and output_hash, state "issued", issued_at
+  /// now and its MAC anew. \throw IOError when a row is no longer reserved (nothing completed).
   std::vector<IssuedCopy> complete(std::vector<IssuedCopy> copies, const Key& key);
   /// Deletes the reserved rows of copies that were not written, in one transaction (rows that
   /// are not reserved are left alone).
