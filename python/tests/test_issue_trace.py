@@ -194,24 +194,25 @@ def test_an_issuer_prepares_once_and_issues_copies_that_trace(fandisk, tmp_path)
 
 
 def test_a_copy_the_fingerprint_would_unmark_is_issued_without_it(spot, tmp_path):
-    """Under this key, the default fingerprint would flip two histogram bits of spot's copy for
-    ID 127 (found by issuing IDs 1 to 199: 127 and 196 are the ones): the copy is written
-    without it, a warning says so, its row records the histogram mark's format (2) and its
-    file decodes and traces without a fingerprint score; ID 128's copy carries it (format 4).
-    Issued again, both are skipped as issued before: the fallback is part of the record."""
+    """At strength 0.01 under this key, the default fingerprint would cost spot's copy for ID 12
+    histogram bits in the file (IDs 12, 21 and 36 of 1 to 40 do; at the default strength none
+    of 1 to 399): the copy is written without it, a warning says so, its row records the
+    histogram mark's format (2) and its file decodes and traces without a fingerprint score; ID
+    13's copy carries it (format 4). Issued again, both are skipped as issued before: the
+    fallback is part of the record."""
     db = str(tmp_path / "shop.db")
     copies = [{"input": spot, "output": tmp_path / f"s-{i}.obj", "id": i, "buyer": f"b{i}"}
-              for i in (127, 128)]
-    out = meshmark.issue(copies, registry=db, key="fallback shop key")
+              for i in (12, 13)]
+    out = meshmark.issue(copies, registry=db, key="fallback shop key", strength=0.01)
     assert [o["status"] for o in out] == ["written"] * 2, out
     assert any("with the fingerprint" in w and "issued without the fingerprint" in w
                for w in out[0]["warnings"]), out[0]
     assert not any("fingerprint" in w for w in out[1]["warnings"]), out[1]
     rows = {r["id"]: r for r in (json.loads(line) for line in run_cli(
         "registry", "export", db, "--format", "jsonl").splitlines())}
-    assert rows[127]["mark_format"] == 2 and rows[128]["mark_format"] == 4
-    found = meshmark.trace(tmp_path / "s-127.obj", spot, db, key="fallback shop key")
-    assert [n["id"] for n in found["named"]] == [127], found
+    assert rows[12]["mark_format"] == 2 and rows[13]["mark_format"] == 4
+    found = meshmark.trace(tmp_path / "s-12.obj", spot, db, key="fallback shop key")
+    assert [n["id"] for n in found["named"]] == [12], found
     assert found["named"][0]["fingerprint_z"] is None
-    again = meshmark.issue(copies, registry=db, key="fallback shop key")
+    again = meshmark.issue(copies, registry=db, key="fallback shop key", strength=0.01)
     assert [o["status"] for o in again] == ["skipped"] * 2, again

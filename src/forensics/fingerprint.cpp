@@ -239,6 +239,62 @@ Eigen::VectorXd fingerprint_coefficients(const Key& key, std::uint64_t id, int f
   return g;
 }
 
+namespace {
+
+// How near its bin's edge (in bins) the field may move a vertex of the copy.
+constexpr double kBinMargin = 0.02;
+
+// Bounds the field s so that no counted vertex of the copy V crosses into another bin of keep
+// or past the range's ends: a crossing changes two bins' means by about 1 / (their count), far
+// more than the field's own mean does (on spot, a vertex the mark had parked at G = 0.05 from
+// its bin's edge crossed, and a vertex overtook the farthest one: two bits flipped). Each vertex
+// keeps kBinMargin of a bin from the edge it moves towards (measured in V around keep's center;
+// one already nearer does not move towards it); the line fit of each class is then taken out
+// again over the vertices the bounds leave free, up to four times, and the bounds applied last.
+void keep_in_bins(const Eigen::MatrixX3d& V, const Histogram& keep, Eigen::VectorXd& s) {
+  const Eigen::Index n = s.size();
+  std::vector<Eigen::Index> counted;
+  Eigen::VectorXd lo = Eigen::VectorXd::Zero(n), hi = Eigen::VectorXd::Zero(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (radial_class(keep, i) < 0) continue;
+    counted.push_back(i);
+    const double u = ((V.row(i).transpose() - keep.center).norm() - keep.rho_min) / keep.step;
+    const double t = u - std::clamp(std::floor(u), 0.0, static_cast<double>(keep.bins - 1));
+    lo(i) = std::min(0.0, (kBinMargin - t) * keep.step);
+    hi(i) = std::max(0.0, (1 - kBinMargin - t) * keep.step);
+  }
+  std::vector<std::uint8_t> bound(static_cast<std::size_t>(n), 0);
+  for (const int extreme : {keep.argmin, keep.argmax})
+    if (extreme >= 0) bound[static_cast<std::size_t>(extreme)] = 1;  // they stay where they are
+  for (int round = 0; round < 4; ++round) {
+    bool clamped = false;
+    for (const Eigen::Index i : counted)
+      if (s(i) < lo(i) || s(i) > hi(i))
+        s(i) = std::clamp(s(i), lo(i), hi(i)), bound[i] = 1, clamped = true;
+    if (!clamped) return;
+    const int classes = keep.bins * kSlices;
+    std::vector<Eigen::Matrix2d> G(classes, Eigen::Matrix2d::Zero());
+    std::vector<Eigen::Vector2d> m(classes, Eigen::Vector2d::Zero());
+    for (const Eigen::Index i : counted) {
+      const int c = radial_class(keep, i);
+      const Eigen::Vector2d x(1, keep.t(i));
+      if (bound[i]) {
+        m[c] += x * s(i);  // fixed: its value counts in the class's sums, it is not refitted
+      } else {
+        G[c] += x * x.transpose(), m[c] += x * s(i);
+      }
+    }
+    for (const Eigen::Index i : counted)
+      if (!bound[i]) {
+        const int c = radial_class(keep, i);
+        s(i) -= Eigen::Vector2d(1, keep.t(i)).dot(fit_line(G[c], m[c]));
+      }
+  }
+  for (const Eigen::Index i : counted) s(i) = std::clamp(s(i), lo(i), hi(i));
+}
+
+}  // namespace
+
 Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX3d& VO,
                                  const FingerprintBasis& basis, const Eigen::VectorXd& g,
                                  double rms, const Histogram* keep) {
@@ -265,6 +321,7 @@ Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX
         s(i) -= Eigen::Vector2d(1, keep->t(i)).dot(fit_line(G[c], m[c]));
     for (const int extreme : {keep->argmin, keep->argmax})
       if (extreme >= 0) s(extreme) = 0;
+    keep_in_bins(V, *keep, s);
   }
   // Twins (bit-identical positions) take the displacement of the vertex with basis entries at
   // their position; a vertex without one stays where it is.

@@ -123,7 +123,9 @@ Eigen::VectorXd fingerprint_coefficients(const Key& key, std::uint64_t id, int f
 /// over each radial class of it (each bin cut into 8 slices of equal width) is taken out and
 /// the vertices that set its range do not move: the bins' mean distances, which a histogram
 /// mark sets, stay as they are, and the field is orthogonal to any function of the distance to
-/// the center alone, which is what a histogram mark's displacement nearly is.
+/// the center alone, which is what a histogram mark's displacement nearly is. The field is
+/// also bounded so that no counted vertex of V leaves its bin (it keeps 0.02 of a bin from the
+/// edge it moves towards; docs/format.md 8.1).
 Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX3d& VO,
                                  const FingerprintBasis& basis, const Eigen::VectorXd& g,
                                  double rms, const Histogram* keep = nullptr);
