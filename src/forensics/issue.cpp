@@ -111,9 +111,6 @@ void refuse_clashes(const std::vector<CopyRequest>& requests, const IssueSetting
   }
 }
 
-// Whether the recorded copy is this one, issued by an earlier run, with its file as recorded.
-// searched: the strength and G were searched within fidelity limits, so the recorded ones are
-// whatever the search found for that copy.
 // What an issue of `wanted` may have decided for itself, taken from the row `taken` records:
 // the strength and G a fidelity search found (searched), and a copy issued without the
 // fingerprint it was to carry by default because it would have cost the file its histogram
@@ -126,6 +123,8 @@ void as_decided(const IssuedCopy& taken, IssuedCopy& wanted, bool searched,
     wanted.mark_format = taken.mark_format;
 }
 
+// Whether the recorded copy is this one, issued by an earlier run, with its file as recorded
+// (with fidelity limits, the strength and G recorded are whatever the search found for it).
 bool resumable(const IssuedCopy& taken, IssuedCopy wanted, const std::string& output,
                const IssueSettings& settings) {
   if (taken.state != "issued") return false;
