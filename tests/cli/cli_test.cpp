@@ -12,8 +12,8 @@
 #include <map>
 #include <set>
 
-#include "meshmark/forensics/issue.h"
 #include "meshmark/core/error.h"
+#include "meshmark/forensics/issue.h"
 #include "meshmark/forensics/registry.h"
 #include "meshmark/io/io.h"
 #include "test_data.h"
