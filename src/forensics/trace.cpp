@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <future>
 #include <limits>
 #include <map>
 #include <optional>
@@ -597,10 +598,14 @@ namespace {
 // The whole rows of the candidates at these positions, in that order.
 using FetchRows = std::function<std::vector<IssuedCopy>(const std::vector<std::size_t>&)>;
 
+// The scoring fields of the candidates, read while the leak is registered (a registry read on
+// another thread: half of a trace against a million rows).
+using ReadCandidates = std::function<const std::vector<CandidateRow>&()>;
+
 // trace() on candidates all issued under key, given by their scoring fields; whole rows are
 // fetched for the ranking alone.
 TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
-                             const std::vector<CandidateRow>& mine, const FetchRows& fetch,
+                             const ReadCandidates& read_candidates, const FetchRows& fetch,
                              const Key& key, const TraceOptions& o) {
   if (!(o.threshold > 0 && o.threshold < 1))
     throw InvalidArgumentError(fmt::format("the threshold {} is out of (0, 1)", o.threshold));
@@ -609,16 +614,31 @@ TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
     throw InvalidArgumentError(
         fmt::format("the fingerprint ridge {} is outside [0, 1e6)", o.fingerprint_ridge));
   TraceResult r;
-  r.candidates = mine.size();
-  if (mine.empty()) {
-    r.status = TraceStatus::NoCandidates;
-    r.message = "no copy was issued under this key";
-    return r;
-  }
   using Clock = std::chrono::steady_clock;
   auto since = [](Clock::time_point t) {
     return std::chrono::duration<double>(Clock::now() - t).count();
   };
+  Clock::time_point t = Clock::now();
+  if (o.register_leak) {
+    r.registration =
+        register_similarity(leaked.V, leaked.F, original.V, original.F, o.registration);
+  } else {
+    r.registration.status = RegistrationStatus::Registered;
+    r.registration.message = "in the original's frame (not registered)";
+  }
+  r.seconds.registration = since(t);
+  const std::vector<CandidateRow>& mine = read_candidates();
+  r.candidates = mine.size();
+  if (mine.empty()) {  // before a failed registration: nothing to trace either way
+    r.status = TraceStatus::NoCandidates;
+    r.message = "no copy was issued under this key";
+    return r;
+  }
+  if (r.registration.status != RegistrationStatus::Registered) {
+    r.status = TraceStatus::RegistrationFailed;
+    r.message = r.registration.message;
+    return r;
+  }
   // Groups of candidates read alike.
   using GroupKey = std::tuple<char, int, int, double, double, std::string>;
   std::map<GroupKey, std::vector<std::size_t>> groups;
@@ -628,27 +648,12 @@ TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
             c.strength_spread, c.method}]
         .push_back(k);
   }
-  // Progress: the registration, then each group measured and scored.
+  // Progress: the registration (done), then each group measured and scored.
   detail::ProgressCounter progress(o.progress, "tracing", 1 + static_cast<long>(groups.size()));
-  Clock::time_point t = Clock::now();
-  if (o.register_leak) {
-    r.registration =
-        register_similarity(leaked.V, leaked.F, original.V, original.F, o.registration);
-    if (r.registration.status != RegistrationStatus::Registered) {
-      r.status = TraceStatus::RegistrationFailed;
-      r.message = r.registration.message;
-      return r;
-    }
-  } else {
-    r.registration.status = RegistrationStatus::Registered;
-    r.registration.message = "in the original's frame (not registered)";
-  }
   progress.step(1, "registered");
   const Eigen::MatrixX3d VL = r.registration.transform.apply(leaked.V);
   const std::vector<std::uint8_t> carrier = carrier_vertices(original.V, original.F);
   const double diagonal = bounding_box_diagonal(original.V, carrier);
-
-  r.seconds.registration = since(t);
   Eigen::MatrixX3d reference = original.V;
   const Eigen::MatrixX3d normals = vertex_normals(original.V, original.F);
   r.processing = "none";
@@ -771,7 +776,7 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
                     !o.leaked_hash.empty() && c.output_hash == o.leaked_hash});
   }
   return trace_candidates(
-      leaked, original, rows,
+      leaked, original, [&]() -> const std::vector<CandidateRow>& { return rows; },
       [&](const std::vector<std::size_t>& at) {
         std::vector<IssuedCopy> out;
         out.reserve(at.size());
@@ -814,11 +819,24 @@ TraceResult trace_issued(const Mesh& leaked, const Mesh& original, const std::st
   q.key_fingerprint = key_fingerprint(key);
   // The scoring fields of every candidate, whole rows for the ranking alone: a row read twice
   // must not have changed in between (a reserved copy completed meanwhile is traced again).
-  const auto start = std::chrono::steady_clock::now();
-  const std::vector<CandidateRow> candidates = store.candidates(q, options.leaked_hash);
-  const std::chrono::duration<double> reading = std::chrono::steady_clock::now() - start;
+  // The read runs on its own thread while the leak is registered; the connection is used by
+  // one thread at a time (the future is waited for before any other use).
+  std::chrono::duration<double> reading{};
+  std::future<std::vector<CandidateRow>> pending =
+      std::async(std::launch::async, [&store, &q, &options, &reading] {
+        const auto start = std::chrono::steady_clock::now();
+        std::vector<CandidateRow> read = store.candidates(q, options.leaked_hash);
+        reading = std::chrono::steady_clock::now() - start;
+        return read;
+      });
+  std::vector<CandidateRow> candidates;
+  bool received = false;
   TraceResult r = trace_candidates(
-      leaked, original, candidates,
+      leaked, original,
+      [&]() -> const std::vector<CandidateRow>& {
+        if (!received) candidates = pending.get(), received = true;
+        return candidates;
+      },
       [&](const std::vector<std::size_t>& at) {
         std::vector<std::int64_t> numbers;
         numbers.reserve(at.size());
@@ -833,6 +851,7 @@ TraceResult trace_issued(const Mesh& leaked, const Mesh& original, const std::st
       },
       key, options);
   r.seconds.registry = reading.count();
+
   if (r.status == TraceStatus::NoCandidates) {
     RegistryQuery by_key;
     by_key.key_fingerprint = q.key_fingerprint;

@@ -518,6 +518,16 @@ CodewordEncoder::CodewordEncoder(const IdCode& code, const Key& key)
     for (int j = 0; j < n_; ++j)
       if (c[j]) rows_[static_cast<std::size_t>(i) * w + j / 64] |= std::uint64_t{1} << (j % 64);
   }
+  // The codewords of every byte of the message: 8 bits at once (the code is linear).
+  const int groups = (k_ + 7) / 8;
+  bytes_.assign(static_cast<std::size_t>(groups) * 256 * w, 0);
+  for (int g = 0; g < groups; ++g)
+    for (int v = 1; v < 256; ++v)
+      for (int b = 0; b < 8 && 8 * g + b < k_; ++b)
+        if ((v >> b) & 1)
+          for (int j = 0; j < w; ++j)
+            bytes_[(static_cast<std::size_t>(g) * 256 + v) * w + j] ^=
+                rows_[static_cast<std::size_t>(8 * g + b) * w + j];
   mask_.assign(w, 0);
   const std::vector<std::uint8_t> m = code.mask(key);
   for (int j = 0; j < n_; ++j)
@@ -532,14 +542,18 @@ void CodewordEncoder::encode(const std::uint64_t* ids, std::size_t count,
     const std::uint64_t id = ids[c];
     if (id_bits_ < 64 && (id >> id_bits_) != 0)
       throw InvalidArgumentError(fmt::format("ID {} does not fit in {} bits", id, id_bits_));
-    std::array<std::uint8_t, 1024> x{};  // k < 1024: high k - id_bits bits 0, the ID MSB first
+    std::array<std::uint8_t, 1024> x;  // k < 1024: high k - id_bits bits 0, the ID MSB first
+    std::fill_n(x.begin(), k_ - id_bits_, std::uint8_t{0});
     for (int i = 0; i < id_bits_; ++i) x[k_ - id_bits_ + i] = (id >> (id_bits_ - 1 - i)) & 1;
     feistel(x.data(), k_, id_bits_, n_, to_right_ ? &*to_right_ : nullptr,
             to_left_ ? &*to_left_ : nullptr, false, to_right_ ? &memo : nullptr);
     for (int j = 0; j < w; ++j) out[j] = mask_[j];
-    for (int i = 0; i < k_; ++i)
-      if (x[i])
-        for (int j = 0; j < w; ++j) out[j] ^= rows_[static_cast<std::size_t>(i) * w + j];
+    for (int g = 0; 8 * g < k_; ++g) {
+      int v = 0;
+      for (int b = 0; b < 8 && 8 * g + b < k_; ++b) v |= x[8 * g + b] << b;
+      const std::uint64_t* row = bytes_.data() + (static_cast<std::size_t>(g) * 256 + v) * w;
+      for (int j = 0; j < w; ++j) out[j] ^= row[j];
+    }
   }
 }
 

@@ -18,6 +18,61 @@ namespace meshmark {
 
 namespace {
 
+// BLAKE2b's compression function (RFC 7693, section 3.2) on one block m of 16 little-endian words,
+// t bytes hashed so far (< 2^64 here), final or not. libsodium's generichash computes the same
+// function; KeyedHash calls it directly so that the key's block is compressed once, not with
+// every message (KeyedHashIsKeyedBlake2bOfDomainZeroAndData checks digests against libsodium).
+constexpr std::array<std::uint64_t, 8> kBlake2bIv = {
+    0x6a09e667f3bcc908ULL, 0xbb67ae8584caa73bULL, 0x3c6ef372fe94f82bULL, 0xa54ff53a5f1d36f1ULL,
+    0x510e527fade682d1ULL, 0x9b05688c2b3e6c1fULL, 0x1f83d9abfb41bd6bULL, 0x5be0cd19137e2179ULL};
+constexpr std::uint8_t kBlake2bSigma[12][16] = {
+    {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15},
+    {14, 10, 4, 8, 9, 15, 13, 6, 1, 12, 0, 2, 11, 7, 5, 3},
+    {11, 8, 12, 0, 5, 2, 15, 13, 10, 14, 3, 6, 7, 1, 9, 4},
+    {7, 9, 3, 1, 13, 12, 11, 14, 2, 6, 5, 10, 4, 0, 15, 8},
+    {9, 0, 5, 7, 2, 4, 10, 15, 14, 1, 11, 12, 6, 8, 3, 13},
+    {2, 12, 6, 10, 0, 11, 8, 3, 4, 13, 7, 5, 15, 14, 1, 9},
+    {12, 5, 1, 15, 14, 13, 4, 10, 0, 7, 6, 3, 9, 2, 8, 11},
+    {13, 11, 7, 14, 12, 1, 3, 9, 5, 0, 15, 4, 8, 6, 2, 10},
+    {6, 15, 14, 9, 11, 3, 0, 8, 12, 2, 13, 7, 1, 4, 10, 5},
+    {10, 2, 8, 4, 7, 6, 1, 5, 15, 11, 9, 14, 3, 12, 13, 0},
+    {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15},
+    {14, 10, 4, 8, 9, 15, 13, 6, 1, 12, 0, 2, 11, 7, 5, 3}};
+
+inline std::uint64_t rotr64(std::uint64_t x, int n) {
+  return (x >> n) | (x << (64 - n));
+}
+
+void blake2b_compress(std::array<std::uint64_t, 8>& h, const std::uint8_t* block, std::uint64_t t,
+                      bool last) {
+  std::uint64_t m[16], v[16];
+  for (int i = 0; i < 16; ++i) {
+    std::uint64_t w = 0;
+    for (int b = 7; b >= 0; --b) w = (w << 8) | block[8 * i + b];
+    m[i] = w;
+  }
+  for (int i = 0; i < 8; ++i) v[i] = h[i], v[i + 8] = kBlake2bIv[i];
+  v[12] ^= t;  // the counter's high word is 0
+  if (last) v[14] = ~v[14];
+  const auto g = [&v](int a, int b, int c, int d, std::uint64_t x, std::uint64_t y) {
+    v[a] += v[b] + x, v[d] = rotr64(v[d] ^ v[a], 32);
+    v[c] += v[d], v[b] = rotr64(v[b] ^ v[c], 24);
+    v[a] += v[b] + y, v[d] = rotr64(v[d] ^ v[a], 16);
+    v[c] += v[d], v[b] = rotr64(v[b] ^ v[c], 63);
+  };
+  for (const auto& s : kBlake2bSigma) {
+    g(0, 4, 8, 12, m[s[0]], m[s[1]]);
+    g(1, 5, 9, 13, m[s[2]], m[s[3]]);
+    g(2, 6, 10, 14, m[s[4]], m[s[5]]);
+    g(3, 7, 11, 15, m[s[6]], m[s[7]]);
+    g(0, 5, 10, 15, m[s[8]], m[s[9]]);
+    g(1, 6, 11, 12, m[s[10]], m[s[11]]);
+    g(2, 7, 8, 13, m[s[12]], m[s[13]]);
+    g(3, 4, 9, 14, m[s[14]], m[s[15]]);
+  }
+  for (int i = 0; i < 8; ++i) h[i] ^= v[i] ^ v[i + 8];
+}
+
 void ensure_sodium() {
   static const int status = sodium_init();  // thread-safe once; 1 = already initialized
   if (status < 0) throw Error("libsodium could not be initialized");
@@ -226,9 +281,28 @@ KeyedHash::KeyedHash(const Key& key, std::string_view domain, int nbits) {
                             domain.size());
   const unsigned char zero = 0;
   crypto_generichash_update(state, &zero, 1);
+  // The chaining value after the key's block (the parameter block: digest length, key length,
+  // fanout and depth 1), and domain || 0 at the start of the message's block.
+  prefix_ = domain.size() + 1;
+  if (prefix_ >= kBlock) return;  // a domain this long: libsodium hashes every message
+  chain_ = kBlake2bIv;
+  chain_[0] ^=
+      0x01010000ULL ^ (std::uint64_t{key.bytes.size()} << 8) ^ static_cast<std::uint64_t>(out_len_);
+  std::array<std::uint8_t, kBlock> key_block{};
+  std::memcpy(key_block.data(), key.bytes.data(), key.bytes.size());
+  blake2b_compress(chain_, key_block.data(), kBlock, false);
+  std::memcpy(prefix_block_.data(), domain.data(), domain.size());
 }
 
 void KeyedHash::digest(const std::uint8_t* data, std::size_t size, std::uint8_t* out) const {
+  if (prefix_ < kBlock && prefix_ + size <= kBlock) {  // one block after the key's
+    std::array<std::uint8_t, kBlock> block = prefix_block_;
+    if (size > 0) std::memcpy(block.data() + prefix_, data, size);
+    std::array<std::uint64_t, 8> h = chain_;
+    blake2b_compress(h, block.data(), kBlock + prefix_ + size, true);
+    for (int i = 0; i < bytes_; ++i) out[i] = static_cast<std::uint8_t>(h[i / 8] >> (8 * (i % 8)));
+    return;
+  }
   crypto_generichash_state state;
   std::memcpy(&state, state_.data(), sizeof(state));
   crypto_generichash_update(&state, data, size);

@@ -342,33 +342,41 @@ TEST(Coding, IdsParseAsDecimalOrHexAndNothingElse) {
 // file or a link where it goes is refused and left as it was.
 // KeyedHash against libsodium's BLAKE2b called here as docs/format.md section 1.1 defines
 // keyed_hash_bits: keyed with the key, of domain || 0 || data, max(bytes, 16) bytes long;
-// messages of 0 to 300 bytes (across the 128-byte blocks) and lengths of 1 to 512 bits.
+// messages of 0 to 300 bytes and domains of 0 to 140 bytes (domain, 0 and message on either side
+// of the 128-byte block, where KeyedHash's own compression hands over to libsodium), keys of
+// random bytes and lengths of 1 to 512 bits.
 TEST(Key, KeyedHashIsKeyedBlake2bOfDomainZeroAndData) {
   ASSERT_GE(sodium_init(), 0);
-  const Key key = key_from_passphrase_v1("keyed hash test");
   Random rng(5);
-  for (const int nbits : {1, 7, 8, 24, 100, 128, 129, 512})
-    for (const std::size_t size : {0, 1, 9, 110, 127, 128, 129, 300}) {
-      std::vector<std::uint8_t> data(size);
-      for (auto& b : data) b = static_cast<std::uint8_t>(rng.next() >> 56);
-      const KeyedHash hash(key, "some domain", nbits);
-      std::array<std::uint8_t, 64> got{};
-      hash.digest(data.data(), data.size(), got.data());
-      const std::size_t bytes = (static_cast<std::size_t>(nbits) + 7) / 8;
-      const std::size_t out_len = std::max<std::size_t>(bytes, crypto_generichash_BYTES_MIN);
-      std::vector<std::uint8_t> message = {'s', 'o', 'm', 'e', ' ', 'd',
-                                           'o', 'm', 'a', 'i', 'n', 0};
-      message.insert(message.end(), data.begin(), data.end());
-      std::vector<std::uint8_t> want(out_len);
-      crypto_generichash(want.data(), out_len, message.data(), message.size(), key.bytes.data(),
-                         key.bytes.size());
-      ASSERT_TRUE(
-          std::equal(want.begin(), want.begin() + static_cast<std::ptrdiff_t>(bytes), got.begin()))
-          << nbits << " bits of " << size << " bytes";
-      // keyed_hash_bits gives the same bits, most significant first.
-      const std::vector<std::uint8_t> bits = keyed_hash_bits(key, "some domain", data, nbits);
-      for (int i = 0; i < nbits; ++i) ASSERT_EQ(bits[i], (want[i / 8] >> (7 - i % 8)) & 1);
-    }
+  for (const std::size_t domain_size : {0, 11, 100, 126, 127, 128, 140}) {
+    std::string domain(domain_size, 'd');
+    for (char& c : domain) c = static_cast<char>('a' + (rng.next() >> 60));
+    Key key;
+    for (auto& b : key.bytes) b = static_cast<std::uint8_t>(rng.next() >> 56);
+    for (const int nbits : {1, 7, 8, 24, 100, 128, 129, 512})
+      for (const std::size_t size : {0, 1, 9, 16, 110, 116, 117, 127, 128, 129, 300}) {
+        std::vector<std::uint8_t> data(size);
+        for (auto& b : data) b = static_cast<std::uint8_t>(rng.next() >> 56);
+        const KeyedHash hash(key, domain, nbits);
+        std::array<std::uint8_t, 64> got{};
+        hash.digest(data.data(), data.size(), got.data());
+        const std::size_t bytes = (static_cast<std::size_t>(nbits) + 7) / 8;
+        const std::size_t out_len = std::max<std::size_t>(bytes, crypto_generichash_BYTES_MIN);
+        std::vector<std::uint8_t> message(domain.begin(), domain.end());
+        message.push_back(0);
+        message.insert(message.end(), data.begin(), data.end());
+        std::vector<std::uint8_t> want(out_len);
+        crypto_generichash(want.data(), out_len, message.data(), message.size(), key.bytes.data(),
+                           key.bytes.size());
+        ASSERT_TRUE(std::equal(want.begin(), want.begin() + static_cast<std::ptrdiff_t>(bytes),
+                               got.begin()))
+            << nbits << " bits of " << size << " bytes, domain of " << domain_size;
+        // keyed_hash_bits gives the same bits, most significant first.
+        const std::vector<std::uint8_t> bits = keyed_hash_bits(key, domain, data, nbits);
+        for (int i = 0; i < nbits; ++i) ASSERT_EQ(bits[i], (want[i / 8] >> (7 - i % 8)) & 1);
+      }
+  }
+  const Key key = key_from_passphrase_v1("keyed hash test");
   EXPECT_THROW(KeyedHash(key, "d", 0), InvalidArgumentError);
   EXPECT_THROW(KeyedHash(key, "d", 513), InvalidArgumentError);
 }

@@ -191,6 +191,7 @@ class CodewordEncoder {
   int n_ = 0, k_ = 0, id_bits_ = 0;
   std::optional<KeyedHash> to_right_, to_left_;  // the permutation's round functions
   std::vector<std::uint64_t> rows_;              // k x words(): unit messages' codewords
+  std::vector<std::uint64_t> bytes_;             // k/8 x 256 x words(): each byte's codewords
   std::vector<std::uint64_t> mask_;              // words()
 };
 
