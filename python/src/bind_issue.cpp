@@ -234,8 +234,8 @@ void init_issue(py::module_& m) {
           r = issue_copies(requests, s);
         }
         py::list out;
-        for (std::size_t k = 0; k < r.copies.size(); ++k)
-          out.append(to_dict(requests[k], r.copies[k]));
+        for (std::size_t c = 0; c < r.copies.size(); ++c)
+          out.append(to_dict(requests[c], r.copies[c]));
         return out;
       },
       py::arg("copies"), py::kw_only(), py::arg("registry") = "", py::arg("key") = py::none(),

@@ -365,9 +365,10 @@ std::vector<IssuedCopy> Registry::list(const RegistryQuery& query) const {
   return impl_->store->list(query);
 }
 
-std::vector<CandidateRow> Registry::candidates(const RegistryQuery& query,
-                                               const std::string& output_hash) const {
-  return impl_->store->candidates(query, output_hash);
+std::vector<CandidateRow> Registry::candidates(
+    const RegistryQuery& query, const std::string& output_hash,
+    const std::function<void(const CandidateRow&)>& first_found) const {
+  return impl_->store->candidates(query, output_hash, first_found);
 }
 
 std::vector<IssuedCopy> Registry::rows(const std::vector<std::int64_t>& rows) const {

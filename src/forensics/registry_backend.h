@@ -37,9 +37,10 @@ class RegistryBackend {
   /// The copies matching query, by row.
   virtual std::vector<IssuedCopy> list(const RegistryQuery& query) = 0;
   /// The scoring fields of the copies matching query, by row; same_bytes when the row's
-  /// output_hash is output_hash.
-  virtual std::vector<CandidateRow> candidates(const RegistryQuery& query,
-                                               const std::string& output_hash) = 0;
+  /// output_hash is output_hash; first_found (when set) called with the first row found.
+  virtual std::vector<CandidateRow> candidates(
+      const RegistryQuery& query, const std::string& output_hash,
+      const std::function<void(const CandidateRow&)>& first_found) = 0;
   /// The rows numbered rows, in that order; a row that is not there is left out.
   virtual std::vector<IssuedCopy> rows(const std::vector<std::int64_t>& rows) = 0;
   /// The largest spaced_index among the copies of c's original (its file's hash or, when c

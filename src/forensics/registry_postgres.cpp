@@ -194,8 +194,9 @@ class PostgresRegistry final : public RegistryBackend {
     return out;
   }
 
-  std::vector<CandidateRow> candidates(const RegistryQuery& query,
-                                       const std::string& output_hash) override {
+  std::vector<CandidateRow> candidates(
+      const RegistryQuery& query, const std::string& output_hash,
+      const std::function<void(const CandidateRow&)>& first_found) override {
     std::vector<std::string> p;
     const std::string where = where_of(query, p);
     p.push_back(output_hash);
@@ -218,6 +219,7 @@ class PostgresRegistry final : public RegistryBackend {
       c.method = r.text(i, 7);
       c.mark_format = std::atoi(PQgetvalue(r.get(), i, 8));
       c.same_bytes = r.text(i, 9) == "t";
+      if (i == 0 && first_found) first_found(c);
       out.push_back(std::move(c));
     }
     return out;

@@ -318,8 +318,9 @@ class SqliteRegistry final : public RegistryBackend {
     return out;
   }
 
-  std::vector<CandidateRow> candidates(const RegistryQuery& query,
-                                       const std::string& output_hash) override {
+  std::vector<CandidateRow> candidates(
+      const RegistryQuery& query, const std::string& output_hash,
+      const std::function<void(const CandidateRow&)>& first_found) override {
     // From the columns as list() reads them (an older schema's defaults included); SQLite
     // flattens the subquery, so only these columns are read. A registry mostly of this
     // original's copies (a popular asset) is read in one pass over the table, in row order:
@@ -361,6 +362,7 @@ class SqliteRegistry final : public RegistryBackend {
       c.method = q.text(7);
       c.mark_format = sqlite3_column_int(s, 8);
       c.same_bytes = sqlite3_column_int(s, 9) != 0;
+      if (out.empty() && first_found) first_found(c);
       out.push_back(std::move(c));
     }
     if (rc != SQLITE_DONE) fail(db_, path_, "cannot list the copies");

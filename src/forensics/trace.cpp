@@ -598,15 +598,34 @@ namespace {
 // The whole rows of the candidates at these positions, in that order.
 using FetchRows = std::function<std::vector<IssuedCopy>(const std::vector<std::size_t>&)>;
 
-// The scoring fields of the candidates, read while the leak is registered (a registry read on
-// another thread: half of a trace against a million rows).
+// The scoring fields of the candidates, read while the leak is registered and measured (a
+// registry read on another thread: a third of a trace against a million rows).
 using ReadCandidates = std::function<const std::vector<CandidateRow>&()>;
+// The first candidate the read found, as soon as it is found (none when there is none): a guess
+// at the group to measure first. Empty: no guess.
+using FirstCandidate = std::function<std::optional<CandidateRow>()>;
+
+// What the candidates of one group are scored against (trace_candidates' measure).
+using GroupKey = std::tuple<char, int, int, double, double, std::string>;
+struct GroupReading {
+  GroupKey group;
+  Histogram histogram;
+  double fraction = 0, gamma = 1;
+  Eigen::MatrixX3d reference;  // the first group's only
+  std::string processing;      // the reference's, the first group's only
+  std::vector<BitEvidence> evidence;
+  bool fingerprint_read = false;
+  std::optional<FingerprintBasis> basis;
+  std::vector<Eigen::VectorXd> readings;
+  std::string fingerprint_processing;
+  double seconds_resampling = 0, seconds_reference = 0, seconds_reading = 0;
+};
 
 // trace() on candidates all issued under key, given by their scoring fields; whole rows are
 // fetched for the ranking alone.
 TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
-                             const ReadCandidates& read_candidates, const FetchRows& fetch,
-                             const Key& key, const TraceOptions& o) {
+                             const ReadCandidates& read_candidates, const FirstCandidate& hint,
+                             const FetchRows& fetch, const Key& key, const TraceOptions& o) {
   if (!(o.threshold > 0 && o.threshold < 1))
     throw InvalidArgumentError(fmt::format("the threshold {} is out of (0, 1)", o.threshold));
   if (!(o.erase_distance > 0)) throw InvalidArgumentError("the erase distance must be positive");
@@ -627,6 +646,69 @@ TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
     r.registration.message = "in the original's frame (not registered)";
   }
   r.seconds.registration = since(t);
+  const bool registered = r.registration.status == RegistrationStatus::Registered;
+  const Eigen::MatrixX3d VL =
+      registered ? r.registration.transform.apply(leaked.V) : Eigen::MatrixX3d();
+  const std::vector<std::uint8_t> carrier = carrier_vertices(original.V, original.F);
+  const double diagonal = bounding_box_diagonal(original.V, carrier);
+  const Eigen::MatrixX3d normals = vertex_normals(original.V, original.F);
+  const auto group_of = [](const CandidateRow& c) {
+    return GroupKey{c.variant.empty() ? 'D' : c.variant[0],
+                    c.bits,
+                    c.id_bits,
+                    c.strength,
+                    c.strength_spread,
+                    c.method};
+  };
+  // One group's reading of the leak, before any candidate is scored. The first group (in
+  // GroupKey order) also fits the reference (processed_reference) that every group reads against.
+  const auto measure = [&](const GroupKey& group, const GroupReading* first, bool fingerprinted) {
+    const auto& [letter, bits, id_bits, strength, spread, method] = group;
+    GroupReading g;
+    g.group = group;
+    const CenterKind kind = parse_variant(std::string(1, letter) + "RS").center;
+    const Center center = center_of_mass(original.V, original.F, carrier, kind);
+    g.histogram = build_histogram(original.V, carrier, center.point, bits);
+    if (!g.histogram.valid()) throw InvalidArgumentError("the original has no histogram");
+    Clock::time_point at = Clock::now();
+    const Resampled m = resample_at_original(VL, leaked.F, original.V, original.F, center.point,
+                                             o.erase_distance * diagonal);
+    g.seconds_resampling = since(at);
+    g.fraction = m.fraction;
+    if (!first) {
+      at = Clock::now();
+      g.reference = processed_reference(original, normals, carrier, m, center.point, g.processing);
+      g.seconds_reference = since(at);
+    }
+    const Eigen::MatrixX3d& reference = first ? first->reference : g.reference;
+    const std::string& processing = first ? first->processing : g.processing;
+    at = Clock::now();
+    // Strength 0: copies issued with the fingerprint alone (issue.h), no histogram mark to read.
+    if (strength > 0) {
+      const std::vector<double> alpha = mark_strengths(key, bits, true, strength, spread);
+      const Eigen::VectorXd reference_radii =
+          radii(reference, original.V, normals, m, center.point);
+      g.evidence = read_bins(original.V, reference_radii, carrier, g.histogram, m, alpha,
+                             bin_statistic(parse_method(method)), g.gamma);
+    }
+    // The fingerprint of copies issued with one (fingerprint.h), read at the leak's vertices.
+    // Like the bins, the reading uses no candidate's coefficients.
+    if (fingerprinted) {
+      g.basis = fingerprint_reading(original, carrier, reference, processing != "none", VL,
+                                    leaked.F, g.histogram, o.erase_distance * diagonal,
+                                    o.fingerprint_ridge, g.fingerprint_processing, g.readings);
+      g.fingerprint_read = true;
+    }
+    g.seconds_reading = since(at);
+    return g;
+  };
+  // While the registry is read (trace_issued reads it on another thread), the group of the
+  // first candidate found is measured: a million rows take as long to read as a reading. It is
+  // kept when it is the first group, and measured again otherwise.
+  std::optional<GroupReading> guess;
+  if (registered && hint)
+    if (const std::optional<CandidateRow> c = hint())
+      guess = measure(group_of(*c), nullptr, has_fingerprint(c->mark_format));
   const std::vector<CandidateRow>& mine = read_candidates();
   r.candidates = mine.size();
   if (mine.empty()) {  // before a failed registration: nothing to trace either way
@@ -634,88 +716,61 @@ TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
     r.message = "no copy was issued under this key";
     return r;
   }
-  if (r.registration.status != RegistrationStatus::Registered) {
+  if (!registered) {
     r.status = TraceStatus::RegistrationFailed;
     r.message = r.registration.message;
     return r;
   }
   // Groups of candidates read alike.
-  using GroupKey = std::tuple<char, int, int, double, double, std::string>;
   std::map<GroupKey, std::vector<std::size_t>> groups;
-  for (std::size_t k = 0; k < mine.size(); ++k) {
-    const CandidateRow& c = mine[k];
-    groups[{c.variant.empty() ? 'D' : c.variant[0], c.bits, c.id_bits, c.strength,
-            c.strength_spread, c.method}]
-        .push_back(k);
-  }
+  for (std::size_t k = 0; k < mine.size(); ++k) groups[group_of(mine[k])].push_back(k);
   // Progress: the registration (done), then each group measured and scored.
   detail::ProgressCounter progress(o.progress, "tracing", 1 + static_cast<long>(groups.size()));
   progress.step(1, "registered");
-  const Eigen::MatrixX3d VL = r.registration.transform.apply(leaked.V);
-  const std::vector<std::uint8_t> carrier = carrier_vertices(original.V, original.F);
-  const double diagonal = bounding_box_diagonal(original.V, carrier);
-  Eigen::MatrixX3d reference = original.V;
-  const Eigen::MatrixX3d normals = vertex_normals(original.V, original.F);
-  r.processing = "none";
-  bool first = true;
+  std::optional<GroupReading> first;
+  if (guess && guess->group == groups.begin()->first) first = std::move(guess);
   std::vector<Score> scores;
   scores.reserve(mine.size());
   for (const auto& [group, members] : groups) {
-    const auto& [letter, bits, id_bits, strength, spread, method] = group;
-    const BinStatistic statistic = bin_statistic(parse_method(method));
-    const CenterKind kind = parse_variant(std::string(1, letter) + "RS").center;
-    const Center center = center_of_mass(original.V, original.F, carrier, kind);
-    const Histogram h = build_histogram(original.V, carrier, center.point, bits);
-    if (!h.valid()) throw InvalidArgumentError("the original has no histogram");
-    t = Clock::now();
-    const Resampled m = resample_at_original(VL, leaked.F, original.V, original.F, center.point,
-                                             o.erase_distance * diagonal);
-    r.seconds.resampling += since(t);
-    if (first) {
-      t = Clock::now();
-      reference = processed_reference(original, normals, carrier, m, center.point, r.processing);
-      r.seconds.reference = since(t);
-    }
-    t = Clock::now();
-    double gamma = 1;
-    // Strength 0: copies issued with the fingerprint alone (issue.h), no histogram mark to read.
-    std::vector<BitEvidence> evidence;
-    if (strength > 0) {
-      const std::vector<double> alpha = mark_strengths(key, bits, true, strength, spread);
-      const Eigen::VectorXd reference_radii =
-          radii(reference, original.V, normals, m, center.point);
-      evidence = read_bins(original.V, reference_radii, carrier, h, m, alpha, statistic, gamma);
-    }
-    // The fingerprint of copies issued with one (fingerprint.h), read at the leak's vertices.
-    // Like the bins, the reading uses no candidate's coefficients.
     const bool fingerprinted = std::any_of(members.begin(), members.end(), [&](std::size_t k) {
       return has_fingerprint(mine[k].mark_format);
     });
-    std::optional<FingerprintBasis> basis;
-    std::vector<Eigen::VectorXd> readings;
-    if (fingerprinted) {
-      std::string fingerprint_processing;
-      basis = fingerprint_reading(original, carrier, reference, r.processing != "none", VL,
-                                  leaked.F, h, o.erase_distance * diagonal, o.fingerprint_ridge,
-                                  fingerprint_processing, readings);
-      if (basis && r.fingerprint_processing.empty())
-        r.fingerprint_processing = fingerprint_processing;
+    const bool is_first = group == groups.begin()->first;
+    if (is_first && !first) first = measure(group, nullptr, fingerprinted);
+    GroupReading other;
+    if (!is_first) other = measure(group, &*first, fingerprinted);
+    GroupReading& g = is_first ? *first : other;
+    if (fingerprinted && !g.fingerprint_read) {  // a guess measured without
+      g.basis =
+          fingerprint_reading(original, carrier, first->reference, first->processing != "none", VL,
+                              leaked.F, g.histogram, o.erase_distance * diagonal,
+                              o.fingerprint_ridge, g.fingerprint_processing, g.readings);
+      g.fingerprint_read = true;
     }
+    if (!fingerprinted) g.basis.reset(), g.readings.clear();  // a guess measured with
+    if (g.basis && r.fingerprint_processing.empty())
+      r.fingerprint_processing = g.fingerprint_processing;
+    r.seconds.resampling += g.seconds_resampling;
+    r.seconds.reference += g.seconds_reference;
+    t = Clock::now();
+    const int bits = std::get<1>(group), id_bits = std::get<2>(group);
     const BitLayout layout = mark_layout(key, bits, true);
     std::vector<const CandidateRow*> group_copies;
     group_copies.reserve(members.size());
     for (const std::size_t k : members) group_copies.push_back(&mine[k]);
-    std::vector<Score> scored = score_group(group_copies, evidence, layout, id_bits, key,
-                                            basis ? &*basis : nullptr, readings);
+    std::vector<Score> scored = score_group(group_copies, g.evidence, layout, id_bits, key,
+                                            g.basis ? &*g.basis : nullptr, g.readings);
     for (std::size_t i = 0; i < scored.size(); ++i) {
       scored[i].order = members[i];
       scored[i].corrected_p = std::min(1.0, scored[i].p_value * static_cast<double>(mine.size()));
     }
     scores.insert(scores.end(), scored.begin(), scored.end());
-    r.seconds.scoring += since(t);
+    r.seconds.scoring += g.seconds_reading + since(t);
     progress.step(1, fmt::format("{} candidates scored", members.size()));
-    if (first) {
-      r.measured_fraction = m.fraction, r.attenuation = gamma, first = false;
+    if (is_first) {
+      r.processing = g.processing;
+      r.measured_fraction = g.fraction, r.attenuation = g.gamma;
+      const std::vector<BitEvidence>& evidence = g.evidence;
       const std::vector<std::uint8_t> read = evidence.empty()
                                                  ? std::vector<std::uint8_t>()
                                                  : layout.from_bins(banded_bits(evidence, 0.0));
@@ -776,7 +831,7 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
                     !o.leaked_hash.empty() && c.output_hash == o.leaked_hash});
   }
   return trace_candidates(
-      leaked, original, [&]() -> const std::vector<CandidateRow>& { return rows; },
+      leaked, original, [&]() -> const std::vector<CandidateRow>& { return rows; }, {},
       [&](const std::vector<std::size_t>& at) {
         std::vector<IssuedCopy> out;
         out.reserve(at.size());
@@ -819,15 +874,29 @@ TraceResult trace_issued(const Mesh& leaked, const Mesh& original, const std::st
   q.key_fingerprint = key_fingerprint(key);
   // The scoring fields of every candidate, whole rows for the ranking alone: a row read twice
   // must not have changed in between (a reserved copy completed meanwhile is traced again).
-  // The read runs on its own thread while the leak is registered; the connection is used by
-  // one thread at a time (the future is waited for before any other use).
+  // The read runs on its own thread while the leak is registered and the first row's group
+  // measured; the connection is used by one thread at a time (the future is waited for before
+  // any other use).
   std::chrono::duration<double> reading{};
+  std::promise<std::optional<CandidateRow>> found;
+  std::future<std::optional<CandidateRow>> first = found.get_future();
   std::future<std::vector<CandidateRow>> pending =
-      std::async(std::launch::async, [&store, &q, &options, &reading] {
+      std::async(std::launch::async, [&store, &q, &options, &reading, &found] {
         const auto start = std::chrono::steady_clock::now();
-        std::vector<CandidateRow> read = store.candidates(q, options.leaked_hash);
-        reading = std::chrono::steady_clock::now() - start;
-        return read;
+        bool told = false;
+        const auto tell = [&](std::optional<CandidateRow> c) {
+          if (!told) found.set_value(std::move(c)), told = true;
+        };
+        try {
+          std::vector<CandidateRow> read =
+              store.candidates(q, options.leaked_hash, [&](const CandidateRow& c) { tell(c); });
+          tell(std::nullopt);
+          reading = std::chrono::steady_clock::now() - start;
+          return read;
+        } catch (...) {
+          tell(std::nullopt);  // the error comes with the candidates
+          throw;
+        }
       });
   std::vector<CandidateRow> candidates;
   bool received = false;
@@ -837,6 +906,7 @@ TraceResult trace_issued(const Mesh& leaked, const Mesh& original, const std::st
         if (!received) candidates = pending.get(), received = true;
         return candidates;
       },
+      [&] { return first.get(); },
       [&](const std::vector<std::size_t>& at) {
         std::vector<std::int64_t> numbers;
         numbers.reserve(at.size());

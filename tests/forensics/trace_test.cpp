@@ -11,6 +11,7 @@
 
 #include "meshmark/attacks/attack.h"
 #include "meshmark/carrier/variant.h"
+#include "meshmark/forensics/registry.h"
 #include "meshmark/forensics/trace.h"
 #include "meshmark/io/io.h"
 #include "meshmark/mark/embed.h"
@@ -355,6 +356,69 @@ TEST(Trace, ABoundedRankingIsTheHeadOfTheFullOne) {
   std::vector<float> got = head.log_scores;
   std::sort(want.begin(), want.end()), std::sort(got.begin(), got.end());
   EXPECT_EQ(got, want);
+}
+
+// trace_issued reads the registry on another thread and measures the group of the first row it
+// finds meanwhile, keeping that reading only when the group is the first one (in GroupKey order)
+// and measuring again otherwise: whichever group the first row found is in, the result is the
+// in-memory trace of the registry's list, every score and every bit's evidence bit for bit.
+// The registries hold the shop's copies (VRS) and 100 DRS copies at another strength, recorded
+// before them, after them, or not at all; the leak is resampled (simplified), so each group's
+// measurement depends on its center.
+TEST(Trace, ARegistryReadBesideTheMeasurementTracesAsItsList) {
+  MESHMARK_REQUIRE(test::closed_binary_ply(), "bunny00.off");
+  const Shop& s = shop();
+  const Mesh leak = apply_attack_chain(s.marked, parse_attack_chain("simplify:0.5"), 5);
+  std::vector<IssuedCopy> drs;
+  for (std::uint64_t id = 3000; id < 3100; ++id) {
+    IssuedCopy c = s.issued.front();
+    c.id = id, c.buyer = "drs buyer " + std::to_string(id);
+    c.variant = "DRS", c.strength = 0.04;
+    drs.push_back(c);
+  }
+  const std::string geometry = geometry_hash(s.original.V, s.original.F);
+  for (const std::string order : {"drs first", "vrs first", "vrs alone"}) {
+    SCOPED_TRACE(order);
+    std::vector<IssuedCopy> rows;
+    if (order == "drs first") rows = drs;
+    rows.insert(rows.end(), s.issued.begin(), s.issued.end());
+    if (order == "vrs first") rows.insert(rows.end(), drs.begin(), drs.end());
+    for (IssuedCopy& c : rows) {
+      c.original_hash = "the original's file";
+      c.original_geometry = geometry;
+      c.output_path = "/shop/" + std::to_string(c.id) + ".ply";
+      c.output_hash = "copy " + std::to_string(c.id);
+    }
+    const std::string db = test::scratch_dir() + "/guess.db";
+    std::filesystem::remove(db);
+    Registry(db).record(rows);
+    const TraceResult got = trace_issued(leak, s.original, "the original's file", db, s.key);
+    const TraceResult want = trace(leak, s.original, Registry(db, true).list(), s.key);
+    ASSERT_EQ(got.status, TraceStatus::Named) << got.message;
+    EXPECT_EQ(got.message, want.message);
+    EXPECT_EQ(got.candidates, rows.size());
+    EXPECT_EQ(got.processing, want.processing);
+    EXPECT_EQ(got.measured_fraction, want.measured_fraction);
+    EXPECT_EQ(got.attenuation, want.attenuation);
+    ASSERT_EQ(got.bits.size(), want.bits.size());
+    for (std::size_t j = 0; j < got.bits.size(); ++j) {
+      EXPECT_EQ(got.bits[j].shift, want.bits[j].shift) << j;
+      EXPECT_EQ(got.bits[j].bit, want.bits[j].bit) << j;
+    }
+    ASSERT_EQ(got.ranking.size(), want.ranking.size());
+    for (std::size_t i = 0; i < got.ranking.size(); ++i) {
+      EXPECT_EQ(got.ranking[i].copy.row, want.ranking[i].copy.row) << i;
+      EXPECT_EQ(got.ranking[i].p_value, want.ranking[i].p_value) << i;
+    }
+    EXPECT_EQ(got.log_scores, want.log_scores);
+    // The DRS group reads against its own center: the first group's evidence is DRS's when
+    // there are DRS copies (a guess that is not the first group is not kept).
+    const TraceResult vrs_only = trace(leak, s.original, s.issued, s.key);
+    if (order == "vrs alone")
+      EXPECT_EQ(got.bits[0].shift, vrs_only.bits[0].shift);
+    else
+      EXPECT_NE(got.bits[0].shift, vrs_only.bits[0].shift);
+  }
 }
 
 TEST(Trace, NamesNobodyForAnUnmarkedMeshAnotherKeyOrAnotherLeak) {

@@ -14,6 +14,7 @@
 /// another format, or with other bytes, is the same original.
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -210,9 +211,12 @@ class Registry {
   /// The copies that match query, in the order they were recorded.
   std::vector<IssuedCopy> list(const RegistryQuery& query = {}) const;
   /// The scoring fields of the copies that match query, in the order they were recorded;
-  /// same_bytes tells the row whose output_hash is output_hash ("": none).
-  std::vector<CandidateRow> candidates(const RegistryQuery& query,
-                                       const std::string& output_hash = "") const;
+  /// same_bytes tells the row whose output_hash is output_hash ("": none). first_found, when
+  /// set, is called with the first row the read finds (any of them, not always the earliest)
+  /// before the others are read: trace starts on it while a large registry is read.
+  std::vector<CandidateRow> candidates(
+      const RegistryQuery& query, const std::string& output_hash = "",
+      const std::function<void(const CandidateRow&)>& first_found = {}) const;
   /// The whole rows numbered rows, in that order. \throw IOError when one of them is not in
   /// the registry (deleted since it was listed).
   std::vector<IssuedCopy> rows(const std::vector<std::int64_t>& rows) const;

@@ -187,8 +187,9 @@ void compare_with_issued_files(TraceResult& r, const std::string& leaked_hash);
 /// original_hash, and of any file of the same geometry (geometry_hash of original, registry.h;
 /// the same shape saved in another format). When none was, the message says how many copies of
 /// other originals were issued under that key (the original given is then likely not the file the
-/// copies were made from). \throw IOError when the registry does not exist or cannot be read; as
-/// trace() otherwise.
+/// copies were made from). The registry is read on a thread of its own while the leak is
+/// registered and measured; the result is trace()'s on the registry's list, bit for bit.
+/// \throw IOError when the registry does not exist or cannot be read; as trace() otherwise.
 TraceResult trace_issued(const Mesh& leaked, const Mesh& original, const std::string& original_hash,
                          const std::string& registry, const Key& key,
                          const TraceOptions& options = {});
