@@ -309,6 +309,27 @@ std::shared_ptr<const Original> prepare_original(const CopyRequest& request,
       std::move(mesh), std::move(embedder), std::move(basis), std::move(histogram), counted});
 }
 
+// The distortion of positions V of the original O as calibration measures it: each counted
+// position once, % of the carrier's diagonal; MSDM against the original, measured only when the
+// RMS is within its limit (-1 otherwise).
+struct Distortion {
+  double rms_percent = 0, msdm = -1;
+  bool within(const CalibrateOptions& limits) const {
+    return msdm >= 0 && rms_percent <= limits.max_rms_percent && msdm <= limits.max_msdm;
+  }
+};
+
+Distortion distortion(const Mesh& O, const Eigen::MatrixX3d& V, const CalibrateOptions& limits) {
+  const std::vector<std::uint8_t> carrier = carrier_vertices(O.V, O.F);
+  double sum = 0, n = 0;
+  for (Eigen::Index i = 0; i < O.V.rows(); ++i)
+    if (carrier[i] == kCounted) sum += (V.row(i) - O.V.row(i)).squaredNorm(), n += 1;
+  Distortion d;
+  d.rms_percent = n > 0 ? 100 * std::sqrt(sum / n) / bounding_box_diagonal(O.V, carrier) : 0;
+  if (d.rms_percent <= limits.max_rms_percent) d.msdm = msdm(O.V, V, O.F).global;
+  return d;
+}
+
 // A copy whose histogram mark cannot fit the limits, issued with the fingerprint alone when
 // that fits them (its row records strength 0: trace then reads the fingerprint only), or
 // refused naming both. `why`: the calibration's message.
@@ -320,15 +341,9 @@ void issue_fingerprint_alone(const CopyRequest& request, const Original& origina
   const Mesh& O = original.mesh;
   Mesh copy = O;
   copy.V = add(O.V);
-  // The distortion as calibration measures it: each counted position once, % of the
-  // carrier's diagonal; MSDM against the original.
-  const std::vector<std::uint8_t> carrier = carrier_vertices(O.V, O.F);
-  double sum = 0, n = 0;
-  for (Eigen::Index i = 0; i < O.V.rows(); ++i)
-    if (carrier[i] == kCounted) sum += (copy.V.row(i) - O.V.row(i)).squaredNorm(), n += 1;
-  const double rms = n > 0 ? 100 * std::sqrt(sum / n) / bounding_box_diagonal(O.V, carrier) : 0;
-  const double m = rms <= limits.max_rms_percent ? msdm(O.V, copy.V, O.F).global : -1;
-  if (m < 0 || m > limits.max_msdm) {
+  const Distortion d = distortion(O, copy.V, limits);
+  const double rms = d.rms_percent, m = d.msdm;
+  if (!d.within(limits)) {
     out.status = CopyStatus::NotWithinFidelity;
     out.message = fmt::format("{}; the fingerprint alone does not fit either (RMS {:.5f} %{})", why,
                               rms, m >= 0 ? fmt::format(", MSDM {:.4f}", m) : std::string());
@@ -454,6 +469,20 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   try {
     WrittenCheck written = write_marked_mesh(request.output, copy, settings.write, settings.read,
                                              out.bins, eo, 0.5 * o.strength);
+    if (!written.carried && !bare && out.calibration && fingerprint && !required) {
+      // Calibrated with the fingerprint: the histogram mark at the strength found, without
+      // it, when that still fits the limits (measured again: without the field, the positions
+      // differ).
+      const EmbedResult plain = original.embedder.embed(out.bins, o);
+      if (plain.status == EmbedStatus::Embedded) {
+        const Distortion d = distortion(original.mesh, plain.V, *settings.limits);
+        if (d.within(*settings.limits)) {
+          bare = plain.V;
+          out.result.rms_percent = out.calibration->rms_percent = d.rms_percent;
+          out.calibration->msdm = d.msdm;
+        }
+      }
+    }
     if (!written.carried && bare) {
       out.warnings.push_back(
           fmt::format("{}: with the fingerprint, {}: issued without the fingerprint (trace then "

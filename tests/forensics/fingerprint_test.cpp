@@ -643,6 +643,60 @@ TEST(Fingerprint, ACopyWhoseHistogramMarkCannotFitIsIssuedWithTheFingerprintAlon
   EXPECT_EQ(nobody.status, TraceStatus::NoBuyer) << nobody.message;
 }
 
+// Within limits (RMS 0.02 %, MSDM 1) under this key, spot's copy for ID 25 calibrated with the
+// default fingerprint would lose 8 histogram bits in its OBJ file (found by issuing IDs 1 to 30
+// through the CLI; the others are issued with the fingerprint alone, no histogram mark fitting
+// 0.02 %). It is written without the fingerprint, at the strength the search found, with a
+// warning; its row records mark format 2; the file stays within the limits (measured here) and
+// traces to its buyer by the histogram mark alone. Asked for (fingerprint true), the copy is
+// refused and nothing is written.
+TEST(Fingerprint, ACalibratedCopyTheFingerprintWouldUnmarkIsIssuedWithoutIt) {
+  const std::string original = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(original, "spot.obj");
+  const std::string dir = fresh_dir("fingerprint-calibrated-fallback");
+  IssueSettings settings;
+  settings.key = key_from_passphrase("fallback shop key");
+  settings.limits = CalibrateOptions();
+  settings.limits->max_rms_percent = 0.02;
+  settings.limits->max_msdm = 1;
+  settings.registry = dir + "/shop.db";
+  CopyRequest r;
+  r.input = original, r.output = dir + "/copy.obj", r.id = 25, r.buyer = "buyer 25";
+  const IssueResult issued = issue_copies({r}, settings);
+  const CopyOutcome& c = issued.copies[0];
+  ASSERT_EQ(c.status, CopyStatus::Written) << c.message;
+  ASSERT_TRUE(c.calibration.has_value());
+  EXPECT_GT(c.calibration->strength, 0.0);
+  EXPECT_TRUE(std::any_of(c.warnings.begin(), c.warnings.end(), [](const std::string& w) {
+    return w.find("with the fingerprint") != std::string::npos &&
+           w.find("issued without the fingerprint") != std::string::npos;
+  })) << c.message;
+  const std::vector<IssuedCopy> rows = read_registry(settings.registry, {});
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0].mark_format, kMarkFormatVersion);
+  EXPECT_EQ(rows[0].strength, c.calibration->strength);
+  const Mesh O = read_mesh(original), copy = read_mesh(r.output);
+  const double rms = counted_rms_percent(O, copy), m = msdm(O.V, copy.V, O.F).global;
+  EXPECT_LE(rms, 0.02 * (1 + 1e-6));
+  EXPECT_LE(m, 1.0);
+  // What the outcome reports is the written copy's (OBJ's decimals: 1e-3 of the value).
+  EXPECT_NEAR(c.calibration->rms_percent, rms, 1e-3 * rms);
+  EXPECT_NEAR(c.calibration->msdm, m, 1e-3 * m);
+  const TraceResult found =
+      trace_issued(copy, O, content_hash(read_file(original)), settings.registry, *settings.key);
+  ASSERT_EQ(found.status, TraceStatus::Named) << found.message;
+  EXPECT_EQ(found.named[0].copy.id, 25u);
+  EXPECT_TRUE(std::isnan(found.named[0].fingerprint_z));
+  EXPECT_EQ(found.named[0].compared, 64);
+  // Asked for, the fingerprint is not given up: refused, nothing written.
+  settings.fingerprint = true;
+  settings.registry = dir + "/required.db";
+  r.output = dir + "/required.obj";
+  const IssueResult refused = issue_copies({r}, settings);
+  EXPECT_EQ(refused.copies[0].status, CopyStatus::NotCarried) << refused.copies[0].message;
+  EXPECT_FALSE(std::filesystem::exists(r.output));
+}
+
 // Issued and traced through the library as the CLI does: 20 consecutive IDs of bunny00 with
 // the fingerprint (a real scan, 37,706 vertices). An unprocessed copy names its buyer with the
 // fingerprint at the strength its reading allows; vertex-wise averages of three and five copies,
