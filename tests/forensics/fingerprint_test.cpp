@@ -599,6 +599,24 @@ TEST(Fingerprint, RegisteredCopiesCarryItByDefault) {
   EXPECT_EQ(issue_copies({raw}, settings).copies[0].status, CopyStatus::Written);
 }
 
+// Settings issuing under key into registry within a vertex RMS of max_rms_percent (the other
+// limits the paper's).
+IssueSettings within_limits(const Key& key, double max_rms_percent, const std::string& registry) {
+  IssueSettings settings;
+  settings.key = key;
+  settings.limits = CalibrateOptions();
+  settings.limits->max_rms_percent = max_rms_percent;
+  settings.registry = registry;
+  return settings;
+}
+
+// A request for the copy of input with ID id, for "buyer ID", written to output.
+CopyRequest copy_request(const std::string& input, const std::string& output, std::uint64_t id) {
+  CopyRequest r;
+  r.input = input, r.output = output, r.id = id, r.buyer = "buyer " + std::to_string(id);
+  return r;
+}
+
 // Limits no histogram mark fits (strengths from 0.2 only, RMS at most 0.015 %) but the
 // fingerprint (0.01 %) does: the copy is issued with the fingerprint alone, says so, records
 // strength 0, stays within the limits (measured from the file here), and traces to its buyer
@@ -608,14 +626,10 @@ TEST(Fingerprint, ACopyWhoseHistogramMarkCannotFitIsIssuedWithTheFingerprintAlon
   const std::string original = test::cgal_mesh("camel.off");
   MESHMARK_REQUIRE(original, "libcgal-demo's camel.off");
   const std::string dir = fresh_dir("fingerprint-alone");
-  IssueSettings settings;
-  settings.key = key_from_passphrase_v1("fingerprint alone key");
-  settings.limits = CalibrateOptions();
-  settings.limits->max_rms_percent = 0.015;
+  IssueSettings settings =
+      within_limits(key_from_passphrase_v1("fingerprint alone key"), 0.015, dir + "/shop.db");
   settings.limits->min_strength = 0.2;
-  settings.registry = dir + "/shop.db";
-  CopyRequest r;
-  r.input = original, r.output = dir + "/copy.ply", r.id = 81, r.buyer = "buyer 81";
+  CopyRequest r = copy_request(original, dir + "/copy.ply", 81);
   settings.fingerprint = false;
   const IssueResult refused = issue_copies({r}, settings);
   EXPECT_EQ(refused.copies[0].status, CopyStatus::NotWithinFidelity);
@@ -654,14 +668,10 @@ TEST(Fingerprint, ACalibratedCopyTheFingerprintWouldUnmarkIsIssuedWithoutIt) {
   const std::string original = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(original, "spot.obj");
   const std::string dir = fresh_dir("fingerprint-calibrated-fallback");
-  IssueSettings settings;
-  settings.key = key_from_passphrase("fallback shop key");
-  settings.limits = CalibrateOptions();
-  settings.limits->max_rms_percent = 0.02;
+  IssueSettings settings =
+      within_limits(key_from_passphrase("fallback shop key"), 0.02, dir + "/shop.db");
   settings.limits->max_msdm = 1;
-  settings.registry = dir + "/shop.db";
-  CopyRequest r;
-  r.input = original, r.output = dir + "/copy.obj", r.id = 25, r.buyer = "buyer 25";
+  CopyRequest r = copy_request(original, dir + "/copy.obj", 25);
   const IssueResult issued = issue_copies({r}, settings);
   const CopyOutcome& c = issued.copies[0];
   ASSERT_EQ(c.status, CopyStatus::Written) << c.message;
