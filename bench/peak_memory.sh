@@ -1,7 +1,9 @@
 #!/bin/bash
 # Peak memory of `meshmark embed` (maximum resident set size, GNU time) on about a million
 # vertices: libcgal-demo's refined_elephant (44k vertices) sqrt3-subdivided three times (1.2M),
-# written as binary PLY. Prints the peak, and bytes per vertex for each variant given.
+# written as binary PLY. Prints the peak, and bytes per vertex for each variant given; then the
+# same, and the wall time, for a copy issued to a registry with the defaults (ID 7, a fresh key:
+# both marks) and for `meshmark trace` of that copy with the original and the registry.
 # Usage: bench/peak_memory.sh [BUILD_DIR] [VARIANT...]   (default: build DRS)
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
@@ -24,3 +26,14 @@ for v in "${variants[@]}"; do
   kb=$(cat "$work/rss")
   echo "$v: $nv vertices, peak RSS $((kb / 1024)) MiB, $((kb * 1024 / nv)) bytes per vertex"
 done
+"$build/meshmark" keygen "$work/k.key" >/dev/null
+/usr/bin/time -f "%M %e" -o "$work/rss" "$build/meshmark" embed "$work/big.ply" "$work/copy.ply" \
+  --id 7 --buyer b7 --registry "$work/r.db" --key-file "$work/k.key" >/dev/null
+read -r kb wall <"$work/rss"
+echo "embed --registry (both marks): peak RSS $((kb / 1024)) MiB, $((kb * 1024 / nv)) bytes per" \
+  "vertex, $wall s"
+/usr/bin/time -f "%M %e" -o "$work/rss" "$build/meshmark" trace "$work/copy.ply" \
+  --original "$work/big.ply" --registry "$work/r.db" --key-file "$work/k.key" >"$work/trace.txt"
+read -r kb wall <"$work/rss"
+echo "trace: peak RSS $((kb / 1024)) MiB, $((kb * 1024 / nv)) bytes per vertex, $wall s:" \
+  "$(head -1 "$work/trace.txt")"
