@@ -11,6 +11,7 @@
 #include "meshmark/forensics/registry.h"
 #include "meshmark/mark/calibrate.h"
 #include "meshmark/mark/embed.h"
+#include "progress.h"
 
 namespace meshmark::cli {
 
@@ -105,7 +106,10 @@ int run(const EmbedArgs& a) {
   request.payload_hex = a.payload;
   request.buyer = a.buyer;
   settings.resume = false;  // one copy asked for by hand: an ID issued before is refused
+  Progress progress(Progress::Bar, "");  // preparing, then issuing: seconds on a large mesh
+  settings.progress = terminal_progress(progress, a.json);
   const IssueResult issued = issue_copies({request}, settings);
+  progress.finish();
   const CopyOutcome& c = issued.copies.at(0);
   for (const std::string& w : c.warnings)
     fmt::print(stderr, "meshmark: warning: {}\n", printable(w));

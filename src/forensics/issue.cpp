@@ -710,12 +710,24 @@ IssueResult issue_with(std::vector<CopyRequest> requests, const IssueSettings& s
   // copy of it Refused.
   std::map<std::string, std::shared_ptr<const Original>>& originals = cache.prepared;
   std::map<std::string, std::pair<CopyStatus, std::string>> failed;
-  std::set<std::string> inputs;
+  std::set<std::string> inputs, to_prepare;
+  for (std::size_t k = 0; k < requests.size(); ++k)
+    if (pending(out[k]) && !originals.count(original_key(requests[k])))
+      to_prepare.insert(original_key(requests[k]));
+  // Progress: each original read and prepared (on a million vertices, a few seconds each),
+  // then each copy made.
+  detail::ProgressCounter preparing(settings.progress, "preparing",
+                                    static_cast<long>(to_prepare.size()));
   for (std::size_t k = 0; k < requests.size(); ++k) {
     const std::string input = original_key(requests[k]);
     if (!pending(out[k])) continue;
     inputs.insert(input);
     if (originals.count(input) || failed.count(input)) continue;
+    struct Step {  // the original counted as prepared however its preparation ends
+      detail::ProgressCounter& counter;
+      const std::string& what;
+      ~Step() { counter.step(1, what); }
+    } step{preparing, requests[k].input};
     try {
       originals[input] = prepare_original(requests[k], settings);
     } catch (const IOError& e) {

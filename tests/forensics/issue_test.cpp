@@ -12,8 +12,10 @@
 #include <atomic>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <set>
 #include <thread>
+#include <tuple>
 
 #include "core/parallel.h"
 #include "meshmark/campaign/calibration_cache.h"
@@ -166,6 +168,41 @@ TEST(Issue, ClashesAndMalformedRequestsAreRefusedAndWriteNothing) {
   ASSERT_EQ(recorded.size(), 1u);
   EXPECT_EQ(recorded[0].id, 9u);
   EXPECT_EQ(recorded[0].buyer, "Ivy");
+}
+
+// Progress, as a caller sees it: phase "preparing" counts each distinct original once, one that
+// cannot be read included (it ends its phase all the same), then phase "issuing" counts the copies
+// made; each phase starts at 0 and ends at its total, one step at a time.
+TEST(Issue, ProgressCountsTheOriginalsPreparedThenTheCopiesMade) {
+  const std::string spot = test::data_mesh("spot.obj");
+  const std::string fandisk = test::cgal_mesh("fandisk.off");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  MESHMARK_REQUIRE(fandisk, "libcgal-demo's fandisk.off");
+  const std::string dir = test::scratch_dir() + "/issue-progress";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::vector<CopyRequest> requests;
+  for (const auto& [input, name] : std::vector<std::pair<std::string, std::string>>{
+           {spot, "a"}, {fandisk, "b"}, {spot, "c"}, {dir + "/missing.obj", "d"}}) {
+    CopyRequest r;
+    r.input = input, r.output = dir + "/" + name + ".ply";
+    r.payload_hex = "0123456789abcdef";
+    requests.push_back(r);
+  }
+  IssueSettings settings;
+  std::vector<std::tuple<std::string, long, long>> seen;
+  std::mutex mutex;
+  settings.progress = [&](const std::string& phase, long done, long total, const std::string&) {
+    std::lock_guard<std::mutex> lock(mutex);
+    seen.emplace_back(phase, done, total);
+  };
+  const IssueResult r = issue_copies(requests, settings);
+  EXPECT_EQ(r.count(CopyStatus::Written), 3u);
+  EXPECT_EQ(r.copies[3].status, CopyStatus::Unreadable);
+  const std::vector<std::tuple<std::string, long, long>> want = {
+      {"preparing", 0, 3}, {"preparing", 1, 3}, {"preparing", 2, 3}, {"preparing", 3, 3},
+      {"issuing", 0, 3},   {"issuing", 1, 3},   {"issuing", 2, 3},   {"issuing", 3, 3}};
+  EXPECT_EQ(seen, want);
 }
 
 // A CSV manifest keeps every buyer label as written: commas, quotes, '#', line breaks, any

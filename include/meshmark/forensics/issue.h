@@ -74,7 +74,9 @@ struct IssueSettings {
   /// Files no copy may write, besides the inputs and the registry: the key's file and the
   /// manifest, each refused by what it is ("the key file"); paths, as given.
   std::vector<std::pair<std::string, std::string>> kept_files;  ///< (what it is, path)
-  /// Called as copies are made (progress.h): phase "issuing", copies done of those to make,
+  /// Called as originals are prepared and copies made (progress.h): phase "preparing",
+  /// originals read and prepared of those to prepare, the original just prepared; then phase
+  /// "issuing", copies done of those to make,
   /// the output just made.
   ProgressCallback progress;
 };
