@@ -98,7 +98,7 @@ void trace_scale(benchmark::State& state, const std::string& attack) {
   }
   leak.V = add_fingerprint(leak.V, original.V, frame->basis,
                            fingerprint_coefficients(key, 5000, frame->basis.functions),
-                           FingerprintOptions().rms, &frame->histogram);
+                           FingerprintOptions().rms, &frame->histogram, &frame->center_motion);
   if (!attack.empty()) leak = apply_attack_chain(leak, parse_attack_chain(attack), 1);
   const std::vector<IssuedCopy> issued =
       consecutive_copies(candidates, key, "DRS", kFingerprintMarkFormat);

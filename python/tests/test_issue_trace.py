@@ -193,26 +193,30 @@ def test_an_issuer_prepares_once_and_issues_copies_that_trace(fandisk, tmp_path)
     assert refused["status"] == "refused" and "already issued" in refused["message"]
 
 
-def test_a_copy_the_fingerprint_would_unmark_is_issued_without_it(spot, tmp_path):
+def test_a_copy_the_plain_fingerprint_would_unmark_gets_it_kept_from_moving_the_center(
+        spot, tmp_path):
     """At strength 0.01 under this key, the default fingerprint would cost spot's copy for ID 12
     histogram bits in the file (IDs 12, 21 and 36 of 1 to 40 do; at the default strength none
-    of 1 to 399): the copy is written without it, a warning says so, its row records the
-    histogram mark's format (2) and its file decodes and traces without a fingerprint score; ID
-    13's copy carries it (format 4). Issued again, both are skipped as issued before: the
-    fallback is part of the record."""
+    of 1 to 399): the center's drift. The copy is written with the field kept from moving the
+    center instead: the message says so, its row records mark format 4, its file decodes blind
+    to ID 12, and trace names its buyer with a fingerprint score above 4. ID 13's copy carries
+    the plain field. Issued again, both are skipped as issued before."""
     db = str(tmp_path / "shop.db")
     copies = [{"input": spot, "output": tmp_path / f"s-{i}.obj", "id": i, "buyer": f"b{i}"}
               for i in (12, 13)]
     out = meshmark.issue(copies, registry=db, key="fallback shop key", strength=0.01)
     assert [o["status"] for o in out] == ["written"] * 2, out
-    assert any("with the fingerprint" in w and "issued without the fingerprint" in w
-               for w in out[0]["warnings"]), out[0]
-    assert not any("fingerprint" in w for w in out[1]["warnings"]), out[1]
+    assert "kept from moving the center" in out[0]["message"], out[0]
+    assert "kept from moving the center" not in out[1]["message"], out[1]
+    assert not any("fingerprint" in w for o in out for w in o["warnings"]), out
     rows = {r["id"]: r for r in (json.loads(line) for line in run_cli(
         "registry", "export", db, "--format", "jsonl").splitlines())}
-    assert rows[12]["mark_format"] == 2 and rows[13]["mark_format"] == 4
+    assert rows[12]["mark_format"] == 4 and rows[13]["mark_format"] == 4
+    read = run_cli("extract", tmp_path / "s-12.obj", "--coded", "--key", "fallback shop key",
+                   "--json")
+    assert read["id_valid"] and read["id"] == 12, read
     found = meshmark.trace(tmp_path / "s-12.obj", spot, db, key="fallback shop key")
     assert [n["id"] for n in found["named"]] == [12], found
-    assert found["named"][0]["fingerprint_z"] is None
+    assert found["named"][0]["fingerprint_z"] > 4, found["named"][0]
     again = meshmark.issue(copies, registry=db, key="fallback shop key", strength=0.01)
     assert [o["status"] for o in again] == ["skipped"] * 2, again

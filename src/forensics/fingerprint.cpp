@@ -8,6 +8,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <Eigen/QR>
 #include <Eigen/Sparse>
 #include <algorithm>
 #include <array>
@@ -49,10 +50,6 @@ Eigen::Matrix2d line_fit_operator(const Eigen::Matrix2d& G) {
   if (!(G(0, 0) > 0)) return Eigen::Matrix2d::Zero();
   if (G.determinant() > 1e-12 * G(0, 0) * G(0, 0)) return G.inverse();
   return (Eigen::Matrix2d() << 1 / G(0, 0), 0, 0, 0).finished();
-}
-
-Eigen::Vector2d fit_line(const Eigen::Matrix2d& G, const Eigen::Vector2d& m) {
-  return line_fit_operator(G) * m;
 }
 
 // Fills b's rows with its bumps (b.points, width, scale) evaluated at the rows of P with
@@ -169,8 +166,12 @@ std::optional<FingerprintFrame> fingerprint_frame(const Eigen::MatrixX3d& V,
       static_cast<std::size_t>(std::count(carrier.begin(), carrier.end(), kCounted)));
   if (functions <= 0) return std::nullopt;
   const Center c = center_of_mass(V, F, carrier, kind);
+  Eigen::MatrixX3d U = V.rowwise() - c.point.transpose();  // the rays the field moves along
+  for (Eigen::Index i = 0; i < U.rows(); ++i)
+    if (const double n = U.row(i).norm(); n > 0) U.row(i) /= n;
   return FingerprintFrame{fingerprint_basis(V, F, carrier, c.point, functions),
-                          build_histogram(V, carrier, c.point, nbits)};
+                          build_histogram(V, carrier, c.point, nbits),
+                          center_jacobian_products(V, F, carrier, kind, U).E};
 }
 
 namespace {
@@ -243,6 +244,52 @@ namespace {
 // How near its bin's edge (in bins) the field may move a vertex of the copy.
 constexpr double kBinMargin = 0.02;
 
+// Takes out of s, over the counted vertices not in `bound`, the least-squares line a + b t of
+// each radial class of keep (so every class's mean and first moment in t are those of the bound
+// values alone: 0 when none is bound) and, with `motion` (row i: how the center moves per unit
+// of vertex i's radial move), the field's first-order move of the center: one least-squares
+// projection onto all these constraints together (per class 2, the center 3; solved through the
+// center's 3 x 3 Schur complement). A class whose t does not vary keeps only its mean.
+void take_out(const Histogram& keep, const Eigen::MatrixX3d* motion,
+              const std::vector<std::uint8_t>& bound, Eigen::VectorXd& s) {
+  const int classes = keep.bins * kSlices;
+  std::vector<Eigen::Matrix2d> G(classes, Eigen::Matrix2d::Zero());
+  std::vector<Eigen::Matrix<double, 2, 3>> C(classes, Eigen::Matrix<double, 2, 3>::Zero());
+  std::vector<Eigen::Vector2d> m(classes, Eigen::Vector2d::Zero());
+  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d r = Eigen::Vector3d::Zero();
+  const auto e_of = [&](Eigen::Index i) -> Eigen::Vector3d {
+    return motion ? Eigen::Vector3d(motion->row(i).transpose()) : Eigen::Vector3d::Zero();
+  };
+  for (Eigen::Index i = 0; i < s.size(); ++i) {
+    const int c = radial_class(keep, i);
+    const Eigen::Vector3d e = e_of(i);
+    r += e * s(i);  // every vertex moves the center, counted or not
+    if (c < 0) continue;
+    const Eigen::Vector2d x(1, keep.t(i));
+    m[c] += x * s(i);
+    if (bound[static_cast<std::size_t>(i)]) continue;
+    G[c] += x * x.transpose(), C[c] += x * e.transpose(), H += e * e.transpose();
+  }
+  std::vector<Eigen::Matrix2d> inv(classes);
+  Eigen::Matrix3d S = H;
+  Eigen::Vector3d rhs = r;
+  for (int c = 0; c < classes; ++c) {
+    inv[c] = line_fit_operator(G[c]);
+    S -= C[c].transpose() * inv[c] * C[c];
+    rhs -= C[c].transpose() * inv[c] * m[c];
+  }
+  // The center's part: none without motion, or where the free vertices cannot move it.
+  Eigen::Vector3d mu = Eigen::Vector3d::Zero();
+  if (motion && S.trace() > 0) mu = S.completeOrthogonalDecomposition().solve(rhs);
+  for (Eigen::Index i = 0; i < s.size(); ++i) {
+    const int c = radial_class(keep, i);
+    if (c < 0 || bound[static_cast<std::size_t>(i)]) continue;
+    const Eigen::Vector2d lambda = inv[c] * (m[c] - C[c] * mu);
+    s(i) -= Eigen::Vector2d(1, keep.t(i)).dot(lambda) + e_of(i).dot(mu);
+  }
+}
+
 // Bounds the field s so that no counted vertex of the copy V crosses into another bin of keep
 // or past the range's ends: a crossing changes two bins' means by about 1 / (their count), far
 // more than the field's own mean does (on spot, a vertex the mark had parked at G = 0.05 from
@@ -250,7 +297,8 @@ constexpr double kBinMargin = 0.02;
 // keeps kBinMargin of a bin from the edge it moves towards (measured in V around keep's center;
 // one already nearer does not move towards it); the line fit of each class is then taken out
 // again over the vertices the bounds leave free, up to four times, and the bounds applied last.
-void keep_in_bins(const Eigen::MatrixX3d& V, const Histogram& keep, Eigen::VectorXd& s) {
+void keep_in_bins(const Eigen::MatrixX3d& V, const Histogram& keep, const Eigen::MatrixX3d* motion,
+                  Eigen::VectorXd& s) {
   const Eigen::Index n = s.size();
   std::vector<Eigen::Index> counted;
   Eigen::VectorXd lo = Eigen::VectorXd::Zero(n), hi = Eigen::VectorXd::Zero(n);
@@ -271,23 +319,7 @@ void keep_in_bins(const Eigen::MatrixX3d& V, const Histogram& keep, Eigen::Vecto
       if (s(i) < lo(i) || s(i) > hi(i))
         s(i) = std::clamp(s(i), lo(i), hi(i)), bound[i] = 1, clamped = true;
     if (!clamped) return;
-    const int classes = keep.bins * kSlices;
-    std::vector<Eigen::Matrix2d> G(classes, Eigen::Matrix2d::Zero());
-    std::vector<Eigen::Vector2d> m(classes, Eigen::Vector2d::Zero());
-    for (const Eigen::Index i : counted) {
-      const int c = radial_class(keep, i);
-      const Eigen::Vector2d x(1, keep.t(i));
-      if (bound[i]) {
-        m[c] += x * s(i);  // fixed: its value counts in the class's sums, it is not refitted
-      } else {
-        G[c] += x * x.transpose(), m[c] += x * s(i);
-      }
-    }
-    for (const Eigen::Index i : counted)
-      if (!bound[i]) {
-        const int c = radial_class(keep, i);
-        s(i) -= Eigen::Vector2d(1, keep.t(i)).dot(fit_line(G[c], m[c]));
-      }
+    take_out(keep, motion, bound, s);  // bound values count in the sums, and are not refitted
   }
   for (const Eigen::Index i : counted) s(i) = std::clamp(s(i), lo(i), hi(i));
 }
@@ -296,7 +328,8 @@ void keep_in_bins(const Eigen::MatrixX3d& V, const Histogram& keep, Eigen::Vecto
 
 Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX3d& VO,
                                  const FingerprintBasis& basis, const Eigen::VectorXd& g,
-                                 double rms, const Histogram* keep) {
+                                 double rms, const Histogram* keep,
+                                 const Eigen::MatrixX3d* center_motion) {
   if (V.rows() != VO.rows() || static_cast<Eigen::Index>(basis.row_start.size()) != V.rows() + 1)
     throw InvalidArgumentError("the copy, the original and the basis differ in vertex count");
   if (!(rms >= 0 && rms < 0.01))
@@ -305,22 +338,16 @@ Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX
   if (keep) {
     if (keep->bin.size() != static_cast<std::size_t>(VO.rows()))
       throw InvalidArgumentError("the histogram to keep is of another mesh");
+    if (center_motion && center_motion->rows() != VO.rows())
+      throw InvalidArgumentError("the center's motion is of another mesh");
     // Per class, the least-squares fit a + b t of the field (t: the position in the bin) is
-    // taken out.
-    const int classes = keep->bins * kSlices;
-    std::vector<Eigen::Matrix2d> G(classes, Eigen::Matrix2d::Zero());
-    std::vector<Eigen::Vector2d> m(classes, Eigen::Vector2d::Zero());
-    for (Eigen::Index i = 0; i < s.size(); ++i)
-      if (const int c = radial_class(*keep, i); c >= 0) {
-        const Eigen::Vector2d x(1, keep->t(i));
-        G[c] += x * x.transpose(), m[c] += x * s(i);
-      }
-    for (Eigen::Index i = 0; i < s.size(); ++i)
-      if (const int c = radial_class(*keep, i); c >= 0)
-        s(i) -= Eigen::Vector2d(1, keep->t(i)).dot(fit_line(G[c], m[c]));
+    // taken out, and with center_motion the field's move of the center, together; the
+    // vertices that set the range stay where they are.
+    std::vector<std::uint8_t> bound(static_cast<std::size_t>(s.size()), 0);
     for (const int extreme : {keep->argmin, keep->argmax})
-      if (extreme >= 0) s(extreme) = 0;
-    keep_in_bins(V, *keep, s);
+      if (extreme >= 0) s(extreme) = 0, bound[static_cast<std::size_t>(extreme)] = 1;
+    take_out(*keep, center_motion, bound, s);
+    keep_in_bins(V, *keep, center_motion, s);
   }
   // Twins (bit-identical positions) take the displacement of the vertex with basis entries at
   // their position; a vertex without one stays where it is.

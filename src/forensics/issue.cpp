@@ -277,8 +277,9 @@ struct Original {
   /// The fingerprint's basis (IssueSettings::fingerprint); none without, or for an original
   /// too small for one (fingerprint_functions()).
   std::optional<FingerprintBasis> fingerprint;
-  Histogram histogram;      ///< the original's, around the fingerprint's center (settings.bits)
-  std::size_t counted = 0;  ///< counted carrier vertices
+  Histogram histogram;  ///< the original's, around the fingerprint's center (settings.bits)
+  Eigen::MatrixX3d center_motion;  ///< FingerprintFrame's: the field leaves the center alone
+  std::size_t counted = 0;         ///< counted carrier vertices
 };
 
 // What issue_copies keeps of the originals it has read, and Issuer across its calls.
@@ -295,6 +296,7 @@ std::shared_ptr<const Original> prepare_original(const CopyRequest& request,
   PreparedEmbedder embedder(mesh.V, mesh.F, settings.embedding);
   std::optional<FingerprintBasis> basis;
   Histogram histogram;
+  Eigen::MatrixX3d center_motion;
   std::size_t counted = 0;
   if (wants_fingerprint(settings)) {
     const std::vector<std::uint8_t> carrier = carrier_vertices(mesh.V, mesh.F);
@@ -303,10 +305,12 @@ std::shared_ptr<const Original> prepare_original(const CopyRequest& request,
             fingerprint_frame(mesh.V, mesh.F, settings.embedding.variant.center, settings.bits)) {
       basis = std::move(frame->basis);
       histogram = std::move(frame->histogram);
+      center_motion = std::move(frame->center_motion);
     }
   }
-  return std::make_shared<const Original>(Original{
-      std::move(mesh), std::move(embedder), std::move(basis), std::move(histogram), counted});
+  return std::make_shared<const Original>(Original{std::move(mesh), std::move(embedder),
+                                                   std::move(basis), std::move(histogram),
+                                                   std::move(center_motion), counted});
 }
 
 // The distortion of positions V of the original O as calibration measures it: each counted
@@ -401,22 +405,36 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
     }
     out.warnings.push_back(few + ": issued with the histogram mark alone");
   }
+  // The field kept from moving the center too (add_fingerprint's center_motion): a second
+  // chance for a copy whose file the plain field would cost histogram bits (the center's drift,
+  // which weak marks feel); it costs the field 6 to 16 % of its RMS, so it is not the default.
+  std::function<Eigen::MatrixX3d(const Eigen::MatrixX3d&)> centered;
   if (coded && original.fingerprint) {
     const FingerprintBasis& b = *original.fingerprint;
-    fingerprint = [&original, &b,
-                   g = fingerprint_coefficients(id_key(settings.key), *request.id, b.functions)](
-                      const Eigen::MatrixX3d& V) {
+    const Eigen::VectorXd g =
+        fingerprint_coefficients(id_key(settings.key), *request.id, b.functions);
+    fingerprint = [&original, &b, g](const Eigen::MatrixX3d& V) {
       return add_fingerprint(V, original.mesh.V, b, g, FingerprintOptions().rms,
                              &original.histogram);
     };
+    centered = [&original, &b, g](const Eigen::MatrixX3d& V) {
+      return add_fingerprint(V, original.mesh.V, b, g, FingerprintOptions().rms,
+                             &original.histogram, &original.center_motion);
+    };
   }
-  if (settings.limits) {
+  const EmbedOptions searched = o;  // what a search starts from
+  // The strength search within the limits, with `finish` added to every embedding tried.
+  const auto search = [&](const std::function<Eigen::MatrixX3d(const Eigen::MatrixX3d&)>& finish) {
     CalibrateOptions co = *settings.limits;
     co.strengths = [&](double alpha) {
       return mark_strengths(settings.key, nb, coded, alpha, settings.strength_spread);
     };
-    co.finish = fingerprint;
-    out.calibration = calibrate_strength(original.embedder, out.bins, o, co);
+    co.finish = finish;
+    return calibrate_strength(original.embedder, out.bins, searched, co);
+  };
+  if (settings.limits) {
+    CalibrateOptions co = *settings.limits;
+    out.calibration = search(fingerprint);
     const CalibrateResult& c = *out.calibration;
     o.strength = c.strength > 0 ? c.strength : co.min_strength;
     o.bin_offset = c.bin_offset, o.strengths = c.strengths;
@@ -449,9 +467,9 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   copy.V = std::move(out.result.V);
   out.result.V.resize(0, 3);
   double fingerprint_rms = 0;  // as a fraction of the diagonal
-  // The copy without the fingerprint, at a fixed strength when the fingerprint was not asked
-  // for: written instead if the fingerprint would cost the file its histogram mark.
-  std::optional<Eigen::MatrixX3d> bare;
+  // The copy with the histogram mark alone (at a fixed strength; found again for a calibrated
+  // one when needed), for the second chances below.
+  std::optional<Eigen::MatrixX3d> unmarked;
   if (fingerprint) {
     // The field alone (it moves each vertex by its own amount along the original's ray,
     // whatever the positions it is added to); a calibrated embedding already carries it.
@@ -459,40 +477,77 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
     fingerprint_rms = std::sqrt((fingerprint(VO) - VO).rowwise().squaredNorm().mean()) /
                       original.fingerprint->diagonal;
     if (!out.calibration) {
-      if (!required) bare = copy.V;
+      unmarked = copy.V;
       copy.V = fingerprint(copy.V);
     }
   }
   ExtractOptions eo;
   eo.center = o.variant.center;
   eo.method = o.method;
+  // Positions written instead of copy.V's when they carry the mark and, with limits, fit them
+  // (measured again: they differ from what the search measured).
+  const auto try_instead = [&](Eigen::MatrixX3d V) {
+    std::optional<Distortion> d;
+    if (out.calibration) {
+      d = distortion(original.mesh, V, *settings.limits);
+      if (!d->within(*settings.limits)) return std::optional<WrittenCheck>();
+    }
+    Mesh other = original.mesh;
+    other.V = std::move(V);
+    WrittenCheck w = write_marked_mesh(request.output, other, settings.write, settings.read,
+                                       out.bins, eo, 0.5 * o.strength);
+    if (w.carried) {
+      copy.V = std::move(other.V);
+      if (d) {
+        out.result.rms_percent = out.calibration->rms_percent = d->rms_percent;
+        out.calibration->msdm = d->msdm;
+      }
+    }
+    return std::optional<WrittenCheck>(std::move(w));
+  };
   try {
     WrittenCheck written = write_marked_mesh(request.output, copy, settings.write, settings.read,
                                              out.bins, eo, 0.5 * o.strength);
-    if (!written.carried && !bare && out.calibration && fingerprint && !required) {
-      // Calibrated with the fingerprint: the histogram mark at the strength found, without
-      // it, when that still fits the limits (measured again: without the field, the positions
-      // differ).
-      const EmbedResult plain = original.embedder.embed(out.bins, o);
-      if (plain.status == EmbedStatus::Embedded) {
-        const Distortion d = distortion(original.mesh, plain.V, *settings.limits);
-        if (d.within(*settings.limits)) {
-          bare = plain.V;
-          out.result.rms_percent = out.calibration->rms_percent = d.rms_percent;
-          out.calibration->msdm = d.msdm;
+    if (!written.carried && fingerprint) {
+      // First the field kept from moving the center, then (unless asked for) none.
+      if (out.calibration) {
+        // Searched again with it: the field changes what the copy costs, near a limit.
+        CalibrateResult again = search(centered);
+        if (again.status != CalibrateStatus::BelowMinimum)
+          if (std::optional<WrittenCheck> w = try_instead(again.embedding.V); w && w->carried) {
+            written = std::move(*w);
+            o.strength = again.strength, o.bin_offset = again.bin_offset;
+            o.strengths = again.strengths;
+            out.record.strength = o.strength, out.record.bin_offset = o.bin_offset;
+            again.embedding.V.resize(0, 3);
+            out.result = again.embedding;
+            out.calibration = std::move(again);
+            const Eigen::MatrixX3d& VO = original.mesh.V;
+            fingerprint_rms = std::sqrt((centered(VO) - VO).rowwise().squaredNorm().mean()) /
+                              original.fingerprint->diagonal;
+            out.kept_center = true;
+          }
+        if (!written.carried) {  // the mark at the strength first found, for the last chance
+          EmbedResult plain = original.embedder.embed(out.bins, o);
+          if (plain.status == EmbedStatus::Embedded) unmarked = std::move(plain.V);
         }
+      } else if (std::optional<WrittenCheck> w = try_instead(centered(*unmarked));
+                 w && w->carried) {
+        written = std::move(*w);
+        fingerprint_rms = std::sqrt((copy.V - *unmarked).rowwise().squaredNorm().mean()) /
+                          original.fingerprint->diagonal;
+        out.kept_center = true;
       }
-    }
-    if (!written.carried && bare) {
-      out.warnings.push_back(
-          fmt::format("{}: with the fingerprint, {}: issued without the fingerprint (trace then "
-                      "reads the histogram mark alone)",
-                      request.input, written.message));
-      copy.V = std::move(*bare);
-      fingerprint_rms = 0;
-      out.record.mark_format = kMarkFormatVersion;
-      written = write_marked_mesh(request.output, copy, settings.write, settings.read, out.bins, eo,
-                                  0.5 * o.strength);
+      if (!written.carried && unmarked && !required)
+        if (std::optional<WrittenCheck> w = try_instead(*unmarked); w && w->carried) {
+          out.warnings.push_back(fmt::format(
+              "{}: with the fingerprint, {}: issued without the fingerprint (trace then reads "
+              "the histogram mark alone)",
+              request.input, written.message));
+          written = std::move(*w);
+          fingerprint_rms = 0;
+          out.record.mark_format = kMarkFormatVersion;
+        }
     }
     if (!written.carried) {
       out.status = CopyStatus::NotCarried, out.message = written.message;
@@ -512,6 +567,7 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
                                     out.calibration->msdm)
                       : "",
       1e3 * out.result.seconds);
+  if (out.kept_center) out.message += " (the fingerprint kept from moving the center)";
   if (request.auto_id) out.message = fmt::format("ID {}, {}", *request.id, out.message);
   if (out.result.check.status == CarrierHealth::Weak)
     out.message += fmt::format(" (warning: {})", out.result.check.summary());

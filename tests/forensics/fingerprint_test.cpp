@@ -5,6 +5,7 @@
 // unprocessed copy scores at its full strength, an average of k copies keeps about 1/k of each
 // colluder's raw correlation, and the field is smooth and as strong as asked.
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <sodium.h>
@@ -519,6 +520,50 @@ TEST(Fingerprint, NoVertexOfACopyCrossesIntoAnotherBin) {
   }
 }
 
+// The fingerprint leaves a blind decoder's center where the histogram mark put it: on copies of
+// spot and camel (IDs 120 to 129), the center recomputed from the copy with the field (discrete
+// and volume centers, each with its own frame) moves by less than 1e-4 of a bin, where the field
+// kept only from the bins' means (no center_motion) moves it by 10 times that or more.
+TEST(Fingerprint, TheFieldLeavesTheCenterWhereItWas) {
+  const std::string dir = fresh_dir("fingerprint-center");
+  IssueSettings settings;
+  settings.key = key_from_passphrase_v1("fingerprint bins key");
+  settings.fingerprint = false;
+  for (const std::string& mesh : {test::data_mesh("spot.obj"), test::cgal_mesh("camel.off")}) {
+    MESHMARK_REQUIRE(mesh, mesh);
+    const Mesh O = read_mesh(mesh);
+    const std::vector<std::uint8_t> carrier = carrier_vertices(O.V, O.F);
+    for (const CenterKind kind : {CenterKind::Discrete, CenterKind::Volume}) {
+      const std::optional<FingerprintFrame> frame = fingerprint_frame(O.V, O.F, kind, 64);
+      ASSERT_TRUE(frame);
+      double kept = 0, loose = 0;  // the largest drifts, in bins, with and without
+      for (std::uint64_t id = 120; id < 130; ++id) {
+        CopyRequest r;
+        r.input = mesh, r.output = dir + "/copy.ply", r.id = id;
+        ASSERT_EQ(issue_copies({r}, settings).copies[0].status, CopyStatus::Written);
+        const Mesh copy = read_mesh(r.output);
+        const Eigen::VectorXd g =
+            fingerprint_coefficients(*settings.key, id, frame->basis.functions);
+        const auto drift = [&](const Eigen::MatrixX3d* motion) {
+          const Eigen::MatrixX3d with = add_fingerprint(
+              copy.V, O.V, frame->basis, g, FingerprintOptions().rms, &frame->histogram, motion);
+          return (center_of_mass(with, O.F, carrier, kind).point -
+                  center_of_mass(copy.V, O.F, carrier, kind).point)
+                     .norm() /
+                 frame->histogram.step;
+        };
+        kept = std::max(kept, drift(&frame->center_motion));
+        loose = std::max(loose, drift(nullptr));
+      }
+      EXPECT_LT(kept, 1e-4) << mesh << " " << static_cast<int>(kind);
+      EXPECT_GT(loose, 10 * kept) << mesh << " " << static_cast<int>(kind);
+      RecordProperty(fmt::format("drift_{}_{}", std::filesystem::path(mesh).stem().string(),
+                                 static_cast<int>(kind)),
+                     fmt::format("{:.3g} kept, {:.3g} without", kept, loose));
+    }
+  }
+}
+
 // The default (IssueSettings::fingerprint unset): a copy recorded in a registry carries the
 // fingerprint (its row says mark format 4, trace reads a z above 5, the copy differs from the
 // same copy issued with false by a field whose RMS is within a factor 2 of
@@ -659,52 +704,47 @@ TEST(Fingerprint, ACopyWhoseHistogramMarkCannotFitIsIssuedWithTheFingerprintAlon
 
 // Within limits (RMS 0.02 %, MSDM 1) under this key, spot's copy for ID 25 calibrated with the
 // default fingerprint would lose 8 histogram bits in its OBJ file (found by issuing IDs 1 to 30
-// through the CLI; the others are issued with the fingerprint alone, no histogram mark fitting
-// 0.02 %). It is written without the fingerprint, at the strength the search found, with a
-// warning; its row records mark format 2; the file stays within the limits (measured here) and
-// traces to its buyer by the histogram mark alone. Asked for (fingerprint true), the copy is
-// refused and nothing is written.
-TEST(Fingerprint, ACalibratedCopyTheFingerprintWouldUnmarkIsIssuedWithoutIt) {
+// through the CLI; the others are issued with the fingerprint alone or with both marks as they
+// are): the center's drift at the weak strength the search found. It is written with the field
+// kept from moving the center, at that strength (kept_center); its row records mark format 4;
+// the file stays within the limits (measured here), and what the outcome reports is the file's;
+// trace names its buyer with both marks read. Asked for (fingerprint true), the same.
+TEST(Fingerprint, ACalibratedCopyThePlainFingerprintWouldUnmarkGetsItKeptFromMovingTheCenter) {
   const std::string original = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(original, "spot.obj");
-  const std::string dir = fresh_dir("fingerprint-calibrated-fallback");
-  IssueSettings settings =
-      within_limits(key_from_passphrase("fallback shop key"), 0.02, dir + "/shop.db");
-  settings.limits->max_msdm = 1;
-  CopyRequest r = copy_request(original, dir + "/copy.obj", 25);
-  const IssueResult issued = issue_copies({r}, settings);
-  const CopyOutcome& c = issued.copies[0];
-  ASSERT_EQ(c.status, CopyStatus::Written) << c.message;
-  ASSERT_TRUE(c.calibration.has_value());
-  EXPECT_GT(c.calibration->strength, 0.0);
-  EXPECT_TRUE(std::any_of(c.warnings.begin(), c.warnings.end(), [](const std::string& w) {
-    return w.find("with the fingerprint") != std::string::npos &&
-           w.find("issued without the fingerprint") != std::string::npos;
-  })) << c.message;
-  const std::vector<IssuedCopy> rows = read_registry(settings.registry, {});
-  ASSERT_EQ(rows.size(), 1u);
-  EXPECT_EQ(rows[0].mark_format, kMarkFormatVersion);
-  EXPECT_EQ(rows[0].strength, c.calibration->strength);
-  const Mesh O = read_mesh(original), copy = read_mesh(r.output);
-  const double rms = counted_rms_percent(O, copy), m = msdm(O.V, copy.V, O.F).global;
-  EXPECT_LE(rms, 0.02 * (1 + 1e-6));
-  EXPECT_LE(m, 1.0);
-  // What the outcome reports is the written copy's (OBJ's decimals: 1e-3 of the value).
-  EXPECT_NEAR(c.calibration->rms_percent, rms, 1e-3 * rms);
-  EXPECT_NEAR(c.calibration->msdm, m, 1e-3 * m);
-  const TraceResult found =
-      trace_issued(copy, O, content_hash(read_file(original)), settings.registry, *settings.key);
-  ASSERT_EQ(found.status, TraceStatus::Named) << found.message;
-  EXPECT_EQ(found.named[0].copy.id, 25u);
-  EXPECT_TRUE(std::isnan(found.named[0].fingerprint_z));
-  EXPECT_EQ(found.named[0].compared, 64);
-  // Asked for, the fingerprint is not given up: refused, nothing written.
-  settings.fingerprint = true;
-  settings.registry = dir + "/required.db";
-  r.output = dir + "/required.obj";
-  const IssueResult refused = issue_copies({r}, settings);
-  EXPECT_EQ(refused.copies[0].status, CopyStatus::NotCarried) << refused.copies[0].message;
-  EXPECT_FALSE(std::filesystem::exists(r.output));
+  const std::string dir = fresh_dir("fingerprint-calibrated-centered");
+  for (const bool asked : {false, true}) {
+    SCOPED_TRACE(asked ? "asked for" : "by default");
+    IssueSettings settings = within_limits(key_from_passphrase("fallback shop key"), 0.02,
+                                           dir + (asked ? "/asked.db" : "/shop.db"));
+    settings.limits->max_msdm = 1;
+    if (asked) settings.fingerprint = true;
+    const CopyRequest r = copy_request(original, dir + (asked ? "/asked.obj" : "/copy.obj"), 25);
+    const IssueResult issued = issue_copies({r}, settings);
+    const CopyOutcome& c = issued.copies[0];
+    ASSERT_EQ(c.status, CopyStatus::Written) << c.message;
+    ASSERT_TRUE(c.calibration.has_value());
+    EXPECT_GT(c.calibration->strength, 0.0);
+    EXPECT_TRUE(c.kept_center) << c.message;
+    EXPECT_NE(c.message.find("kept from moving the center"), std::string::npos) << c.message;
+    const std::vector<IssuedCopy> rows = read_registry(settings.registry, {});
+    ASSERT_EQ(rows.size(), 1u);
+    EXPECT_EQ(rows[0].mark_format, kFingerprintMarkFormat);
+    EXPECT_EQ(rows[0].strength, c.calibration->strength);
+    const Mesh O = read_mesh(original), copy = read_mesh(r.output);
+    const double rms = counted_rms_percent(O, copy), m = msdm(O.V, copy.V, O.F).global;
+    EXPECT_LE(rms, 0.02 * (1 + 1e-6));
+    EXPECT_LE(m, 1.0);
+    // What the outcome reports is the written copy's (OBJ's decimals: 1e-3 of the value).
+    EXPECT_NEAR(c.calibration->rms_percent, rms, 1e-3 * rms);
+    EXPECT_NEAR(c.calibration->msdm, m, 1e-3 * m);
+    const TraceResult found =
+        trace_issued(copy, O, content_hash(read_file(original)), settings.registry, *settings.key);
+    ASSERT_EQ(found.status, TraceStatus::Named) << found.message;
+    EXPECT_EQ(found.named[0].copy.id, 25u);
+    EXPECT_EQ(found.named[0].compared, 64);
+    EXPECT_GT(found.named[0].fingerprint_z, 4);
+  }
 }
 
 // Issued and traced through the library as the CLI does: 20 consecutive IDs of bunny00 with

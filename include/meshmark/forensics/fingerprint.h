@@ -97,6 +97,9 @@ FingerprintBasis fingerprint_basis_at(const FingerprintBasis& basis, const Eigen
 struct FingerprintFrame {
   FingerprintBasis basis;
   Histogram histogram;  ///< of nbits bits around the basis' center
+  /// #V x 3: row i, how the center (of the frame's kind) moves per unit of vertex i's move
+  /// along the ray from the center (center_jacobian_products), for add_fingerprint.
+  Eigen::MatrixX3d center_motion;
 };
 
 /// The frame of (V, F) for a histogram mark of nbits bits centered as `kind` says, with
@@ -125,10 +128,13 @@ Eigen::VectorXd fingerprint_coefficients(const Key& key, std::uint64_t id, int f
 /// mark sets, stay as they are, and the field is orthogonal to any function of the distance to
 /// the center alone, which is what a histogram mark's displacement nearly is. The field is
 /// also bounded so that no counted vertex of V leaves its bin (it keeps 0.02 of a bin from the
-/// edge it moves towards; docs/format.md 8.1).
+/// edge it moves towards; docs/format.md 8.1). With `keep` and `center_motion`
+/// (FingerprintFrame::center_motion), it does not move the center either, to first order: a
+/// blind decoder's center stays where the histogram mark put it.
 Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX3d& VO,
                                  const FingerprintBasis& basis, const Eigen::VectorXd& g,
-                                 double rms, const Histogram* keep = nullptr);
+                                 double rms, const Histogram* keep = nullptr,
+                                 const Eigen::MatrixX3d* center_motion = nullptr);
 
 /// b: the least-squares fit Phi b ~ residual over the vertices where measured[i] != 0 and the
 /// basis has entries, with `ridge` times the mean diagonal of Phi^T Phi added to its diagonal

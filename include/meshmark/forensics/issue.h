@@ -146,6 +146,9 @@ struct CopyOutcome {
   /// bins, embedding and result are then the search's weakest attempt, not in the copy; the
   /// record's strength is 0).
   bool fingerprint_alone = false;
+  /// Written with the fingerprint kept from moving the center (add_fingerprint's
+  /// center_motion): the plain field would have cost the file histogram bits (weak marks).
+  bool kept_center = false;
   bool ok() const { return status == CopyStatus::Written || status == CopyStatus::Skipped; }
 };
 
