@@ -474,6 +474,26 @@ TEST(Fingerprint, BothMarksFitOneFidelityBudget) {
   }
 }
 
+// The copies of mesh with IDs first to last - 1 under key, issued with the histogram mark alone
+// (DRS, the default strength) and read back from their files.
+std::vector<std::pair<std::uint64_t, Mesh>> marked_copies(const std::string& mesh,
+                                                          std::uint64_t first, std::uint64_t last,
+                                                          const Key& key) {
+  const std::string dir = fresh_dir("fingerprint-marked-copies");
+  IssueSettings settings;
+  settings.key = key;
+  settings.fingerprint = false;
+  std::vector<std::pair<std::uint64_t, Mesh>> out;
+  for (std::uint64_t id = first; id < last; ++id) {
+    CopyRequest r;
+    r.input = mesh, r.output = dir + "/copy.ply", r.id = id;
+    const CopyOutcome c = issue_copies({r}, settings).copies[0];
+    EXPECT_EQ(c.status, CopyStatus::Written) << mesh << " ID " << id << ": " << c.message;
+    out.emplace_back(id, read_mesh(r.output));
+  }
+  return out;
+}
+
 // The fingerprint moves no counted vertex of a marked copy into another bin, nor past the
 // range's ends: for 20 IDs of spot (where, before the bound, ID 127's copy under this key had a
 // vertex cross from bin 11 to 10 and another overtake the farthest one, flipping two bits) and
@@ -481,10 +501,7 @@ TEST(Fingerprint, BothMarksFitOneFidelityBudget) {
 // is the same with the field as without, the range's ends move by less than a hundredth of a
 // bin, and the field's RMS stays above half of FingerprintOptions::rms of the diagonal.
 TEST(Fingerprint, NoVertexOfACopyCrossesIntoAnotherBin) {
-  const std::string dir = fresh_dir("fingerprint-bins");
-  IssueSettings settings;
-  settings.key = key_from_passphrase_v1("fingerprint bins key");
-  settings.fingerprint = false;
+  const Key key = key_from_passphrase_v1("fingerprint bins key");
   for (const std::string& mesh : {test::data_mesh("spot.obj"), test::cgal_mesh("camel.off")}) {
     MESHMARK_REQUIRE(mesh, mesh);
     const Mesh O = read_mesh(mesh);
@@ -496,12 +513,8 @@ TEST(Fingerprint, NoVertexOfACopyCrossesIntoAnotherBin) {
       return build_histogram(V, carrier,
                              center_of_mass(V, O.F, carrier, CenterKind::Discrete).point, 64);
     };
-    for (std::uint64_t id = 120; id < 140; ++id) {
-      CopyRequest r;
-      r.input = mesh, r.output = dir + "/copy.ply", r.id = id;
-      ASSERT_EQ(issue_copies({r}, settings).copies[0].status, CopyStatus::Written);
-      const Mesh copy = read_mesh(r.output);
-      const Eigen::VectorXd g = fingerprint_coefficients(*settings.key, id, frame->basis.functions);
+    for (const auto& [id, copy] : marked_copies(mesh, 120, 140, key)) {
+      const Eigen::VectorXd g = fingerprint_coefficients(key, id, frame->basis.functions);
       const Eigen::MatrixX3d with = add_fingerprint(copy.V, O.V, frame->basis, g,
                                                     FingerprintOptions().rms, &frame->histogram);
       const Histogram a = histogram_of(copy.V), b = histogram_of(with);
@@ -525,25 +538,18 @@ TEST(Fingerprint, NoVertexOfACopyCrossesIntoAnotherBin) {
 // and volume centers, each with its own frame) moves by less than 1e-4 of a bin, where the field
 // kept only from the bins' means (no center_motion) moves it by 10 times that or more.
 TEST(Fingerprint, TheFieldLeavesTheCenterWhereItWas) {
-  const std::string dir = fresh_dir("fingerprint-center");
-  IssueSettings settings;
-  settings.key = key_from_passphrase_v1("fingerprint bins key");
-  settings.fingerprint = false;
+  const Key key = key_from_passphrase_v1("fingerprint bins key");
   for (const std::string& mesh : {test::data_mesh("spot.obj"), test::cgal_mesh("camel.off")}) {
     MESHMARK_REQUIRE(mesh, mesh);
     const Mesh O = read_mesh(mesh);
     const std::vector<std::uint8_t> carrier = carrier_vertices(O.V, O.F);
+    const std::vector<std::pair<std::uint64_t, Mesh>> copies = marked_copies(mesh, 120, 130, key);
     for (const CenterKind kind : {CenterKind::Discrete, CenterKind::Volume}) {
       const std::optional<FingerprintFrame> frame = fingerprint_frame(O.V, O.F, kind, 64);
       ASSERT_TRUE(frame);
       double kept = 0, loose = 0;  // the largest drifts, in bins, with and without
-      for (std::uint64_t id = 120; id < 130; ++id) {
-        CopyRequest r;
-        r.input = mesh, r.output = dir + "/copy.ply", r.id = id;
-        ASSERT_EQ(issue_copies({r}, settings).copies[0].status, CopyStatus::Written);
-        const Mesh copy = read_mesh(r.output);
-        const Eigen::VectorXd g =
-            fingerprint_coefficients(*settings.key, id, frame->basis.functions);
+      for (const auto& [id, copy] : copies) {
+        const Eigen::VectorXd g = fingerprint_coefficients(key, id, frame->basis.functions);
         const auto drift = [&](const Eigen::MatrixX3d* motion) {
           const Eigen::MatrixX3d with = add_fingerprint(
               copy.V, O.V, frame->basis, g, FingerprintOptions().rms, &frame->histogram, motion);
