@@ -513,11 +513,13 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
       if (out.calibration) {
         // Searched again with it: the field changes what the copy costs, near a limit.
         CalibrateResult again = search(centered);
-        if (again.status != CalibrateStatus::BelowMinimum)
-          if (std::optional<WrittenCheck> w = try_instead(again.embedding.V); w && w->carried) {
+        if (again.status != CalibrateStatus::BelowMinimum) {
+          const EmbedOptions first = o;  // the file is checked at the new strength
+          o.strength = again.strength, o.bin_offset = again.bin_offset;
+          o.strengths = again.strengths;
+          std::optional<WrittenCheck> w = try_instead(again.embedding.V);
+          if (w && w->carried) {
             written = std::move(*w);
-            o.strength = again.strength, o.bin_offset = again.bin_offset;
-            o.strengths = again.strengths;
             out.record.strength = o.strength, out.record.bin_offset = o.bin_offset;
             again.embedding.V.resize(0, 3);
             out.result = again.embedding;
@@ -526,7 +528,10 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
             fingerprint_rms = std::sqrt((centered(VO) - VO).rowwise().squaredNorm().mean()) /
                               original.fingerprint->diagonal;
             out.kept_center = true;
+          } else {
+            o = first;
           }
+        }
         if (!written.carried) {  // the mark at the strength first found, for the last chance
           EmbedResult plain = original.embedder.embed(out.bins, o);
           if (plain.status == EmbedStatus::Embedded) unmarked = std::move(plain.V);
