@@ -11,6 +11,7 @@
 #include "meshmark/campaign/calibration_cache.h"
 #include "meshmark/carrier/variant.h"
 #include "meshmark/core/error.h"
+#include "progress.h"
 
 namespace meshmark::cli {
 
@@ -37,8 +38,11 @@ int run(const CalibrateArgs& a) {
   o.limits.bin_offset = a.bin_offset_rule;
   o.read = read_options(a.in);
   o.cache = a.no_cache ? "" : a.cache.empty() ? default_calibration_cache() : a.cache;
+  Progress progress(Progress::Bar, "");
+  o.limits.progress = terminal_progress(progress, a.json);
   // An unreadable mesh is a ReadError (exit 2); a cache that cannot be written, a warning.
   const FileCalibration c = calibrate_file(a.input, o);
+  progress.finish();
   if (!c.warning.empty()) fmt::print(stderr, "meshmark: warning: {}\n", printable(c.warning));
   if (a.json) {
     nlohmann::json j = nlohmann::json::parse(file_calibration_to_json(c));

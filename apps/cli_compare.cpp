@@ -10,6 +10,7 @@
 #include "meshmark/carrier/roughness.h"
 #include "meshmark/core/error.h"
 #include "meshmark/metrics/metrics.h"
+#include "progress.h"
 
 namespace meshmark::cli {
 
@@ -24,19 +25,24 @@ struct CompareArgs {
 
 int run(const CompareArgs& args) {
   const Mesh A = read_input(args.a, args.in), B = read_input(args.b, args.in);
-  const bool same_connectivity = A.V.rows() == B.V.rows() && A.F == B.F;
-  nlohmann::json j = {{"a", args.a}, {"b", args.b}, {"same_connectivity", same_connectivity}};
-  if (same_connectivity) {
-    j["rms_percent"] = vertex_rms_percent(A.V, B.V, A.F);
-    j["msdm"] = msdm(A.V, B.V, A.F).global;
+  CompareOptions options;
+  options.sampling = args.sampling;
+  Progress progress(Progress::Bar, "");
+  options.progress = terminal_progress(progress, args.json);
+  const MeshComparison c = compare_meshes(A, B, options);
+  progress.finish();
+  const SurfaceDistance& d = c.surface;
+  const PerceptualDistance& m2 = c.msdm2;
+  nlohmann::json j = {{"a", args.a}, {"b", args.b}, {"same_connectivity", c.same_connectivity}};
+  if (c.same_connectivity) {
+    j["rms_percent"] = c.rms_percent;
+    j["msdm"] = c.msdm;
   }
-  const SurfaceDistance d = surface_distance(A.V, A.F, B.V, B.F, args.sampling);
   j["mrms_percent"] = d.mrms_percent();
   j["hausdorff_percent"] = d.hausdorff_percent();
   j["rms_ab"] = d.rms_ab;
   j["rms_ba"] = d.rms_ba;
   j["hausdorff"] = d.hausdorff;
-  const PerceptualDistance m2 = msdm2(A.V, A.F, B.V, B.F);
   j["msdm2"] = m2.global;
   if (!args.map.empty()) {
     write_heat_map(args.map, {args.a, args.b}, A, m2.local / std::max(m2.local.maxCoeff(), 1e-12));
@@ -47,7 +53,7 @@ int run(const CompareArgs& args) {
     return kOk;
   }
   fmt::print("{} vs {}\n", printable(args.a), printable(args.b));
-  if (same_connectivity) {
+  if (c.same_connectivity) {
     fmt::print("  vertex RMS   {:.6f} % of the bounding-box diagonal\n",
                j["rms_percent"].get<double>());
     fmt::print("  MSDM         {:.6f}\n", j["msdm"].get<double>());

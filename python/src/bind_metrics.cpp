@@ -49,25 +49,23 @@ void require_triangles(const Eigen::MatrixX3i& F, const char* name) {
 py::dict compare(const Mesh& A, const Mesh& B, const SurfaceDistanceOptions& sampling) {
   require_triangles(A.F, "a");
   require_triangles(B.F, "b");
-  const bool same = A.V.rows() == B.V.rows() && A.F == B.F;
-  double rms = 0, msdm_global = 0;
-  SurfaceDistance d;
-  PerceptualDistance m2;
+  MeshComparison c;
   {
     py::gil_scoped_release unlocked;
-    if (same) rms = vertex_rms_percent(A.V, B.V, A.F), msdm_global = msdm(A.V, B.V, A.F).global;
-    d = surface_distance(A.V, A.F, B.V, B.F, sampling);
-    m2 = msdm2(A.V, A.F, B.V, B.F);
+    CompareOptions options;
+    options.sampling = sampling;
+    c = compare_meshes(A, B, options);
   }
+  const SurfaceDistance& d = c.surface;
   py::dict out;
-  out["same_connectivity"] = same;
-  if (same) out["rms_percent"] = rms, out["msdm"] = msdm_global;
+  out["same_connectivity"] = c.same_connectivity;
+  if (c.same_connectivity) out["rms_percent"] = c.rms_percent, out["msdm"] = c.msdm;
   out["mrms_percent"] = d.mrms_percent();
   out["hausdorff_percent"] = d.hausdorff_percent();
   out["rms_ab"] = d.rms_ab;
   out["rms_ba"] = d.rms_ba;
   out["hausdorff"] = d.hausdorff;
-  out["msdm2"] = m2.global;
+  out["msdm2"] = c.msdm2.global;
   return out;
 }
 

@@ -29,4 +29,25 @@ class ProgressCounter {
   std::mutex mutex_;
 };
 
+/// One thread's share of a counted phase: units are added here and handed to the counter
+/// every `every` of them (one lock per batch, not per unit), the rest by flush().
+class ProgressBatch {
+ public:
+  ProgressBatch(ProgressCounter& counter, long every) : counter_(counter), every_(every) {}
+  ProgressBatch(const ProgressBatch&) = delete;
+  ProgressBatch& operator=(const ProgressBatch&) = delete;
+  ~ProgressBatch() = default;
+  void add(long n = 1) {
+    if ((pending_ += n) >= every_) flush();
+  }
+  void flush() {
+    if (pending_ > 0) counter_.step(pending_, "");
+    pending_ = 0;
+  }
+
+ private:
+  ProgressCounter& counter_;
+  long every_, pending_ = 0;
+};
+
 }  // namespace meshmark::detail

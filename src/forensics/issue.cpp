@@ -466,16 +466,21 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   Mesh copy = original.mesh;
   copy.V = std::move(out.result.V);
   out.result.V.resize(0, 3);
+  // The RMS of a field alone, as a fraction of the diagonal: it moves each vertex by its own
+  // amount along the original's ray, whatever the positions it is added to, so it is measured
+  // on the original's.
+  const auto field_rms =
+      [&original](const std::function<Eigen::MatrixX3d(const Eigen::MatrixX3d&)>& field) {
+        const Eigen::MatrixX3d& VO = original.mesh.V;
+        return std::sqrt((field(VO) - VO).rowwise().squaredNorm().mean()) /
+               original.fingerprint->diagonal;
+      };
   double fingerprint_rms = 0;  // as a fraction of the diagonal
   // The copy with the histogram mark alone (at a fixed strength; found again for a calibrated
   // one when needed), for the second chances below.
   std::optional<Eigen::MatrixX3d> unmarked;
   if (fingerprint) {
-    // The field alone (it moves each vertex by its own amount along the original's ray,
-    // whatever the positions it is added to); a calibrated embedding already carries it.
-    const Eigen::MatrixX3d& VO = original.mesh.V;
-    fingerprint_rms = std::sqrt((fingerprint(VO) - VO).rowwise().squaredNorm().mean()) /
-                      original.fingerprint->diagonal;
+    fingerprint_rms = field_rms(fingerprint);  // a calibrated embedding already carries it
     if (!out.calibration) {
       unmarked = copy.V;
       copy.V = fingerprint(copy.V);
@@ -524,9 +529,7 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
             again.embedding.V.resize(0, 3);
             out.result = again.embedding;
             out.calibration = std::move(again);
-            const Eigen::MatrixX3d& VO = original.mesh.V;
-            fingerprint_rms = std::sqrt((centered(VO) - VO).rowwise().squaredNorm().mean()) /
-                              original.fingerprint->diagonal;
+            fingerprint_rms = field_rms(centered);
             out.kept_center = true;
           } else {
             o = first;
@@ -539,8 +542,7 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
       } else if (std::optional<WrittenCheck> w = try_instead(centered(*unmarked));
                  w && w->carried) {
         written = std::move(*w);
-        fingerprint_rms = std::sqrt((copy.V - *unmarked).rowwise().squaredNorm().mean()) /
-                          original.fingerprint->diagonal;
+        fingerprint_rms = field_rms(centered);
         out.kept_center = true;
       }
       if (!written.carried && unmarked && !required)

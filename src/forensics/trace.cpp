@@ -660,6 +660,15 @@ TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
                     c.strength_spread,
                     c.method};
   };
+  // The fingerprint's readings of group g's histogram, against `reference` (the original, or
+  // as fitted: `processing` says which).
+  const auto read_fingerprint_of = [&](GroupReading& g, const Eigen::MatrixX3d& reference,
+                                       const std::string& processing) {
+    g.basis = fingerprint_reading(original, carrier, reference, processing != "none", VL, leaked.F,
+                                  g.histogram, o.erase_distance * diagonal, o.fingerprint_ridge,
+                                  g.fingerprint_processing, g.readings);
+    g.fingerprint_read = true;
+  };
   // One group's reading of the leak, before any candidate is scored. The first group (in
   // GroupKey order) also fits the reference (processed_reference) that every group reads against.
   const auto measure = [&](const GroupKey& group, const GroupReading* first, bool fingerprinted) {
@@ -693,12 +702,7 @@ TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
     }
     // The fingerprint of copies issued with one (fingerprint.h), read at the leak's vertices.
     // Like the bins, the reading uses no candidate's coefficients.
-    if (fingerprinted) {
-      g.basis = fingerprint_reading(original, carrier, reference, processing != "none", VL,
-                                    leaked.F, g.histogram, o.erase_distance * diagonal,
-                                    o.fingerprint_ridge, g.fingerprint_processing, g.readings);
-      g.fingerprint_read = true;
-    }
+    if (fingerprinted) read_fingerprint_of(g, reference, processing);
     g.seconds_reading = since(at);
     return g;
   };
@@ -740,13 +744,8 @@ TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
     GroupReading other;
     if (!is_first) other = measure(group, &*first, fingerprinted);
     GroupReading& g = is_first ? *first : other;
-    if (fingerprinted && !g.fingerprint_read) {  // a guess measured without
-      g.basis =
-          fingerprint_reading(original, carrier, first->reference, first->processing != "none", VL,
-                              leaked.F, g.histogram, o.erase_distance * diagonal,
-                              o.fingerprint_ridge, g.fingerprint_processing, g.readings);
-      g.fingerprint_read = true;
-    }
+    if (fingerprinted && !g.fingerprint_read)  // a guess measured without
+      read_fingerprint_of(g, first->reference, first->processing);
     if (!fingerprinted) g.basis.reset(), g.readings.clear();  // a guess measured with
     if (g.basis && r.fingerprint_processing.empty())
       r.fingerprint_processing = g.fingerprint_processing;

@@ -244,8 +244,14 @@ CalibrateResult calibrate_strength(const PreparedEmbedder& embedder, const Paylo
     t.ratio = t.rms / o.max_rms_percent;
     // MSDM only when RMS passes: it is the expensive one.
     if (t.rms <= o.max_rms_percent) {
-      if (!reference) reference.emplace(V, F);  // the original's side, once
-      t.msdm = reference->compare(t.result.V).global;
+      ProgressCallback progress;
+      if (o.progress)
+        progress = [&o, alpha](const std::string& phase, long done, long total,
+                               const std::string& what) {
+          o.progress(fmt::format("strength {:.5f}: {}", alpha, phase), done, total, what);
+        };
+      if (!reference) reference.emplace(V, F, MsdmOptions{}, progress);  // the original's, once
+      t.msdm = reference->compare(t.result.V, progress).global;
       t.ratio = std::max(t.ratio, t.msdm / o.max_msdm);
     }
     t.ok = t.ratio <= 1;

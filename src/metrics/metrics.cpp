@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include "core/progress_counter.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/mesh.h"
 #include "meshmark/core/random.h"
@@ -79,6 +80,7 @@ SurfaceDistance surface_distance(const Eigen::MatrixX3d& VA, const Eigen::Matrix
                     FA.rows(), FB.rows()));
   SurfaceDistance d;
   d.diagonal = bounding_box_diagonal(VA, referenced_vertices(FA, VA.rows()));
+  detail::ProgressCounter counter(o.progress, "measuring surface distances", 2);
   auto one_side = [&](const Eigen::MatrixX3d& V1, const Eigen::MatrixX3i& F1,
                       const Eigen::MatrixX3d& V2, const Eigen::MatrixX3i& F2, std::uint64_t seed,
                       double& rms, double& max) {
@@ -86,12 +88,30 @@ SurfaceDistance surface_distance(const Eigen::MatrixX3d& VA, const Eigen::Matrix
     const Eigen::VectorXd dist = closest_points(V2, F2, sample_surface(V1, F1, n, seed)).distance;
     rms = std::sqrt(dist.squaredNorm() / static_cast<double>(dist.size()));
     max = dist.maxCoeff();
+    counter.step(1, "");
   };
   one_side(VA, FA, VB, FB, o.seed, d.rms_ab, d.max_ab);
   one_side(VB, FB, VA, FA, o.seed + 1, d.rms_ba, d.max_ba);
   d.mrms = std::max(d.rms_ab, d.rms_ba);
   d.hausdorff = std::max(d.max_ab, d.max_ba);
   return d;
+}
+
+MeshComparison compare_meshes(const Mesh& A, const Mesh& B, const CompareOptions& options) {
+  MeshComparison out;
+  // Eigen compares matrices of equal sizes only.
+  out.same_connectivity = A.V.rows() == B.V.rows() && A.F.rows() == B.F.rows() && A.F == B.F;
+  if (out.same_connectivity) {
+    out.rms_percent = vertex_rms_percent(A.V, B.V, A.F);
+    out.msdm = msdm(A.V, B.V, A.F, MsdmOptions{}, options.progress).global;
+  }
+  SurfaceDistanceOptions sampling = options.sampling;
+  sampling.progress = options.progress;
+  out.surface = surface_distance(A.V, A.F, B.V, B.F, sampling);
+  Msdm2Options o2;
+  o2.progress = options.progress;
+  out.msdm2 = msdm2(A.V, A.F, B.V, B.F, o2);
+  return out;
 }
 
 }  // namespace meshmark

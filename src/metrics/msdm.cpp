@@ -12,6 +12,7 @@
 #include "carrier/curvature_edges.h"
 #include "carrier/sphere_walk.h"
 #include "core/parallel.h"
+#include "core/progress_counter.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/mesh.h"
 #include "meshmark/metrics/metrics.h"
@@ -110,8 +111,11 @@ struct MsdmReference::State {
   std::vector<WindowStats> stats;
 };
 
+// Vertices between two progress reports of one thread.
+constexpr long kReportEvery = 4096;
+
 MsdmReference::MsdmReference(const Eigen::MatrixX3d& A, const Eigen::MatrixX3i& F,
-                             const MsdmOptions& options) {
+                             const MsdmOptions& options, const ProgressCallback& progress) {
   auto s = std::make_shared<State>();
   s->A = A, s->F = F, s->options = options;
   s->D = detail::longest_side(A, F);
@@ -121,14 +125,18 @@ MsdmReference::MsdmReference(const Eigen::MatrixX3d& A, const Eigen::MatrixX3i& 
   s->stats.resize(static_cast<std::size_t>(A.rows()));
   const double radius = options.window_radius * s->D, sigma = options.window_sigma * s->D;
   const double inv = sigma > 0 ? 1 / (2 * sigma * sigma) : 0;
+  detail::ProgressCounter counter(progress, "measuring MSDM (the original's windows)", A.rows());
   detail::parallel_chunks(A.rows(), [&](int, std::int64_t begin, std::int64_t end) {
     detail::WalkScratch scratch(A.rows());
     std::vector<Sample> samples;
+    detail::ProgressBatch done(counter, kReportEvery);
     for (auto i = begin; i < end; ++i) {
       window(s->A, s->adj, s->curvature, static_cast<int>(i), radius, scratch, samples);
       weigh(samples, s->A.row(i), inv);
       s->stats[static_cast<std::size_t>(i)] = statistics(samples);
+      done.add();
     }
+    done.flush();
   });
   state_ = std::move(s);
 }
@@ -141,7 +149,8 @@ const Eigen::VectorXd& MsdmReference::curvature() const {
   return state_->curvature;
 }
 
-PerceptualDistance MsdmReference::compare(const Eigen::MatrixX3d& B) const {
+PerceptualDistance MsdmReference::compare(const Eigen::MatrixX3d& B,
+                                          const ProgressCallback& progress) const {
   const State& s = *state_;
   if (B.rows() != s.A.rows())
     throw InvalidArgumentError(
@@ -155,11 +164,14 @@ PerceptualDistance MsdmReference::compare(const Eigen::MatrixX3d& B) const {
   out.local = Eigen::VectorXd::Zero(B.rows());
   // Each mesh is walked on its own geometry, as MEPP does: B may see other edges than A near
   // the sphere, and the pairing of samples absorbs the difference.
+  detail::ProgressCounter counter(progress, "measuring MSDM", B.rows());
   detail::parallel_chunks(B.rows(), [&](int, std::int64_t begin, std::int64_t end) {
     detail::WalkScratch scratch_a(B.rows()), scratch_b(B.rows());
     std::vector<Sample> a, b;
+    detail::ProgressBatch done(counter, kReportEvery);
     for (auto i = begin; i < end; ++i) {
       const int v = static_cast<int>(i);
+      done.add();
       if (s.adj.degree(v) == 0) continue;
       window(s.A, s.adj, s.curvature, v, radius, scratch_a, a);
       window(PB, s.adj, cb, v, radius, scratch_b, b);
@@ -172,19 +184,21 @@ PerceptualDistance MsdmReference::compare(const Eigen::MatrixX3d& B) const {
       const detail::MsdmTerms t = detail::msdm_terms(x, y, covariance);
       out.local(i) = std::cbrt((t.L * t.L * t.L + t.C * t.C * t.C + 0.5 * t.S * t.S * t.S) / 2.5);
     }
+    done.flush();
   });
   out.global = detail::pool3(out.local, s.F);
   return out;
 }
 
 PerceptualDistance msdm(const Eigen::MatrixX3d& A, const Eigen::MatrixX3d& B,
-                        const Eigen::MatrixX3i& F, const MsdmOptions& options) {
+                        const Eigen::MatrixX3i& F, const MsdmOptions& options,
+                        const ProgressCallback& progress) {
   if (A.rows() != B.rows())
     throw InvalidArgumentError(
         fmt::format("MSDM needs the same vertices ({} and {}); use MSDM2", A.rows(), B.rows()));
   validate_mesh(A, F, "the first mesh");
   validate_mesh(B, F, "the second mesh");
-  return MsdmReference(A, F, options).compare(B);
+  return MsdmReference(A, F, options, progress).compare(B, progress);
 }
 
 }  // namespace meshmark

@@ -7,6 +7,7 @@
 #include "carrier/curvature.h"
 #include "carrier/sphere_walk.h"
 #include "core/parallel.h"
+#include "core/progress_counter.h"
 #include "meshmark/core/mesh.h"
 #include "meshmark/metrics/metrics.h"
 #include "metrics/closest_point.h"
@@ -71,7 +72,7 @@ double paired_score(const std::vector<PairedSample>& s, double inv) {
 // MSDM2 in one direction: local scores of X's vertices against Y.
 Eigen::VectorXd msdm2_local(const Eigen::MatrixX3d& VX, const Eigen::MatrixX3i& FX,
                             const Eigen::MatrixX3d& VY, const Eigen::MatrixX3i& FY, double D,
-                            const Msdm2Options& o) {
+                            const Msdm2Options& o, detail::ProgressCounter& counter) {
   const ClosestPoints match = closest_points(VY, FY, VX);
   const Adjacency ax = vertex_adjacency(FX, VX.rows()), ay = vertex_adjacency(FY, VY.rows());
   const RowPoints P = VX, M = match.point;
@@ -90,12 +91,15 @@ Eigen::VectorXd msdm2_local(const Eigen::MatrixX3d& VX, const Eigen::MatrixX3i& 
     detail::parallel_chunks(VX.rows(), [&](int, std::int64_t begin, std::int64_t end) {
       detail::WalkScratch scratch(VX.rows());
       std::vector<PairedSample> samples;
+      detail::ProgressBatch done(counter, 4096);
       for (auto i = begin; i < end; ++i) {
+        done.add();
         if (ax.degree(static_cast<int>(i)) == 0) continue;
         paired_window(P, M, ax, cx, cm, static_cast<int>(i), o.window_factor * h * D, scratch,
                       samples);
         local(i) += paired_score(samples, inv);
       }
+      done.flush();
     });
   }
   return local / static_cast<double>(std::size(o.scales));
@@ -110,9 +114,11 @@ PerceptualDistance msdm2(const Eigen::MatrixX3d& VA, const Eigen::MatrixX3i& FA,
   validate_mesh(VB, FB, "the second mesh");
   // The same D both ways.
   const double D = std::max(detail::longest_side(VA, FA), detail::longest_side(VB, FB));
+  const long scales = static_cast<long>(std::size(o.scales));
+  detail::ProgressCounter counter(o.progress, "measuring MSDM2", scales * (VA.rows() + VB.rows()));
   PerceptualDistance out;
-  out.local = msdm2_local(VA, FA, VB, FB, D, o);
-  const Eigen::VectorXd back = msdm2_local(VB, FB, VA, FA, D, o);
+  out.local = msdm2_local(VA, FA, VB, FB, D, o, counter);
+  const Eigen::VectorXd back = msdm2_local(VB, FB, VA, FA, D, o, counter);
   out.global = 0.5 * (detail::pool3(out.local, FA) + detail::pool3(back, FB));
   return out;
 }

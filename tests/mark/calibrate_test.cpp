@@ -2,7 +2,10 @@
 // again here with the metrics' own entry points; the prepared embedder equal to embed(); the
 // causes named when nothing fits.
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
+
+#include <algorithm>
 
 #include <cmath>
 #include <string>
@@ -119,6 +122,48 @@ TEST(Calibrate, TheReturnedEmbeddingIsTheMeasuredOne) {
   const EmbedResult w = embed(mesh.V, mesh.F, payload, again);
   EXPECT_TRUE(w.V == r.embedding.V);
   EXPECT_NEAR(vertex_rms_percent(mesh.V, r.embedding.V, mesh.F), r.rms_percent, kSameMeasure);
+}
+
+// Each embedding tried is measured with its MSDM's progress named by its strength; reporting
+// changes nothing found. The original's windows are walked once, every later measure only the
+// copy's: at most one "measuring MSDM" phase per embedding, the last at the strength found.
+TEST(Calibrate, ReportsEachMeasuredStrengthAndFindsTheSame) {
+  const std::string path = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(path, "spot.obj");
+  const Mesh mesh = read_mesh(path);
+  EmbedOptions eo;
+  eo.variant = parse_variant("DRS");
+  const Payload payload = calibration_payload(64, 9);
+  const CalibrateResult quiet = calibrate_strength(mesh.V, mesh.F, payload, eo);
+  ASSERT_EQ(quiet.status, CalibrateStatus::Calibrated) << quiet.message;
+  CalibrateOptions o;
+  std::vector<std::string> phases;
+  long last_done = 0, last_total = -1;
+  o.progress = [&](const std::string& phase, long done, long total, const std::string&) {
+    if (done == 0) phases.push_back(phase);
+    last_done = done, last_total = total;
+  };
+  const CalibrateResult r = calibrate_strength(mesh.V, mesh.F, payload, eo, o);
+  EXPECT_EQ(r.strength, quiet.strength);
+  EXPECT_EQ(r.msdm, quiet.msdm);
+  EXPECT_TRUE(r.embedding.V == quiet.embedding.V);
+  EXPECT_EQ(last_done, last_total);
+  EXPECT_EQ(last_total, mesh.V.rows());
+  ASSERT_GE(phases.size(), 2u);
+  EXPECT_NE(phases.front().find("measuring MSDM (the original's windows)"), std::string::npos);
+  int measures = 0;
+  for (std::size_t k = 1; k < phases.size(); ++k) {
+    EXPECT_EQ(phases[k].rfind("strength ", 0), 0u) << phases[k];
+    EXPECT_NE(phases[k].find(": measuring MSDM"), std::string::npos) << phases[k];
+    EXPECT_EQ(phases[k].find("original"), std::string::npos) << "walked again: " << phases[k];
+    ++measures;
+  }
+  EXPECT_LE(measures, r.evaluations);
+  // The strength found was measured: some phase names it, as printed there (5 decimals).
+  const std::string found = fmt::format("strength {:.5f}:", r.strength);
+  EXPECT_TRUE(std::any_of(phases.begin(), phases.end(), [&](const std::string& p) {
+    return p.rfind(found, 0) == 0;
+  })) << found;
 }
 
 TEST(Calibrate, FixedRuleKeepsThePapersBinOffset) {

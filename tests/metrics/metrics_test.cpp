@@ -187,3 +187,66 @@ TEST(Metrics, SurfaceDistanceRefusesAMeshWithoutFaces) {
   EXPECT_THROW(surface_distance(m.V, none, m.V, m.F), InvalidArgumentError);
   EXPECT_THROW(surface_distance(m.V, m.F, m.V, none), InvalidArgumentError);
 }
+
+// compare_meshes (what `meshmark compare` prints) gives each metric as its own function does,
+// MSDM only where the connectivity is shared, and reports its phases in order: each starts at
+// 0 and counts up to its total, in steps that never go back.
+TEST(Metrics, CompareMeshesGivesEachMetricAndReportsItsPhases) {
+  const std::string path = data_mesh("spot.obj");
+  MESHMARK_REQUIRE(path, "spot.obj");
+  const Mesh m = read_mesh(path);
+  struct Report {
+    std::string phase;
+    long done, total;
+  };
+  auto check_phases = [](const std::vector<Report>& reports, const std::vector<std::string>& want) {
+    std::vector<std::string> phases;
+    for (std::size_t k = 0; k < reports.size(); ++k) {
+      const Report& r = reports[k];
+      if (r.done == 0) {
+        if (k > 0) EXPECT_EQ(reports[k - 1].done, reports[k - 1].total) << "phase ended early";
+        phases.push_back(r.phase);
+        continue;
+      }
+      ASSERT_FALSE(phases.empty());
+      EXPECT_EQ(r.phase, phases.back());
+      EXPECT_GT(r.done, reports[k - 1].done);
+      EXPECT_LE(r.done, r.total);
+    }
+    ASSERT_FALSE(reports.empty());
+    EXPECT_EQ(reports.back().done, reports.back().total);
+    EXPECT_EQ(phases, want);
+  };
+  const SurfaceDistanceOptions sampling{5000, 3};
+  std::vector<Report> reports;
+  auto compare_reporting = [&](const Mesh& other) {
+    reports.clear();
+    CompareOptions o;
+    o.sampling = sampling;
+    o.progress = [&](const std::string& phase, long done, long total, const std::string&) {
+      reports.push_back({phase, done, total});
+    };
+    return compare_meshes(m, other, o);
+  };
+  const Mesh noisy = attack_noise(m, 0.001, NoiseReference::Diagonal, 4);
+  {
+    const MeshComparison c = compare_reporting(noisy);
+    EXPECT_TRUE(c.same_connectivity);
+    EXPECT_EQ(c.rms_percent, vertex_rms_percent(m.V, noisy.V, m.F));
+    EXPECT_EQ(c.msdm, msdm(m.V, noisy.V, m.F).global);
+    const SurfaceDistance d = surface_distance(m.V, m.F, noisy.V, noisy.F, sampling);
+    EXPECT_EQ(c.surface.rms_ab, d.rms_ab);
+    EXPECT_EQ(c.surface.hausdorff, d.hausdorff);
+    EXPECT_EQ(c.msdm2.global, msdm2(m.V, m.F, noisy.V, noisy.F).global);
+    check_phases(reports, {"measuring MSDM (the original's windows)", "measuring MSDM",
+                           "measuring surface distances", "measuring MSDM2"});
+  }
+  // The same vertices with one triangle fewer, and a shuffled vertex order: other
+  // connectivities, so no vertex RMS or MSDM, and no MSDM phase.
+  for (const Mesh& other : {Mesh{m.V, m.F.topRows(m.F.rows() - 1), {}}, attack_reorder(m, 6)}) {
+    const MeshComparison c = compare_reporting(other);
+    EXPECT_FALSE(c.same_connectivity);
+    EXPECT_EQ(c.msdm2.global, msdm2(m.V, m.F, other.V, other.F).global);
+    check_phases(reports, {"measuring surface distances", "measuring MSDM2"});
+  }
+}

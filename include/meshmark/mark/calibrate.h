@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "meshmark/core/enum_names.h"
+#include "meshmark/core/progress.h"
 #include "meshmark/mark/embed.h"
 #include "meshmark/mark/payload.h"
 
@@ -54,6 +55,10 @@ struct CalibrateOptions {
   /// second mark: issue.h adds the fingerprint): the limits then hold for the positions
   /// returned, which CalibrateResult::embedding holds. Empty: nothing.
   std::function<Eigen::MatrixX3d(const Eigen::MatrixX3d& V)> finish;
+  /// Called as each embedding tried is measured (progress.h): MSDM's phases (metrics.h), the
+  /// strength in their names ("strength 0.03000: measuring MSDM"), one unit per vertex. On a
+  /// few 100k vertices each takes minutes. Empty: nothing.
+  ProgressCallback progress;
 };
 
 /// Outcome of calibrate_strength.

@@ -8,6 +8,9 @@
 #include <cstdint>
 #include <memory>
 
+#include "meshmark/core/mesh.h"
+#include "meshmark/core/progress.h"
+
 namespace meshmark {
 
 /// Vertex-wise RMS of B - A over the vertices F references, as a percentage of A's
@@ -26,6 +29,9 @@ struct SurfaceDistanceOptions {
   int samples =
       0;  ///< area samples per surface besides the vertices; 0: 2 per vertex, at least 50k
   std::uint64_t seed = 1;  ///< sampling seed
+  /// Called as the distances go (progress.h): phase "measuring surface distances", one unit
+  /// per direction.
+  ProgressCallback progress;
 };
 
 /// One-sided and symmetric surface distances between two meshes of any connectivity, from the
@@ -81,11 +87,15 @@ struct PerceptualDistance {
 class MsdmReference {
  public:
   /// A: #V x 3 positions of the original, F: #F x 3 its triangles (kept, copied).
+  /// `progress` (progress.h) is called with phase "measuring MSDM (the original's windows)",
+  /// one unit per vertex.
   MsdmReference(const Eigen::MatrixX3d& A, const Eigen::MatrixX3i& F,
-                const MsdmOptions& options = {});
-  /// MSDM from the original to B (#V x 3, same connectivity). \throw InvalidArgumentError
-  /// when B's vertex count differs.
-  PerceptualDistance compare(const Eigen::MatrixX3d& B) const;
+                const MsdmOptions& options = {}, const ProgressCallback& progress = {});
+  /// MSDM from the original to B (#V x 3, same connectivity); `progress` is called with phase
+  /// "measuring MSDM", one unit per vertex. \throw InvalidArgumentError when B's vertex count
+  /// differs.
+  PerceptualDistance compare(const Eigen::MatrixX3d& B,
+                             const ProgressCallback& progress = {}) const;
   /// D, the longest side of the original's bounding box (model units).
   double longest_side() const;
   /// The original's curvature per vertex as MSDM compares it, (|kmax| + |kmin|) D / 2.
@@ -99,13 +109,17 @@ class MsdmReference {
 /// MSDM between two meshes with the same connectivity F (positions A and B): see
 /// MsdmReference. \throw InvalidArgumentError when the vertex counts differ.
 PerceptualDistance msdm(const Eigen::MatrixX3d& A, const Eigen::MatrixX3d& B,
-                        const Eigen::MatrixX3i& F, const MsdmOptions& options = {});
+                        const Eigen::MatrixX3i& F, const MsdmOptions& options = {},
+                        const ProgressCallback& progress = {});
 
 /// MSDM2's constants, fractions of D.
 struct Msdm2Options {
   double scales[3] = {0.002, 0.003, 0.004};  ///< curvature radii h
   double window_factor = 5;                  ///< window radius = 5 h
   double sigma_factor = 2.5;                 ///< Gaussian sigma = 2.5 h
+  /// Called as the windows are walked (progress.h): phase "measuring MSDM2", one unit per
+  /// vertex of either mesh at each scale.
+  ProgressCallback progress;
 };
 
 /// MSDM2 (Lavoue, SGP 2011) between meshes of any connectivity, as MEPP2's msdm2.h computes
@@ -124,5 +138,29 @@ struct Msdm2Options {
 PerceptualDistance msdm2(const Eigen::MatrixX3d& VA, const Eigen::MatrixX3i& FA,
                          const Eigen::MatrixX3d& VB, const Eigen::MatrixX3i& FB,
                          const Msdm2Options& options = {});
+
+/// Options of compare_meshes.
+struct CompareOptions {
+  SurfaceDistanceOptions sampling;  ///< MRMS and Hausdorff's samples (its progress is unused)
+  /// Called as the comparison goes (progress.h), one phase after the other: MSDM's two (same
+  /// connectivity only), the surface distances', MSDM2's. MSDM and MSDM2 walk a window of a
+  /// fixed share of the bounding box around every vertex, so their time grows with the square
+  /// of the vertex count on one shape (docs/formats.md, Sizes): minutes from a few 100k.
+  ProgressCallback progress;
+};
+
+/// Every distortion `meshmark compare` reports, from A (the reference) to B.
+struct MeshComparison {
+  bool same_connectivity = false;  ///< same vertex count and triangles: vertex RMS and MSDM
+  double rms_percent = 0;          ///< vertex RMS, % of A's diagonal (same connectivity)
+  double msdm = 0;                 ///< MSDM (same connectivity)
+  SurfaceDistance surface;         ///< MRMS and Hausdorff
+  PerceptualDistance msdm2;        ///< MSDM2, `local` per vertex of A
+};
+
+/// Compares B with A: vertex RMS and MSDM when they share their connectivity, surface
+/// distances and MSDM2 always. \throw InvalidArgumentError when either mesh has no triangle
+/// (no surface to sample) or is invalid.
+MeshComparison compare_meshes(const Mesh& A, const Mesh& B, const CompareOptions& options = {});
 
 }  // namespace meshmark
