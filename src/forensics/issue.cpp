@@ -816,7 +816,16 @@ IssueResult issue_with(std::vector<CopyRequest> requests, const IssueSettings& s
   // The registry reserves every ID before its copy is written: an issue killed while writing
   // leaves reserved rows (which a rerun completes), never a copy that no row names.
   if (registry) reserve_rows(*registry, requests, jobs, settings, out);
-  detail::ProgressCounter progress(settings.progress, "issuing", static_cast<long>(jobs.size()));
+  // One copy within fidelity limits: its strength search reports each MSDM it measures (minutes
+  // on a few 100k vertices) in place of the one "issuing" step.
+  std::optional<IssueSettings> searched_alone;
+  if (jobs.size() == 1 && settings.limits && settings.progress && !settings.limits->progress) {
+    searched_alone = settings;
+    searched_alone->limits->progress = settings.progress;
+  }
+  const ProgressCallback none;
+  detail::ProgressCounter progress(searched_alone ? none : settings.progress, "issuing",
+                                   static_cast<long>(jobs.size()));
   std::vector<std::shared_ptr<const Original>> job_originals;  // held while unlocked
   job_originals.reserve(jobs.size());
   for (const std::size_t k : jobs) job_originals.push_back(originals.at(original_key(requests[k])));
@@ -825,7 +834,8 @@ IssueResult issue_with(std::vector<CopyRequest> requests, const IssueSettings& s
     const std::size_t k = jobs[j];
 
     try {
-      make_copy(requests[k], *job_originals[j], settings, code ? &*code : nullptr, out[k]);
+      make_copy(requests[k], *job_originals[j], searched_alone ? *searched_alone : settings,
+                code ? &*code : nullptr, out[k]);
     } catch (const InvalidArgumentError& e) {  // options this copy's embedding refuses
       refuse(out[k], e.what());
     } catch (const std::exception& e) {

@@ -205,6 +205,53 @@ TEST(Issue, ProgressCountsTheOriginalsPreparedThenTheCopiesMade) {
   EXPECT_EQ(seen, want);
 }
 
+// One copy within fidelity limits reports its strength search (each MSDM measured, named by its
+// strength) where "issuing" would have one step; two copies are counted as copies again, their
+// searches silent (their phases would interleave). The strength the copy records is measured.
+TEST(Issue, OneCopyWithinLimitsReportsItsStrengthSearch) {
+  const std::string spot = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir() + "/issue-search-progress";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  for (const int copies : {1, 2}) {
+    std::vector<CopyRequest> requests;
+    for (int k = 0; k < copies; ++k) {
+      CopyRequest r;
+      r.input = spot, r.output = fmt::format("{}/{}-{}.ply", dir, copies, k);
+      r.payload_hex = k == 0 ? "0123456789abcdef" : "fedcba9876543210";
+      requests.push_back(r);
+    }
+    IssueSettings settings;
+    settings.limits = CalibrateOptions{};
+    std::vector<std::string> phases;
+    std::mutex mutex;
+    settings.progress = [&](const std::string& phase, long done, long, const std::string&) {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (done == 0) phases.push_back(phase);
+    };
+    const IssueResult r = issue_copies(requests, settings);
+    ASSERT_EQ(r.count(CopyStatus::Written), static_cast<std::size_t>(copies))
+        << r.copies[0].message;
+    ASSERT_TRUE(r.copies[0].calibration);
+    ASSERT_FALSE(phases.empty());
+    EXPECT_EQ(phases.front(), "preparing");
+    const bool issuing = std::count(phases.begin(), phases.end(), "issuing") == 1;
+    const std::string found =
+        fmt::format("strength {:.5f}: measuring MSDM", r.copies[0].calibration->strength);
+    const bool measured = std::count(phases.begin(), phases.end(), found) >= 1;
+    if (copies == 1) {
+      EXPECT_FALSE(issuing);
+      EXPECT_TRUE(measured) << "no phase " << found;
+      for (std::size_t k = 1; k < phases.size(); ++k)
+        EXPECT_EQ(phases[k].rfind("strength ", 0), 0u) << phases[k];
+    } else {
+      EXPECT_TRUE(issuing);
+      EXPECT_EQ(phases.size(), 2u) << "a search reported among several copies";
+    }
+  }
+}
+
 // A CSV manifest keeps every buyer label as written: commas, quotes, '#', line breaks, any
 // UTF-8; the whitespace manifest refuses a label that its '#' comment would cut; a CSV record
 // with broken quoting or a header without the needed columns is refused, naming the line.

@@ -76,8 +76,9 @@ struct IssueSettings {
   std::vector<std::pair<std::string, std::string>> kept_files;  ///< (what it is, path)
   /// Called as originals are prepared and copies made (progress.h): phase "preparing",
   /// originals read and prepared of those to prepare, the original just prepared; then phase
-  /// "issuing", copies done of those to make,
-  /// the output just made.
+  /// "issuing", copies done of those to make, the output just made. One copy made within
+  /// `limits` (whose own progress is empty) reports its strength search instead of "issuing":
+  /// the MSDM of each strength tried (CalibrateOptions::progress).
   ProgressCallback progress;
 };
 
