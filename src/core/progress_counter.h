@@ -33,10 +33,11 @@ class ProgressCounter {
 /// every `every` of them (one lock per batch, not per unit), the rest by flush().
 class ProgressBatch {
  public:
-  ProgressBatch(ProgressCounter& counter, long every) : counter_(counter), every_(every) {}
+  /// Every 4,096 units by default: a few reports a second from a thread walking mesh vertices.
+  explicit ProgressBatch(ProgressCounter& counter, long every = 4096)
+      : counter_(counter), every_(every) {}
   ProgressBatch(const ProgressBatch&) = delete;
   ProgressBatch& operator=(const ProgressBatch&) = delete;
-  ~ProgressBatch() = default;
   void add(long n = 1) {
     if ((pending_ += n) >= every_) flush();
   }

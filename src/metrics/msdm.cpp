@@ -111,9 +111,6 @@ struct MsdmReference::State {
   std::vector<WindowStats> stats;
 };
 
-// Vertices between two progress reports of one thread.
-constexpr long kReportEvery = 4096;
-
 MsdmReference::MsdmReference(const Eigen::MatrixX3d& A, const Eigen::MatrixX3i& F,
                              const MsdmOptions& options, const ProgressCallback& progress) {
   auto s = std::make_shared<State>();
@@ -129,7 +126,7 @@ MsdmReference::MsdmReference(const Eigen::MatrixX3d& A, const Eigen::MatrixX3i& 
   detail::parallel_chunks(A.rows(), [&](int, std::int64_t begin, std::int64_t end) {
     detail::WalkScratch scratch(A.rows());
     std::vector<Sample> samples;
-    detail::ProgressBatch done(counter, kReportEvery);
+    detail::ProgressBatch done(counter);
     for (auto i = begin; i < end; ++i) {
       window(s->A, s->adj, s->curvature, static_cast<int>(i), radius, scratch, samples);
       weigh(samples, s->A.row(i), inv);
@@ -168,7 +165,7 @@ PerceptualDistance MsdmReference::compare(const Eigen::MatrixX3d& B,
   detail::parallel_chunks(B.rows(), [&](int, std::int64_t begin, std::int64_t end) {
     detail::WalkScratch scratch_a(B.rows()), scratch_b(B.rows());
     std::vector<Sample> a, b;
-    detail::ProgressBatch done(counter, kReportEvery);
+    detail::ProgressBatch done(counter);
     for (auto i = begin; i < end; ++i) {
       const int v = static_cast<int>(i);
       done.add();

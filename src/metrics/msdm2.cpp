@@ -91,7 +91,7 @@ Eigen::VectorXd msdm2_local(const Eigen::MatrixX3d& VX, const Eigen::MatrixX3i& 
     detail::parallel_chunks(VX.rows(), [&](int, std::int64_t begin, std::int64_t end) {
       detail::WalkScratch scratch(VX.rows());
       std::vector<PairedSample> samples;
-      detail::ProgressBatch done(counter, 4096);
+      detail::ProgressBatch done(counter);
       for (auto i = begin; i < end; ++i) {
         done.add();
         if (ax.degree(static_cast<int>(i)) == 0) continue;
