@@ -9,13 +9,13 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <Eigen/QR>
-#include <Eigen/Sparse>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
 
+#include "core/parallel.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/mesh.h"
 
@@ -52,22 +52,123 @@ Eigen::Matrix2d line_fit_operator(const Eigen::Matrix2d& G) {
   return (Eigen::Matrix2d() << 1 / G(0, 0), 0, 0, 0).finished();
 }
 
+// The bumps' points in a uniform grid: every point within `reach` of a position lies in the
+// 3 x 3 x 3 block of cells around the position's cell. Cells are at least reach wide (a little
+// more, so that rounding cannot put such a point two cells away) and at most 64 to a side.
+class BumpGrid {
+ public:
+  BumpGrid(const Eigen::MatrixX3d& points, double reach) {
+    lo_ = points.colwise().minCoeff();
+    const Eigen::RowVector3d extent = points.colwise().maxCoeff() - lo_;
+    cell_ = std::max(reach * (1 + 1e-9), extent.maxCoeff() / 64);
+    if (!(cell_ > 0)) cell_ = 1;
+    for (int c = 0; c < 3; ++c) dims_[c] = static_cast<int>(extent(c) / cell_) + 1;
+    start_.assign(static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2] + 1, 0);
+    std::vector<std::size_t> of(static_cast<std::size_t>(points.rows()));
+    for (Eigen::Index k = 0; k < points.rows(); ++k) {
+      std::array<int, 3> at;
+      for (int c = 0; c < 3; ++c) at[c] = std::min(coordinate(points(k, c), c), dims_[c] - 1);
+      of[k] = flat(at);
+      ++start_[of[k] + 1];
+    }
+    for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+    points_.resize(static_cast<std::size_t>(points.rows()));
+    std::vector<int> fill(start_.begin(), start_.end() - 1);
+    for (Eigen::Index k = 0; k < points.rows(); ++k) points_[fill[of[k]]++] = static_cast<int>(k);
+  }
+
+  /// Calls visit(k) for every point k in the block of cells around p (in no set order), none
+  /// for a position that is not finite.
+  template <class Visit>
+  void near(const Eigen::RowVector3d& p, Visit&& visit) const {
+    if (!p.allFinite()) return;
+    std::array<int, 3> from, to;
+    for (int c = 0; c < 3; ++c) {
+      const int at = coordinate(p(c), c);
+      from[c] = std::max(at - 1, 0), to[c] = std::min(at + 1, dims_[c] - 1);
+      if (from[c] > to[c]) return;
+    }
+    for (int x = from[0]; x <= to[0]; ++x)
+      for (int y = from[1]; y <= to[1]; ++y)
+        for (int z = from[2]; z <= to[2]; ++z) {
+          const std::size_t f = flat({x, y, z});
+          for (int e = start_[f]; e < start_[f + 1]; ++e) visit(points_[e]);
+        }
+  }
+
+ private:
+  // The cell coordinate along axis c, clamped to [-2, dims + 1] (far outside: no neighbours).
+  int coordinate(double x, int c) const {
+    const double at = std::floor((x - lo_(c)) / cell_);
+    return static_cast<int>(std::clamp(at, -2.0, static_cast<double>(dims_[c]) + 1));
+  }
+  std::size_t flat(const std::array<int, 3>& at) const {
+    return (static_cast<std::size_t>(at[0]) * dims_[1] + at[1]) * dims_[2] + at[2];
+  }
+  Eigen::RowVector3d lo_;
+  double cell_ = 1;
+  std::array<int, 3> dims_{1, 1, 1};
+  std::vector<int> start_, points_;
+};
+
 // Fills b's rows with its bumps (b.points, width, scale) evaluated at the rows of P with
-// mask[i] != 0, cut at 3 w; no entries for the others.
+// mask[i] != 0, cut at 3 w, each row in bump order; no entries for the others. The rows are
+// counted first and then filled, so the entries take exactly their size (a few dozen a vertex:
+// the largest share of a trace's memory).
 void evaluate_bumps(FingerprintBasis& b, const Eigen::MatrixX3d& P,
                     const std::vector<std::uint8_t>& mask) {
   const double cut2 = 9 * b.width * b.width, inv = 1 / (2 * b.width * b.width);
-  b.row_start.assign(1, 0);
-  b.index.clear(), b.value.clear();
-  for (Eigen::Index i = 0; i < P.rows(); ++i) {
-    if (mask[i])
-      for (int k = 0; k < b.functions; ++k) {
-        const double d2 = (P.row(i) - b.points.row(k)).squaredNorm();
-        if (d2 > cut2) continue;
-        b.index.push_back(k), b.value.push_back(b.scale * std::exp(-d2 * inv));
-      }
-    b.row_start.push_back(static_cast<int>(b.index.size()));
+  const BumpGrid grid(b.points, 3 * b.width);
+  const Eigen::Index n = P.rows();
+  b.row_start.assign(static_cast<std::size_t>(n) + 1, 0);
+  const auto within = [&](Eigen::Index i, int k) {
+    return (P.row(i) - b.points.row(k)).squaredNorm() <= cut2;
+  };
+  detail::parallel_chunks(n, [&](int, std::int64_t begin, std::int64_t end) {
+    for (Eigen::Index i = begin; i < end; ++i)
+      if (mask[i]) grid.near(P.row(i), [&](int k) { b.row_start[i + 1] += within(i, k); });
+  });
+  std::int64_t total = 0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    total += b.row_start[i + 1];
+    if (total > std::numeric_limits<int>::max())
+      throw Error("the fingerprint's basis would have more than 2^31 - 1 entries");
+    b.row_start[i + 1] = static_cast<int>(total);
   }
+  b.index.assign(static_cast<std::size_t>(b.row_start[n]), 0);
+  b.value.assign(b.index.size(), 0.0);
+  detail::parallel_chunks(n, [&](int, std::int64_t begin, std::int64_t end) {
+    for (Eigen::Index i = begin; i < end; ++i) {
+      if (!mask[i]) continue;
+      int* row = b.index.data() + b.row_start[i];
+      int count = 0;
+      grid.near(P.row(i), [&](int k) {
+        if (within(i, k)) row[count++] = k;
+      });
+      std::sort(row, row + count);
+      for (int e = 0; e < count; ++e) {
+        const double d2 = (P.row(i) - b.points.row(row[e])).squaredNorm();
+        b.value[b.row_start[i] + e] = b.scale * std::exp(-d2 * inv);
+      }
+    }
+  });
+}
+
+// \throw InvalidArgumentError unless b's compressed rows are well formed: row_start from 0 to
+// the entries' count, never decreasing; with `entries`, also each row's bumps in increasing
+// order within [0, K) (field() checks the bounds as it sums instead: one pass, not two).
+void check_rows(const FingerprintBasis& b, bool entries) {
+  const Eigen::Index n = static_cast<Eigen::Index>(b.row_start.size()) - 1;
+  if (n < 0 || b.index.size() != b.value.size() || b.row_start[0] != 0 ||
+      static_cast<std::size_t>(b.row_start[n]) != b.index.size() ||
+      !std::is_sorted(b.row_start.begin(), b.row_start.end()))
+    throw InvalidArgumentError("the basis' compressed rows do not match its entries");
+  for (Eigen::Index i = 0; entries && i < n; ++i)
+    for (int e = b.row_start[i]; e < b.row_start[i + 1]; ++e)
+      if (b.index[e] < 0 || b.index[e] >= b.functions ||
+          (e > b.row_start[i] && b.index[e] <= b.index[e - 1]))
+        throw InvalidArgumentError(fmt::format(
+            "the basis' row {} is not in increasing order of bumps 0 to {}", i, b.functions - 1));
 }
 
 }  // namespace
@@ -81,10 +182,16 @@ Eigen::VectorXd FingerprintBasis::field(const Eigen::VectorXd& a) const {
   if (a.size() != functions)
     throw InvalidArgumentError(
         fmt::format("a fingerprint of {} coefficients for a basis of {}", a.size(), functions));
+  check_rows(*this, false);
   const Eigen::Index n = static_cast<Eigen::Index>(row_start.size()) - 1;
   Eigen::VectorXd s = Eigen::VectorXd::Zero(n);
   for (Eigen::Index i = 0; i < n; ++i)
-    for (int e = row_start[i]; e < row_start[i + 1]; ++e) s(i) += value[e] * a(index[e]);
+    for (int e = row_start[i]; e < row_start[i + 1]; ++e) {
+      if (static_cast<unsigned>(index[e]) >= static_cast<unsigned>(functions))
+        throw InvalidArgumentError(
+            fmt::format("the basis' row {} names bump {} of {}", i, index[e], functions));
+      s(i) += value[e] * a(index[e]);
+    }
   return s;
 }
 
@@ -400,6 +507,7 @@ Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::Vec
     throw InvalidArgumentError("the residual, the measured mask and the basis differ in size");
   if (keep && keep->bin.size() != static_cast<std::size_t>(n))
     throw InvalidArgumentError("the histogram to keep is of another mesh");
+  check_rows(basis, true);
   std::vector<std::uint8_t> used(n, 0);
   for (Eigen::Index i = 0; i < n; ++i)
     used[i] = measured[i] && std::isfinite(residual(i)) &&
@@ -414,41 +522,25 @@ Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::Vec
   std::vector<Eigen::Matrix2d> G(classes, Eigen::Matrix2d::Zero());
   std::vector<Eigen::Vector2d> R(classes, Eigen::Vector2d::Zero());
   std::vector<Eigen::MatrixX2d> M(classes, Eigen::MatrixX2d::Zero(K, 2));
-  // Phi^T Phi as a sparse product over the basis' compressed rows (each vertex touches a few
-  // dozen bumps), those of the unused vertices emptied in a copy when there are any.
-  std::vector<int> start, index;
-  std::vector<double> value;
-  const bool all_used = [&] {
-    for (Eigen::Index i = 0; i < n; ++i)
-      if (!used[i] && basis.row_start[i + 1] > basis.row_start[i]) return false;
-    return true;
-  }();
-  if (!all_used) {
-    start.assign(1, 0);
-    for (Eigen::Index i = 0; i < n; ++i) {
-      if (used[i])
-        for (int e = basis.row_start[i]; e < basis.row_start[i + 1]; ++e)
-          index.push_back(basis.index[e]), value.push_back(basis.value[e]);
-      start.push_back(static_cast<int>(index.size()));
-    }
-  }
-  const std::vector<int>& rs = all_used ? basis.row_start : start;
-  const std::vector<int>& ix = all_used ? basis.index : index;
-  const std::vector<double>& vs = all_used ? basis.value : value;
-  const Eigen::Map<const Eigen::SparseMatrix<double, Eigen::RowMajor, int>> Phi(
-      n, K, static_cast<Eigen::Index>(ix.size()), rs.data(), ix.data(), vs.data());
-  A = Eigen::MatrixXd(Phi.transpose() * Phi);
+  // Phi^T Phi and Phi^T r, accumulated row by row over the used vertices (each touches a few
+  // dozen bumps, in bump order: its products fall in A's upper triangle).
   for (Eigen::Index i = 0; i < n; ++i) {
     if (!used[i]) continue;
-    for (int e = basis.row_start[i]; e < basis.row_start[i + 1]; ++e)
-      y(basis.index[e]) += basis.value[e] * residual(i);
+    const int first = basis.row_start[i], last = basis.row_start[i + 1];
+    for (int e = first; e < last; ++e) {
+      const int k = basis.index[e];
+      const double v = basis.value[e];
+      y(k) += v * residual(i);
+      double* column = A.col(k).data();
+      for (int f = first; f <= e; ++f) column[basis.index[f]] += basis.value[f] * v;
+    }
     if (!keep) continue;
     const int c = radial_class(*keep, i);
     const Eigen::Vector2d x(1, keep->t(i));
     G[c] += x * x.transpose(), R[c] += x * residual(i);
-    for (int e = basis.row_start[i]; e < basis.row_start[i + 1]; ++e)
-      M[c].row(basis.index[e]) += basis.value[e] * x.transpose();
+    for (int e = first; e < last; ++e) M[c].row(basis.index[e]) += basis.value[e] * x.transpose();
   }
+  A.triangularView<Eigen::StrictlyLower>() = A.transpose();
   // sum_c M_c G_c^-1 M_c^T as one product W W^T, W's columns M_c S_c with S_c S_c^T = G_c^-1
   // (G_c^-1 is symmetric and positive semi-definite).
   Eigen::MatrixXd W = Eigen::MatrixXd::Zero(K, 2 * static_cast<Eigen::Index>(classes));

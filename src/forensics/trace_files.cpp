@@ -46,18 +46,22 @@ TraceFilesResult trace_files(const TraceFilesRequest& request, const Key& key) {
             fmt::format("{}: refusing to overwrite an input file with the report", output));
     }
   TraceFilesResult found;
+  // trace writes no mesh: the files' images (their bytes and where each coordinate sits, about
+  // 150 bytes a vertex for each file) are not kept.
+  ReadOptions read = request.read;
+  read.keep_image = false;
   if (request.leaked_mesh) {
     validate_mesh(request.leaked_mesh->V, request.leaked_mesh->F, "the leak");
     found.leaked = *request.leaked_mesh;
   } else {
-    found.leaked = read_noting(request.leaked, request.read, found.warnings);
+    found.leaked = read_noting(request.leaked, read, found.warnings);
   }
   if (request.original_mesh) {
     validate_mesh(request.original_mesh->V, request.original_mesh->F, "the original");
     found.original = *request.original_mesh;
     found.original_hash = geometry_hash(found.original.V, found.original.F);
   } else {
-    found.original = read_noting(request.original, request.read, found.warnings);
+    found.original = read_noting(request.original, read, found.warnings);
     found.original_hash = content_hash(read_file(request.original));
   }
   TraceOptions options = request.options;

@@ -27,8 +27,9 @@ void parse_vertex(const std::vector<Token>& tokens, const std::string& name, std
     if (!std::isfinite(x))
       fail(name, line, fmt::format("vertex {}: coordinate {} is not finite", i + 1, quote(t.text)));
     parsed.xyz.push_back(x);
-    parsed.slots.push_back(
-        {t.offset, x, i, static_cast<std::uint16_t>(t.text.size()), static_cast<std::uint8_t>(a)});
+    if (parsed.keep_slots)
+      parsed.slots.push_back({t.offset, x, i, static_cast<std::uint16_t>(t.text.size()),
+                              static_cast<std::uint8_t>(a)});
   }
 }
 
@@ -76,6 +77,7 @@ Mesh read_obj(std::string bytes, const std::string& name, const ReadOptions& opt
   std::vector<int> face;
   std::vector<std::uint32_t> face_line;
   Parsed parsed;
+  parsed.keep_slots = options.keep_image;
   std::string_view line;
   while (lines.next(line)) {
     tokenize(line, lines.line_offset(), tokens);

@@ -72,8 +72,9 @@ Mesh read_off(std::string bytes, const std::string& name, const ReadOptions& opt
          fmt::format("counts {} vertices, {} faces cannot fit in a file of {} bytes", nv, nf,
                      bytes.size()));
   Parsed parsed;
+  parsed.keep_slots = options.keep_image;
   parsed.xyz.reserve(static_cast<std::size_t>(nv) * 3);
-  parsed.slots.reserve(static_cast<std::size_t>(nv) * 3);
+  if (parsed.keep_slots) parsed.slots.reserve(static_cast<std::size_t>(nv) * 3);
   for (std::int64_t i = 0; i < nv; ++i) {
     if (!next_tokens(lines, tokens))
       fail(name, lines.line_number(), fmt::format("the file ends after {} of {} vertices", i, nv));
@@ -89,9 +90,10 @@ Mesh read_off(std::string bytes, const std::string& name, const ReadOptions& opt
         fail(name, lines.line_number(),
              fmt::format("vertex {}: coordinate {} is not finite", i, quote(tokens[a].text)));
       parsed.xyz.push_back(x);
-      parsed.slots.push_back({tokens[a].offset, x, static_cast<std::int32_t>(i),
-                              static_cast<std::uint16_t>(tokens[a].text.size()),
-                              static_cast<std::uint8_t>(a)});
+      if (parsed.keep_slots)
+        parsed.slots.push_back({tokens[a].offset, x, static_cast<std::int32_t>(i),
+                                static_cast<std::uint16_t>(tokens[a].text.size()),
+                                static_cast<std::uint8_t>(a)});
     }
   }
   std::vector<int> face;

@@ -248,9 +248,10 @@ void read_ascii_body(const std::string& bytes, const Header& header, std::int64_
               fail(name, tokens.line(),
                    fmt::format("vertex {}: coordinate {} is not finite", r, quote(t.text)));
             parsed.xyz[3 * r + axis] = x;
-            parsed.slots.push_back({t.offset, x, static_cast<std::int32_t>(r),
-                                    static_cast<std::uint16_t>(t.text.size()),
-                                    static_cast<std::uint8_t>(axis)});
+            if (parsed.keep_slots)
+              parsed.slots.push_back({t.offset, x, static_cast<std::int32_t>(r),
+                                      static_cast<std::uint16_t>(t.text.size()),
+                                      static_cast<std::uint8_t>(axis)});
           } else if (static_cast<int>(k) == plan.list_index) {
             if (x != std::floor(x) || std::abs(x) > 2e9)
               fail(name, tokens.line(),
@@ -284,6 +285,13 @@ void read_binary_body(const std::string& bytes, const Header& header, std::int64
           name, 0,
           fmt::format("element '{}' declares {} records but only {} bytes remain (truncated file?)",
                       e.name, e.count, left));
+    if (plan.role == Role::Face) {
+      // Room for the triangles (most files' faces), no more than the bytes left can hold (a
+      // face takes at least 4: a count and three indices), so a lying count reserves little.
+      const std::size_t faces = std::min(static_cast<std::size_t>(e.count), left / 4);
+      parsed.faces.offsets.reserve(parsed.faces.offsets.size() + faces);
+      parsed.faces.indices.reserve(parsed.faces.indices.size() + 3 * faces);
+    }
     for (std::int64_t r = 0; r < e.count; ++r) {
       for (std::size_t k = 0; k < e.properties.size(); ++k) {
         const Property& p = e.properties[k];
@@ -307,9 +315,10 @@ void read_binary_body(const std::string& bytes, const Header& header, std::int64
           if (!std::isfinite(x))
             fail(name, 0, fmt::format("vertex {}: coordinate {} is not finite", r, "xyz"[axis]));
           parsed.xyz[3 * r + axis] = x;
-          parsed.slots.push_back({pos, x, static_cast<std::int32_t>(r),
-                                  static_cast<std::uint16_t>(size), static_cast<std::uint8_t>(axis),
-                                  p.type, big});
+          if (parsed.keep_slots)
+            parsed.slots.push_back({pos, x, static_cast<std::int32_t>(r),
+                                    static_cast<std::uint16_t>(size),
+                                    static_cast<std::uint8_t>(axis), p.type, big});
         } else if (static_cast<int>(k) == plan.list_index) {
           list.resize(static_cast<std::size_t>(n));
           for (std::int64_t j = 0; j < n; ++j)
@@ -335,8 +344,9 @@ Mesh read_ply(std::string bytes, const std::string& name, const ReadOptions& opt
   if (nv > static_cast<std::int64_t>(bytes.size()))
     fail(name, 0, fmt::format("{} vertices cannot fit in a file of {} bytes", nv, bytes.size()));
   Parsed parsed;
+  parsed.keep_slots = options.keep_image;
   parsed.xyz.assign(static_cast<std::size_t>(nv) * 3, 0.0);
-  parsed.slots.reserve(static_cast<std::size_t>(nv) * 3);
+  if (parsed.keep_slots) parsed.slots.reserve(static_cast<std::size_t>(nv) * 3);
   if (header.encoding == Encoding::Ascii)
     read_ascii_body(bytes, header, nv, name, parsed);
   else

@@ -154,6 +154,9 @@ SurfaceIndex::SurfaceIndex(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F)
   std::vector<int> kept;
   std::vector<Vec> centroid;
   std::vector<Box> box;
+  kept.reserve(static_cast<std::size_t>(F.rows()));
+  centroid.reserve(kept.capacity());
+  box.reserve(kept.capacity());
   for (Eigen::Index f = 0; f < F.rows(); ++f) {
     const Vec a = V.row(F(f, 0)).transpose(), b = V.row(F(f, 1)).transpose(),
               c = V.row(F(f, 2)).transpose();

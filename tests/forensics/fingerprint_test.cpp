@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <random>
 #include <string>
 #include <tuple>
@@ -193,6 +194,88 @@ TEST(Fingerprint, ARidgeReadingIsTheRidgeRegressionOfTheResidual) {
     EXPECT_LT((b - expected).norm(), 1e-8 * expected.norm()) << "ridge " << ridge;
   }
   EXPECT_THROW(read_fingerprint(s.basis, r, counted(s), nullptr, -1), InvalidArgumentError);
+}
+
+// The bumps a basis holds, against their definition evaluated by brute force over every bump:
+// exactly those within 3 w, in increasing order, each scale x exp(-d^2 / (2 w^2)); at the
+// original's counted vertices (fingerprint_basis), at points off the surface (the vertices
+// moved by about w in every direction), and none at points far from every bump, not finite, or
+// masked out. (The basis finds the bumps through a grid; this looks at all of them.)
+TEST(Fingerprint, TheBasisHoldsExactlyTheBumpsWithinReachInBumpOrder) {
+  for (const auto& [name, functions] :
+       {std::pair<const char*, int>{"elephant.off", 64}, {"refined_elephant.off", 512}}) {
+    SCOPED_TRACE(name);
+    const Scene s = setup(name, functions);
+    const double w = s.basis.width, cut2 = 9 * w * w;
+    const auto check = [&](const FingerprintBasis& b, const Eigen::MatrixX3d& P,
+                           const std::vector<std::uint8_t>& mask) {
+      ASSERT_EQ(b.row_start.size(), static_cast<std::size_t>(P.rows()) + 1);
+      std::size_t entries = 0;
+      for (Eigen::Index i = 0; i < P.rows(); ++i) {
+        std::vector<int> index;
+        std::vector<double> value;
+        for (int k = 0; mask[i] && k < s.basis.functions; ++k) {
+          const double d2 = (P.row(i) - s.original.V.row(s.basis.centers[k])).squaredNorm();
+          if (d2 <= cut2)
+            index.push_back(k), value.push_back(s.basis.scale * std::exp(-d2 / (2 * w * w)));
+        }
+        const std::vector<int> got(b.index.begin() + b.row_start[i],
+                                   b.index.begin() + b.row_start[i + 1]);
+        ASSERT_EQ(got, index) << "row " << i;
+        for (std::size_t e = 0; e < value.size(); ++e)
+          ASSERT_NEAR(b.value[b.row_start[i] + e], value[e], 1e-12 * s.basis.scale) << "row " << i;
+        entries += index.size();
+      }
+      EXPECT_EQ(b.index.size(), entries);
+      EXPECT_EQ(b.value.size(), entries);
+    };
+    check(s.basis, s.original.V, counted(s));
+    std::mt19937_64 rng(11);
+    std::normal_distribution<double> step(0.0, w);
+    Eigen::MatrixX3d moved = s.original.V;
+    for (Eigen::Index i = 0; i < moved.rows(); ++i)
+      for (int c = 0; c < 3; ++c) moved(i, c) += step(rng);
+    std::vector<std::uint8_t> every(static_cast<std::size_t>(moved.rows()), 1);
+    every[0] = 0;  // masked out: no entries whatever its place
+    check(fingerprint_basis_at(s.basis, moved, every), moved, every);
+    Eigen::MatrixX3d off(4, 3);
+    off.row(0) = s.original.V.row(s.basis.centers[0]);  // on a bump
+    off.row(1) = off.row(0) + Eigen::RowVector3d(10 * s.basis.diagonal, 0, 0);
+    off.row(2) = off.row(0) - Eigen::RowVector3d(0, 0, 1e300);
+    off(3, 0) = std::numeric_limits<double>::quiet_NaN();
+    off(3, 1) = off(3, 2) = 0;
+    const FingerprintBasis far = fingerprint_basis_at(s.basis, off, {1, 1, 1, 1});
+    EXPECT_GT(far.row_start[1], 0);
+    EXPECT_EQ(far.row_start[4], far.row_start[1]) << "far, huge or NaN points got bumps";
+  }
+}
+
+// A basis whose compressed rows are not well formed is refused with a message, not read out of
+// bounds: a bump index out of [0, K), row starts that go back, entries and values of different
+// counts; and by read_fingerprint (which sums each row's products into one triangle of Phi^T Phi)
+// a row out of order or naming a bump twice.
+TEST(Fingerprint, RowsThatAreNotWellFormedAreRefused) {
+  const Scene s = setup("elephant.off", 64);
+  const Eigen::VectorXd g = fingerprint_coefficients(s.key, 7, 64);
+  const Eigen::VectorXd r = Eigen::VectorXd::Zero(s.original.V.rows());
+  EXPECT_NO_THROW(s.basis.field(g));
+  EXPECT_NO_THROW(read_fingerprint(s.basis, r, counted(s)));
+  std::size_t row = 0;
+  while (s.basis.row_start[row + 1] - s.basis.row_start[row] < 2) ++row;
+  const int first = s.basis.row_start[row];
+  std::vector<FingerprintBasis> bad(6, s.basis);
+  bad[0].index[first] = 64;
+  bad[1].index[first] = -1;
+  std::swap(bad[2].index[first], bad[2].index[first + 1]);
+  bad[3].index[first + 1] = bad[3].index[first];
+  bad[4].row_start[row + 1] = bad[4].row_start[row] - 1;
+  bad[5].value.pop_back();
+  for (std::size_t b = 0; b < bad.size(); ++b) {
+    SCOPED_TRACE(b);
+    if (b != 2 && b != 3)  // the field is a plain sum: its rows' order does not matter to it
+      EXPECT_THROW(bad[b].field(g), InvalidArgumentError);
+    EXPECT_THROW(read_fingerprint(bad[b], r, counted(s)), InvalidArgumentError);
+  }
 }
 
 // The original's bins at other points: a point's bin and position from its distance alone, with

@@ -110,6 +110,29 @@ TEST(IoFaithful, UnchangedMeshesWriteBackByteForByte) {
   }
 }
 
+// Without an image (ReadOptions::keep_image false, how trace and embed's check read), the
+// readers skip recording where each coordinate sits; what they read is the same mesh.
+TEST(IoRead, WithoutAnImageTheSameMeshIsRead) {
+  const std::vector<std::string> files = {data_mesh("spot.obj"),    data_mesh("bunny.ply"),
+                                          closed_binary_ply(),      tristrip_ply(),
+                                          cgal_mesh("fandisk.off"), data_mesh("featuretype.STL")};
+  for (const std::string& f : files) {
+    MESHMARK_REQUIRE(f, "a mesh of data/meshes or libcgal-demo");
+    SCOPED_TRACE(f);
+    for (const double weld : {0.0, 1e-3}) {
+      ReadOptions with, without;
+      with.weld_tolerance = without.weld_tolerance = weld;
+      without.keep_image = false;
+      const Mesh a = read_mesh(f, with), b = read_mesh(f, without);
+      ASSERT_NE(a.image, nullptr);
+      EXPECT_EQ(b.image, nullptr);
+      EXPECT_TRUE(a.V == b.V);
+      EXPECT_TRUE(a.F == b.F);
+      EXPECT_EQ(a.faces, b.faces);
+    }
+  }
+}
+
 TEST(IoFaithful, ObjChangesOnlyVertexCoordinates) {
   for (const std::string name : {"spot.obj", "spider.obj"}) {
     const std::string path = data_mesh(name);

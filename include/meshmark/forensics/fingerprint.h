@@ -69,11 +69,14 @@ struct FingerprintBasis {
   Eigen::MatrixX3d points;   ///< K x 3: their positions (model units)
   double scale = 0;          ///< the factor every bump is multiplied by (see above)
   /// Phi, row by row (compressed rows: vertex i's entries are index/value[row_start[i] ..
-  /// row_start[i + 1]]); no entries for vertices off the carrier or twins.
+  /// row_start[i + 1]], in increasing order of bumps); no entries for vertices off the carrier
+  /// or twins. About 28 entries a counted vertex (12 bytes each).
   std::vector<int> row_start, index;
   std::vector<double> value;
 
   /// Phi a: the field of coefficients a (size K) at every vertex.
+  /// \throw InvalidArgumentError for a of another size, row starts that do not match the
+  /// entries, or a bump index outside [0, K).
   Eigen::VectorXd field(const Eigen::VectorXd& a) const;
 };
 
@@ -145,6 +148,8 @@ Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX
 /// (the histogram add_fingerprint kept), the residual and every column of Phi lose their mean
 /// over each radial class first: what a histogram mark moved (a function of the distance to the
 /// center) drops out, and a field added with the same `keep` reads back whole.
+/// \throw InvalidArgumentError for a ridge outside [0, 1e6), sizes that differ, or a basis whose
+/// rows are not well formed (each in increasing order of bumps within [0, K)).
 Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::VectorXd& residual,
                                  const std::vector<std::uint8_t>& measured,
                                  const Histogram* keep = nullptr, double ridge = 0);
