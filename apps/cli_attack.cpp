@@ -12,6 +12,7 @@
 #include "cli.h"
 #include "meshmark/attacks/attack.h"
 #include "meshmark/core/error.h"
+#include "progress.h"
 
 namespace meshmark::cli {
 
@@ -30,7 +31,9 @@ struct AttackArgs {
 int run(const AttackArgs& a) {
   const std::vector<AttackStep> steps = attack_steps(a.kind, a.strength, a.params);
   const Mesh mesh = read_input(a.input, a.in);
-  Mesh attacked = apply_attack_chain(mesh, steps, a.seed);
+  Progress progress(Progress::Bar, "");
+  Mesh attacked = apply_attack_chain(mesh, steps, a.seed, terminal_progress(progress, a.json));
+  progress.finish();
   attacked.source_path = a.input;  // what a failed write (float32 range) names
   write_output(a.output, a.input, attacked, a.out);
   if (a.json)

@@ -8,6 +8,7 @@
 
 #include "attacks/cgal_attacks.h"
 #include "core/component.h"
+#include "core/progress_counter.h"
 #include "meshmark/core/error.h"
 
 namespace meshmark {
@@ -57,28 +58,35 @@ Mesh midpoint_step(const Mesh& mesh) {
 
 }  // namespace
 
-Mesh attack_simplify(const Mesh& mesh, double ratio, SimplifyCost cost) {
-  return cgal("the simplification attack").simplify(mesh, ratio, cost);
+Mesh attack_simplify(const Mesh& mesh, double ratio, SimplifyCost cost,
+                     const ProgressCallback& progress) {
+  return cgal("the simplification attack").simplify(mesh, ratio, cost, progress);
 }
 
 std::vector<Mesh> attack_simplify_levels(const Mesh& mesh, const std::vector<double>& ratios,
-                                         SimplifyCost cost) {
-  return cgal("the simplification attack").simplify_levels(mesh, ratios, cost);
+                                         SimplifyCost cost, const ProgressCallback& progress) {
+  return cgal("the simplification attack").simplify_levels(mesh, ratios, cost, progress);
 }
 
-Mesh attack_remesh(const Mesh& mesh, double edge_factor, int iterations) {
-  return cgal("the remeshing attack").remesh(mesh, edge_factor, iterations);
+Mesh attack_remesh(const Mesh& mesh, double edge_factor, int iterations,
+                   const ProgressCallback& progress) {
+  return cgal("the remeshing attack").remesh(mesh, edge_factor, iterations, progress);
 }
 
-Mesh attack_subdivide(const Mesh& mesh, Subdivision scheme, int iterations) {
+Mesh attack_subdivide(const Mesh& mesh, Subdivision scheme, int iterations,
+                      const ProgressCallback& progress) {
   if (iterations < 0 || iterations > 8)
     throw InvalidArgumentError(
         fmt::format("{} subdivision iterations (expected 0 to 8)", iterations));
   if (scheme != Subdivision::Midpoint)
     return cgal(scheme == Subdivision::Loop ? "Loop subdivision" : "sqrt(3) subdivision")
-        .subdivide(mesh, scheme, iterations);
+        .subdivide(mesh, scheme, iterations, progress);
   Mesh out = mesh;
-  for (int k = 0; k < iterations; ++k) out = midpoint_step(out);
+  detail::ProgressCounter subdividing(progress, "subdividing", iterations);
+  for (int k = 0; k < iterations; ++k) {
+    out = midpoint_step(out);
+    subdividing.step(1, "");
+  }
   if (iterations > 0) out.image.reset();
   return out;
 }

@@ -39,8 +39,9 @@ TaubinOptions taubin_options(const AttackParams& p) {
   return o;
 }
 
-Mesh subdivided(const Mesh& m, Subdivision scheme, const char* kind, double strength) {
-  return attack_subdivide(m, scheme, whole(kind, strength));
+Mesh subdivided(const Mesh& m, Subdivision scheme, const char* kind, double strength,
+                const ProgressCallback& progress) {
+  return attack_subdivide(m, scheme, whole(kind, strength), progress);
 }
 
 Mesh converted(const Mesh& m, const char* format, bool single_precision) {
@@ -49,26 +50,30 @@ Mesh converted(const Mesh& m, const char* format, bool single_precision) {
 
 using P = AttackParams;
 using Seed = std::uint64_t;
+using Progress = ProgressCallback;
 constexpr unsigned kSmoothing = kReadsLambda | kReadsFixedBoundary | kReadsWeighting;
 
 const std::vector<AttackKind> kKinds = {
     {"reorder", "random vertex and face order (strength ignored)", true, 0, 0,
-     [](const Mesh& m, double, const P&, Seed seed) { return attack_reorder(m, seed); }, nullptr},
+     [](const Mesh& m, double, const P&, Seed seed, const Progress&) {
+       return attack_reorder(m, seed);
+     },
+     nullptr},
     {"similarity", "random rotation, translation and uniform scale up to STRENGTH", true, 2, 0,
-     [](const Mesh& m, double x, const P&, Seed seed) {
+     [](const Mesh& m, double x, const P&, Seed seed, const Progress&) {
        SimilarityOptions o;
        o.max_scale = x;
        return attack_similarity(m, seed, o);
      },
      nullptr},
     {"noise", "uniform noise, amplitude STRENGTH x bounding-box diagonal (paper)", true, 0, 0,
-     [](const Mesh& m, double x, const P&, Seed seed) {
+     [](const Mesh& m, double x, const P&, Seed seed, const Progress&) {
        return attack_noise(m, x, NoiseReference::Diagonal, seed);
      },
      nullptr},
     {"noise-radius",
      "uniform noise, amplitude STRENGTH x mean vertex-to-center distance (benchmark)", true, 0, 0,
-     [](const Mesh& m, double x, const P&, Seed seed) {
+     [](const Mesh& m, double x, const P&, Seed seed, const Progress&) {
        return attack_noise(m, x, NoiseReference::MeanRadius, seed);
      },
      nullptr},
@@ -76,7 +81,7 @@ const std::vector<AttackKind> kKinds = {
      "coordinates quantized to STRENGTH bits over the bounding box, step (max - min) / "
      "(2^b - 1) (--convention benchmark: / 2^b)",
      false, 0, kReadsConvention,
-     [](const Mesh& m, double x, const P& p, Seed) {
+     [](const Mesh& m, double x, const P& p, Seed, const Progress&) {
        return attack_quantize(m, whole("quant", x), p.convention);
      },
      nullptr},
@@ -84,7 +89,7 @@ const std::vector<AttackKind> kKinds = {
      "Laplacian smoothing, STRENGTH iterations, lambda 0.3 (--lambda), uniform weights, "
      "boundary moving (--fixed-boundary)",
      false, 0, kSmoothing,
-     [](const Mesh& m, double x, const P& p, Seed) {
+     [](const Mesh& m, double x, const P& p, Seed, const Progress&) {
        return attack_smooth_laplacian(m, whole("smooth", x), laplacian_options(p));
      },
      nullptr},
@@ -92,51 +97,74 @@ const std::vector<AttackKind> kKinds = {
      "Taubin smoothing, STRENGTH iterations, lambda 0.5, mu -0.526 (k_pb 0.1), uniform "
      "weights (--weighting inverse-distance: Open3D's)",
      false, 0, kSmoothing | kReadsMu,
-     [](const Mesh& m, double x, const P& p, Seed) {
+     [](const Mesh& m, double x, const P& p, Seed, const Progress&) {
        return attack_smooth_taubin(m, whole("taubin", x), taubin_options(p));
      },
      nullptr},
     {"soup", "triangle soup, edges rescaled by STRENGTH, 0.01 % noise", true, 0, 0,
-     [](const Mesh& m, double x, const P&, Seed seed) { return attack_triangle_soup(m, x, seed); },
+     [](const Mesh& m, double x, const P&, Seed seed, const Progress&) {
+       return attack_triangle_soup(m, x, seed);
+     },
      nullptr},
     {"simplify", "Lindstrom-Turk edge collapse down to STRENGTH x the faces", false, 0, 0,
-     [](const Mesh& m, double x, const P&, Seed) { return attack_simplify(m, x); },
+     [](const Mesh& m, double x, const P&, Seed, const Progress& progress) {
+       return attack_simplify(m, x, SimplifyCost::LindstromTurk, progress);
+     },
      [](const Mesh& m, const std::vector<double>& xs) { return attack_simplify_levels(m, xs); }},
     {"qsimplify", "Garland-Heckbert (quadric) edge collapse down to STRENGTH x the faces", false, 0,
      0,
-     [](const Mesh& m, double x, const P&, Seed) {
-       return attack_simplify(m, x, SimplifyCost::GarlandHeckbert);
+     [](const Mesh& m, double x, const P&, Seed, const Progress& progress) {
+       return attack_simplify(m, x, SimplifyCost::GarlandHeckbert, progress);
      },
      [](const Mesh& m, const std::vector<double>& xs) {
        return attack_simplify_levels(m, xs, SimplifyCost::GarlandHeckbert);
      }},
     {"remesh", "isotropic remeshing (CGAL, 3 rounds) to STRENGTH x the mean edge length", false, 1,
-     0, [](const Mesh& m, double x, const P&, Seed) { return attack_remesh(m, x); }, nullptr},
+     0,
+     [](const Mesh& m, double x, const P&, Seed, const Progress& progress) {
+       return attack_remesh(m, x, 3, progress);
+     },
+     nullptr},
     {"loop", "STRENGTH iterations of Loop subdivision", false, 1, 0,
-     [](const Mesh& m, double x, const P&, Seed) {
-       return subdivided(m, Subdivision::Loop, "loop", x);
+     [](const Mesh& m, double x, const P&, Seed, const Progress& progress) {
+       return subdivided(m, Subdivision::Loop, "loop", x, progress);
      },
      nullptr},
     {"midpoint", "STRENGTH iterations of midpoint subdivision", false, 1, 0,
-     [](const Mesh& m, double x, const P&, Seed) {
-       return subdivided(m, Subdivision::Midpoint, "midpoint", x);
+     [](const Mesh& m, double x, const P&, Seed, const Progress& progress) {
+       return subdivided(m, Subdivision::Midpoint, "midpoint", x, progress);
      },
      nullptr},
     {"sqrt3", "STRENGTH iterations of sqrt(3) subdivision", false, 1, 0,
-     [](const Mesh& m, double x, const P&, Seed) {
-       return subdivided(m, Subdivision::Sqrt3, "sqrt3", x);
+     [](const Mesh& m, double x, const P&, Seed, const Progress& progress) {
+       return subdivided(m, Subdivision::Sqrt3, "sqrt3", x, progress);
      },
      nullptr},
     {"crop", "remove the STRENGTH fraction of vertices beyond a random plane", true, 0, 0,
-     [](const Mesh& m, double x, const P&, Seed seed) { return attack_crop(m, x, seed); }, nullptr},
+     [](const Mesh& m, double x, const P&, Seed seed, const Progress&) {
+       return attack_crop(m, x, seed);
+     },
+     nullptr},
     {"float32", "binary PLY with float32 coordinates, and back", false, 0, 0,
-     [](const Mesh& m, double, const P&, Seed) { return converted(m, "ply", true); }, nullptr},
+     [](const Mesh& m, double, const P&, Seed, const Progress&) {
+       return converted(m, "ply", true);
+     },
+     nullptr},
     {"to-obj", "written as OBJ and read back", false, 0, 0,
-     [](const Mesh& m, double, const P&, Seed) { return converted(m, "obj", false); }, nullptr},
+     [](const Mesh& m, double, const P&, Seed, const Progress&) {
+       return converted(m, "obj", false);
+     },
+     nullptr},
     {"to-off", "written as OFF and read back", false, 0, 0,
-     [](const Mesh& m, double, const P&, Seed) { return converted(m, "off", false); }, nullptr},
+     [](const Mesh& m, double, const P&, Seed, const Progress&) {
+       return converted(m, "off", false);
+     },
+     nullptr},
     {"to-stl", "written as binary STL (float32, unwelded) and read back (welded)", false, 0, 0,
-     [](const Mesh& m, double, const P&, Seed) { return converted(m, "stl", false); }, nullptr},
+     [](const Mesh& m, double, const P&, Seed, const Progress&) {
+       return converted(m, "stl", false);
+     },
+     nullptr},
 };
 
 }  // namespace
@@ -196,18 +224,42 @@ bool attack_chain_is_deterministic(const std::string& chain) {
                       [](const AttackStep& s) { return find_attack_kind(s.kind)->seeded; });
 }
 
-Mesh apply_attack(const Mesh& mesh, const AttackStep& s, std::uint64_t seed) {
+Mesh apply_attack(const Mesh& mesh, const AttackStep& s, std::uint64_t seed,
+                  const ProgressCallback& progress) {
   validate_mesh(mesh);
   const AttackKind& kind = attack_kind(s.kind);
   check_attack_params(s.kind, s.params);
-  return kind.apply(mesh, s.strength == 0 ? kind.default_strength : s.strength, s.params, seed);
+  // A kind that reports nothing is one phase of its own, so a chain's bar moves past it.
+  bool reported = false;
+  const ProgressCallback heard = progress
+                                     ? ProgressCallback([&](const std::string& phase, long done,
+                                                            long total, const std::string& what) {
+                                         reported = true;
+                                         progress(phase, done, total, what);
+                                       })
+                                     : ProgressCallback();
+  if (progress) progress(s.kind, 0, 1, "");
+  Mesh out =
+      kind.apply(mesh, s.strength == 0 ? kind.default_strength : s.strength, s.params, seed, heard);
+  if (progress && !reported) progress(s.kind, 1, 1, "");
+  return out;
 }
 
-Mesh apply_attack_chain(const Mesh& mesh, const std::vector<AttackStep>& steps,
-                        std::uint64_t seed) {
+Mesh apply_attack_chain(const Mesh& mesh, const std::vector<AttackStep>& steps, std::uint64_t seed,
+                        const ProgressCallback& progress) {
   Mesh out = mesh;
   Random seeds(seed);
-  for (const AttackStep& s : steps) out = apply_attack(out, s, seeds.next());
+  for (std::size_t k = 0; k < steps.size(); ++k) {
+    const std::string prefix =
+        steps.size() > 1 ? fmt::format("step {} of {}: ", k + 1, steps.size()) : std::string();
+    const ProgressCallback step_progress =
+        progress && !prefix.empty() ? ProgressCallback([&](const std::string& phase, long done,
+                                                           long total, const std::string& what) {
+          progress(prefix + phase, done, total, what);
+        })
+                                    : progress;
+    out = apply_attack(out, steps[k], seeds.next(), step_progress);
+  }
   return out;
 }
 

@@ -10,15 +10,18 @@
 
 namespace meshmark::detail {
 
-/// CGAL's edge collapse (attack.h's attack_simplify).
-Mesh cgal_simplify(const Mesh& mesh, double ratio, SimplifyCost cost);
+/// CGAL's edge collapse (attack.h's attack_simplify, progress as it says).
+Mesh cgal_simplify(const Mesh& mesh, double ratio, SimplifyCost cost,
+                   const ProgressCallback& progress);
 /// CGAL's edge collapse at several ratios (attack.h's attack_simplify_levels).
 std::vector<Mesh> cgal_simplify_levels(const Mesh& mesh, const std::vector<double>& ratios,
-                                       SimplifyCost cost);
+                                       SimplifyCost cost, const ProgressCallback& progress);
 /// CGAL's isotropic remeshing (attack.h's attack_remesh).
-Mesh cgal_remesh(const Mesh& mesh, double edge_factor, int iterations);
+Mesh cgal_remesh(const Mesh& mesh, double edge_factor, int iterations,
+                 const ProgressCallback& progress);
 /// CGAL's Loop or sqrt(3) subdivision (attack.h's attack_subdivide, which checked iterations).
-Mesh cgal_subdivide(const Mesh& mesh, Subdivision scheme, int iterations);
+Mesh cgal_subdivide(const Mesh& mesh, Subdivision scheme, int iterations,
+                    const ProgressCallback& progress);
 
 /// The cgal component's entry points.
 struct CgalAttacks {

@@ -1,5 +1,7 @@
 #include "cgal_mesh.h"
 
+#include "core/progress_counter.h"
+
 #include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
 #include <CGAL/Polygon_mesh_processing/repair_polygon_soup.h>
@@ -59,6 +61,13 @@ SurfaceMesh to_surface_mesh(const Mesh& mesh) {
     throw Error("CGAL: the oriented triangle soup is still not a polygon mesh");
   SurfaceMesh sm;
   PMP::polygon_soup_to_polygon_mesh(points, triangles, sm);
+  return sm;
+}
+
+SurfaceMesh prepared_surface_mesh(const Mesh& mesh, const ProgressCallback& progress) {
+  ProgressCounter preparing(progress, "preparing the mesh", 1);
+  SurfaceMesh sm = to_surface_mesh(mesh);
+  preparing.step(1, "");
   return sm;
 }
 

@@ -7,6 +7,7 @@
 #include <CGAL/Surface_mesh.h>
 
 #include "meshmark/core/mesh.h"
+#include "meshmark/core/progress.h"
 
 namespace meshmark::detail {
 
@@ -21,6 +22,10 @@ using SurfaceMesh = CGAL::Surface_mesh<CgalKernel::Point_3>;
 /// (orient_polygon_soup), and turned into a mesh. Isolated vertices are left out.
 /// \throw InvalidInputError when no triangle of non-zero area is left.
 SurfaceMesh to_surface_mesh(const Mesh& mesh);
+
+/// to_surface_mesh, reported to `progress` as the phase "preparing the mesh" (0 of 1, then 1 of
+/// 1): the repair takes a few seconds on millions of triangles.
+SurfaceMesh prepared_surface_mesh(const Mesh& mesh, const ProgressCallback& progress);
 
 /// Back to V and F (garbage collected), with the format of `like` and no file image.
 Mesh from_surface_mesh(SurfaceMesh& sm, const Mesh& like);

@@ -8,12 +8,14 @@
 
 #include "attacks/cgal_attacks.h"
 #include "cgal_mesh.h"
+#include "core/progress_counter.h"
 #include "meshmark/attacks/attack.h"
 #include "meshmark/core/error.h"
 
 namespace meshmark {
 
-Mesh detail::cgal_remesh(const Mesh& mesh, double edge_factor, int iterations) {
+Mesh detail::cgal_remesh(const Mesh& mesh, double edge_factor, int iterations,
+                         const ProgressCallback& progress) {
   if (!(edge_factor >= 0.05 && edge_factor <= 20))
     throw InvalidArgumentError(
         fmt::format("remeshing edge length {} x the mean is outside [0.05, 20]", edge_factor));
@@ -21,7 +23,7 @@ Mesh detail::cgal_remesh(const Mesh& mesh, double edge_factor, int iterations) {
     throw InvalidArgumentError(
         fmt::format("remeshing iterations {} are outside [1, 20]", iterations));
   namespace PMP = CGAL::Polygon_mesh_processing;
-  detail::SurfaceMesh sm = detail::to_surface_mesh(mesh);
+  detail::SurfaceMesh sm = detail::prepared_surface_mesh(mesh, progress);
   double total = 0;
   std::size_t edges = 0;
   for (const auto e : sm.edges()) {
@@ -30,8 +32,10 @@ Mesh detail::cgal_remesh(const Mesh& mesh, double edge_factor, int iterations) {
     ++edges;
   }
   const double target = edge_factor * total / static_cast<double>(edges);
+  detail::ProgressCounter remeshing(progress, "remeshing", 1);
   PMP::isotropic_remeshing(faces(sm), target, sm,
                            CGAL::parameters::number_of_iterations(iterations));
+  remeshing.step(1, "");
   return detail::from_surface_mesh(sm, mesh);
 }
 

@@ -11,7 +11,11 @@
 #include <cstdlib>
 #include <functional>
 #include <map>
+#include <numeric>
 #include <set>
+#include <string>
+#include <tuple>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -207,6 +211,106 @@ TEST(Attack, SubdivisionVertexAndFaceCountsOnAClosedMesh) {
   EXPECT_EQ(static_cast<std::size_t>(s3.F.rows()), 3 * F);
   const Mesh loop2 = attack_subdivide(m, Subdivision::Loop, 2);
   EXPECT_EQ(static_cast<std::size_t>(loop2.F.rows()), 16 * F);
+}
+
+// What a progress callback hears. Records every report and checks that each phase's counts never
+// go back and never pass its total.
+struct Heard {
+  std::vector<std::tuple<std::string, long, long>> reports;
+  ProgressCallback callback() {
+    return [this](const std::string& phase, long done, long total, const std::string&) {
+      reports.emplace_back(phase, done, total);
+    };
+  }
+  std::vector<std::string> phases() const {
+    std::vector<std::string> out;
+    for (const auto& [phase, done, total] : reports)
+      if (out.empty() || out.back() != phase) out.push_back(phase);
+    return out;
+  }
+  // The reports of one phase, checked to count up from 0 to at most their total.
+  std::vector<long> counts(const std::string& phase, long& total) const {
+    std::vector<long> done;
+    total = -1;
+    for (const auto& [p, d, t] : reports) {
+      if (p != phase) continue;
+      EXPECT_TRUE(total < 0 || t == total) << phase << ": the total changed";
+      EXPECT_TRUE(done.empty() ? d == 0 : d >= done.back()) << phase << ": went back to " << d;
+      EXPECT_LE(d, t) << phase;
+      total = t, done.push_back(d);
+    }
+    return done;
+  }
+};
+
+// Simplification reports its collapses: the faces removed of the faces to remove (the input's
+// triangles less the target, round(ratio x triangles), counted here), at least every 4,097
+// faces, up to the total; and it ends with the same mesh as without a callback.
+TEST(Attack, SimplificationReportsItsCollapsesAndEndsWhereItWouldWithout) {
+  const std::string path = cgal_mesh("refined_elephant.off");
+  MESHMARK_REQUIRE(path, "refined_elephant.off");
+  const Mesh m = real(path);
+  for (const SimplifyCost cost : {SimplifyCost::LindstromTurk, SimplifyCost::GarlandHeckbert}) {
+    Heard heard;
+    const Mesh reported = attack_simplify(m, 0.3, cost, heard.callback());
+    const Mesh plain = attack_simplify(m, 0.3, cost);
+    EXPECT_TRUE(reported.V == plain.V);
+    EXPECT_TRUE(reported.F == plain.F);
+    EXPECT_EQ(heard.phases(), (std::vector<std::string>{"preparing the mesh", "collapsing edges"}));
+    long total = 0;
+    EXPECT_EQ(heard.counts("preparing the mesh", total), (std::vector<long>{0, 1}));
+    const std::vector<long> done = heard.counts("collapsing edges", total);
+    const long faces = static_cast<long>(m.F.rows());
+    EXPECT_EQ(total, faces - std::lround(0.3 * static_cast<double>(faces)));
+    ASSERT_FALSE(done.empty());
+    EXPECT_EQ(done.back(), total);
+    for (std::size_t k = 1; k < done.size(); ++k) EXPECT_LE(done[k] - done[k - 1], 4097);
+    EXPECT_GE(faces - static_cast<long>(plain.F.rows()), total);
+  }
+}
+
+// Subdivision one step at a time, for progress, gives the mesh CGAL's number_of_iterations gives
+// (sqrt(3) refines the border on odd steps only: an open mesh over three steps shows it).
+TEST(Attack, SubdivisionReportsEachIterationAndGivesTheSameMesh) {
+  const std::string path = data_mesh("bunny.ply");
+  MESHMARK_REQUIRE(path, "data/meshes/bunny.ply");
+  const Mesh m = real(path);
+  for (const Subdivision s : {Subdivision::Loop, Subdivision::Sqrt3, Subdivision::Midpoint}) {
+    const int iterations = s == Subdivision::Loop ? 2 : 3;
+    Heard heard;
+    const Mesh reported = attack_subdivide(m, s, iterations, heard.callback());
+    const Mesh plain = attack_subdivide(m, s, iterations);
+    EXPECT_TRUE(reported.V == plain.V) << static_cast<int>(s);
+    EXPECT_TRUE(reported.F == plain.F) << static_cast<int>(s);
+    long total = 0;
+    std::vector<long> expected(static_cast<std::size_t>(iterations) + 1);
+    std::iota(expected.begin(), expected.end(), 0L);
+    EXPECT_EQ(heard.counts("subdividing", total), expected);
+    EXPECT_EQ(total, iterations);
+  }
+}
+
+// A chain names its steps in their phases; a step that reports nothing is one phase of its own.
+TEST(Attack, AChainNamesEachStepInItsPhases) {
+  const std::string path = data_mesh("bunny.ply");
+  MESHMARK_REQUIRE(path, "data/meshes/bunny.ply");
+  const Mesh m = real(path);
+  const std::vector<AttackStep> steps = parse_attack_chain("noise:0.001,simplify:0.5");
+  Heard heard;
+  const Mesh reported = apply_attack_chain(m, steps, 5, heard.callback());
+  const Mesh plain = apply_attack_chain(m, steps, 5);
+  EXPECT_TRUE(reported.V == plain.V);
+  EXPECT_TRUE(reported.F == plain.F);
+  EXPECT_EQ(heard.phases(), (std::vector<std::string>{"step 1 of 2: noise", "step 2 of 2: simplify",
+                                                      "step 2 of 2: preparing the mesh",
+                                                      "step 2 of 2: collapsing edges"}));
+  long total = 0;
+  EXPECT_EQ(heard.counts("step 1 of 2: noise", total), (std::vector<long>{0, 1}));
+  EXPECT_EQ(heard.counts("step 2 of 2: simplify", total), (std::vector<long>{0}));
+  Heard alone;
+  (void)apply_attack(m, steps[1], 5, alone.callback());
+  EXPECT_EQ(alone.phases(),
+            (std::vector<std::string>{"simplify", "preparing the mesh", "collapsing edges"}));
 }
 
 TEST(Attack, SubdivisionHandlesOpenAndNonManifoldMeshes) {
