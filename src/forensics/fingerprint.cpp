@@ -111,23 +111,49 @@ class BumpGrid {
   std::vector<int> start_, points_;
 };
 
+// Calls visit(i, k, d2) for every bump k within 3 w of P's row i (mask[i] != 0), d2 the
+// squared distance, rows cut into chunks on the thread budget (each row on one thread, its
+// bumps in the grid's order).
+template <class Visit>
+void for_each_bump(const FingerprintBasis& b, const BumpGrid& grid, const Eigen::MatrixX3d& P,
+                   const std::vector<std::uint8_t>& mask, Visit&& visit) {
+  const double cut2 = 9 * b.width * b.width;
+  detail::parallel_chunks(P.rows(), [&](int, std::int64_t begin, std::int64_t end) {
+    for (Eigen::Index i = begin; i < end; ++i)
+      if (mask[i])
+        grid.near(P.row(i), [&](int k) {
+          const double d2 = (P.row(i) - b.points.row(k)).squaredNorm();
+          if (d2 <= cut2) visit(i, k, d2);
+        });
+  });
+}
+
+// The mean over the rows with mask[i] != 0 of sum_k phi_k(P_i)^2 for unscaled bumps (what the
+// scale makes 1): per-row sums first, then added in row order, whatever the threads.
+double bump_mean_square(const FingerprintBasis& b, const Eigen::MatrixX3d& P,
+                        const std::vector<std::uint8_t>& mask, std::size_t rows) {
+  const BumpGrid grid(b.points, 3 * b.width);
+  const double inv = 1 / (b.width * b.width);  // phi^2 = exp(-d2 / w^2)
+  std::vector<double> sums(static_cast<std::size_t>(P.rows()), 0.0);
+  for_each_bump(b, grid, P, mask,
+                [&](Eigen::Index i, int, double d2) { sums[i] += std::exp(-d2 * inv); });
+  double total = 0;
+  for (const double x : sums) total += x;
+  return total / static_cast<double>(rows);
+}
+
 // Fills b's rows with its bumps (b.points, width, scale) evaluated at the rows of P with
-// mask[i] != 0, cut at 3 w, each row in bump order; no entries for the others. The rows are
-// counted first and then filled, so the entries take exactly their size (a few dozen a vertex:
-// the largest share of a trace's memory).
+// mask[i] != 0, cut at 3 w, each row in bump order, values rounded to single precision; no
+// entries for the others. The rows are counted first and then filled, so the entries take
+// exactly their size (a few dozen a vertex, 6 bytes each: the largest share of a trace's
+// memory).
 void evaluate_bumps(FingerprintBasis& b, const Eigen::MatrixX3d& P,
                     const std::vector<std::uint8_t>& mask) {
-  const double cut2 = 9 * b.width * b.width, inv = 1 / (2 * b.width * b.width);
+  const double inv = 1 / (2 * b.width * b.width);
   const BumpGrid grid(b.points, 3 * b.width);
   const Eigen::Index n = P.rows();
   b.row_start.assign(static_cast<std::size_t>(n) + 1, 0);
-  const auto within = [&](Eigen::Index i, int k) {
-    return (P.row(i) - b.points.row(k)).squaredNorm() <= cut2;
-  };
-  detail::parallel_chunks(n, [&](int, std::int64_t begin, std::int64_t end) {
-    for (Eigen::Index i = begin; i < end; ++i)
-      if (mask[i]) grid.near(P.row(i), [&](int k) { b.row_start[i + 1] += within(i, k); });
-  });
+  for_each_bump(b, grid, P, mask, [&](Eigen::Index i, int, double) { ++b.row_start[i + 1]; });
   std::int64_t total = 0;
   for (Eigen::Index i = 0; i < n; ++i) {
     total += b.row_start[i + 1];
@@ -136,19 +162,18 @@ void evaluate_bumps(FingerprintBasis& b, const Eigen::MatrixX3d& P,
     b.row_start[i + 1] = static_cast<int>(total);
   }
   b.index.assign(static_cast<std::size_t>(b.row_start[n]), 0);
-  b.value.assign(b.index.size(), 0.0);
+  b.value.assign(b.index.size(), 0.0F);
+  std::vector<int> filled(b.row_start.begin(), b.row_start.end() - 1);
+  for_each_bump(b, grid, P, mask, [&](Eigen::Index i, int k, double) {
+    b.index[filled[i]++] = static_cast<std::uint16_t>(k);
+  });
   detail::parallel_chunks(n, [&](int, std::int64_t begin, std::int64_t end) {
     for (Eigen::Index i = begin; i < end; ++i) {
-      if (!mask[i]) continue;
-      int* row = b.index.data() + b.row_start[i];
-      int count = 0;
-      grid.near(P.row(i), [&](int k) {
-        if (within(i, k)) row[count++] = k;
-      });
-      std::sort(row, row + count);
-      for (int e = 0; e < count; ++e) {
-        const double d2 = (P.row(i) - b.points.row(row[e])).squaredNorm();
-        b.value[b.row_start[i] + e] = b.scale * std::exp(-d2 * inv);
+      const int first = b.row_start[i], last = b.row_start[i + 1];
+      std::sort(b.index.begin() + first, b.index.begin() + last);
+      for (int e = first; e < last; ++e) {
+        const double d2 = (P.row(i) - b.points.row(b.index[e])).squaredNorm();
+        b.value[e] = static_cast<float>(b.scale * std::exp(-d2 * inv));
       }
     }
   });
@@ -165,8 +190,7 @@ void check_rows(const FingerprintBasis& b, bool entries) {
     throw InvalidArgumentError("the basis' compressed rows do not match its entries");
   for (Eigen::Index i = 0; entries && i < n; ++i)
     for (int e = b.row_start[i]; e < b.row_start[i + 1]; ++e)
-      if (b.index[e] < 0 || b.index[e] >= b.functions ||
-          (e > b.row_start[i] && b.index[e] <= b.index[e - 1]))
+      if (b.index[e] >= b.functions || (e > b.row_start[i] && b.index[e] <= b.index[e - 1]))
         throw InvalidArgumentError(fmt::format(
             "the basis' row {} is not in increasing order of bumps 0 to {}", i, b.functions - 1));
 }
@@ -174,7 +198,9 @@ void check_rows(const FingerprintBasis& b, bool entries) {
 }  // namespace
 
 int fingerprint_functions(std::size_t counted, const FingerprintOptions& options) {
-  const int k = static_cast<int>(std::min<std::size_t>(options.functions, counted / 16));
+  const int k = static_cast<int>(
+      std::min<std::size_t>({static_cast<std::size_t>(std::max(options.functions, 0)), counted / 16,
+                             static_cast<std::size_t>(kMaxFingerprintFunctions)}));
   return k >= 8 ? k : 0;
 }
 
@@ -198,9 +224,9 @@ Eigen::VectorXd FingerprintBasis::field(const Eigen::VectorXd& a) const {
 FingerprintBasis fingerprint_basis(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                                    const std::vector<std::uint8_t>& carrier,
                                    const Eigen::Vector3d& center, int functions) {
-  if (functions < 1)
-    throw InvalidArgumentError(
-        fmt::format("a fingerprint needs at least 1 function, not {}", functions));
+  if (functions < 1 || functions > kMaxFingerprintFunctions)
+    throw InvalidArgumentError(fmt::format("a fingerprint needs 1 to {} functions, not {}",
+                                           kMaxFingerprintFunctions, functions));
   if (carrier.size() != static_cast<std::size_t>(V.rows()))
     throw InvalidArgumentError("the carrier mask does not match the vertices");
   std::vector<Eigen::Index> counted;
@@ -241,13 +267,8 @@ FingerprintBasis fingerprint_basis(const Eigen::MatrixX3d& V, const Eigen::Matri
   // The bumps at the counted vertices, then scaled to a mean square of 1 over them.
   std::vector<std::uint8_t> mask(carrier.size());
   for (std::size_t i = 0; i < mask.size(); ++i) mask[i] = carrier[i] == kCounted;
-  b.scale = 1;
+  b.scale = 1 / std::sqrt(bump_mean_square(b, V, mask, counted.size()));
   evaluate_bumps(b, V, mask);
-  double mean_square = 0;
-  for (const double phi : b.value) mean_square += phi * phi;
-  mean_square /= static_cast<double>(counted.size());
-  b.scale = 1 / std::sqrt(mean_square);
-  for (double& v : b.value) v *= b.scale;
   return b;
 }
 
@@ -538,7 +559,8 @@ Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::Vec
     const int c = radial_class(*keep, i);
     const Eigen::Vector2d x(1, keep->t(i));
     G[c] += x * x.transpose(), R[c] += x * residual(i);
-    for (int e = first; e < last; ++e) M[c].row(basis.index[e]) += basis.value[e] * x.transpose();
+    for (int e = first; e < last; ++e)
+      M[c].row(basis.index[e]) += static_cast<double>(basis.value[e]) * x.transpose();
   }
   A.triangularView<Eigen::StrictlyLower>() = A.transpose();
   // sum_c M_c G_c^-1 M_c^T as one product W W^T, W's columns M_c S_c with S_c S_c^T = G_c^-1

@@ -407,8 +407,8 @@ std::optional<FingerprintBasis> fingerprint_reading(
   // Its rows at the original's vertices are not read again: the readings evaluate the bumps at
   // the crossings. Freed, they leave room for those.
   // (Moved from, not assigned {}: that keeps the capacity.)
-  basis.row_start = std::vector<int>(), basis.index = std::vector<int>();
-  basis.value = std::vector<double>();
+  basis.row_start = decltype(basis.row_start)(), basis.index = decltype(basis.index)();
+  basis.value = decltype(basis.value)();
   const std::vector<std::uint8_t> leak_carrier = carrier_vertices(VL, FL);
   const Smoother on_original(original.F, original.V.rows()), on_leak(FL, VL.rows());
   std::vector<std::string> taken;

@@ -172,14 +172,14 @@ TEST(Fingerprint, ARidgeReadingIsTheRidgeRegressionOfTheResidual) {
       for (int k = 0; k < K; ++k) {
         const double d2 =
             (s.original.V.row(i) - s.original.V.row(s.basis.centers[k])).squaredNorm();
-        if (d2 <= 9 * s.basis.width * s.basis.width)
-          Phi(i, k) = s.basis.scale * std::exp(-d2 / (2 * s.basis.width * s.basis.width));
+        if (d2 <= 9 * s.basis.width * s.basis.width)  // stored in single precision
+          Phi(i, k) = static_cast<float>(s.basis.scale *
+                                         std::exp(-d2 / (2 * s.basis.width * s.basis.width)));
       }
   const FingerprintBasis again = fingerprint_basis_at(s.basis, s.original.V, counted(s));
   EXPECT_EQ(again.index, s.basis.index);
   ASSERT_EQ(again.value.size(), s.basis.value.size());
-  for (std::size_t e = 0; e < again.value.size(); ++e)
-    EXPECT_NEAR(again.value[e], s.basis.value[e], 1e-12 * s.basis.scale);
+  for (std::size_t e = 0; e < again.value.size(); ++e) EXPECT_EQ(again.value[e], s.basis.value[e]);
   // A residual: a fingerprint plus noise of twice its RMS.
   const Eigen::VectorXd g = fingerprint_coefficients(s.key, 7, K);
   Eigen::VectorXd r = residual(s, add_fingerprint(s.original.V, s.original.V, s.basis, g, 1e-4));
@@ -212,24 +212,31 @@ TEST(Fingerprint, TheBasisHoldsExactlyTheBumpsWithinReachInBumpOrder) {
       ASSERT_EQ(b.row_start.size(), static_cast<std::size_t>(P.rows()) + 1);
       std::size_t entries = 0;
       for (Eigen::Index i = 0; i < P.rows(); ++i) {
-        std::vector<int> index;
+        std::vector<std::uint16_t> index;
         std::vector<double> value;
         for (int k = 0; mask[i] && k < s.basis.functions; ++k) {
           const double d2 = (P.row(i) - s.original.V.row(s.basis.centers[k])).squaredNorm();
           if (d2 <= cut2)
-            index.push_back(k), value.push_back(s.basis.scale * std::exp(-d2 / (2 * w * w)));
+            index.push_back(static_cast<std::uint16_t>(k)),
+                value.push_back(s.basis.scale * std::exp(-d2 / (2 * w * w)));
         }
-        const std::vector<int> got(b.index.begin() + b.row_start[i],
-                                   b.index.begin() + b.row_start[i + 1]);
+        const std::vector<std::uint16_t> got(b.index.begin() + b.row_start[i],
+                                             b.index.begin() + b.row_start[i + 1]);
         ASSERT_EQ(got, index) << "row " << i;
-        for (std::size_t e = 0; e < value.size(); ++e)
-          ASSERT_NEAR(b.value[b.row_start[i] + e], value[e], 1e-12 * s.basis.scale) << "row " << i;
+        for (std::size_t e = 0; e < value.size(); ++e)  // single precision: within one ulp
+          ASSERT_NEAR(b.value[b.row_start[i] + e], value[e], 0x1p-23 * value[e]) << "row " << i;
         entries += index.size();
       }
       EXPECT_EQ(b.index.size(), entries);
       EXPECT_EQ(b.value.size(), entries);
     };
     check(s.basis, s.original.V, counted(s));
+    // The scale: a mean over the counted vertices of sum_k phi_k^2 of 1.
+    double squares = 0;
+    for (const float v : s.basis.value) squares += static_cast<double>(v) * v;
+    const std::vector<std::uint8_t> mask = counted(s);
+    const auto rows = std::count(mask.begin(), mask.end(), 1);
+    EXPECT_NEAR(squares / static_cast<double>(rows), 1.0, 1e-6);
     std::mt19937_64 rng(11);
     std::normal_distribution<double> step(0.0, w);
     Eigen::MatrixX3d moved = s.original.V;
@@ -265,7 +272,7 @@ TEST(Fingerprint, RowsThatAreNotWellFormedAreRefused) {
   const int first = s.basis.row_start[row];
   std::vector<FingerprintBasis> bad(6, s.basis);
   bad[0].index[first] = 64;
-  bad[1].index[first] = -1;
+  bad[1].index[first] = 65535;
   std::swap(bad[2].index[first], bad[2].index[first + 1]);
   bad[3].index[first + 1] = bad[3].index[first];
   bad[4].row_start[row + 1] = bad[4].row_start[row] - 1;

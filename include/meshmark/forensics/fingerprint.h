@@ -52,6 +52,9 @@ struct FingerprintOptions {
   double rms = 1e-4;
 };
 
+/// The most basis functions a fingerprint can have (a bump's index is 16 bits).
+inline constexpr int kMaxFingerprintFunctions = 65535;
+
 /// K for an original with `counted` counted carrier vertices: options.functions, or one per 16
 /// vertices when there are fewer; 0 (no fingerprint) below 8 functions (128 vertices).
 int fingerprint_functions(std::size_t counted, const FingerprintOptions& options = {});
@@ -70,9 +73,12 @@ struct FingerprintBasis {
   double scale = 0;          ///< the factor every bump is multiplied by (see above)
   /// Phi, row by row (compressed rows: vertex i's entries are index/value[row_start[i] ..
   /// row_start[i + 1]], in increasing order of bumps); no entries for vertices off the carrier
-  /// or twins. About 28 entries a counted vertex (12 bytes each).
-  std::vector<int> row_start, index;
-  std::vector<double> value;
+  /// or twins. About 36 entries a counted vertex, 6 bytes each: the values are rounded to
+  /// single precision (a relative 2^-24 of each; the fingerprint moves vertices by about 1e-4
+  /// of the diagonal, so by 1e-11 of it at most).
+  std::vector<int> row_start;
+  std::vector<std::uint16_t> index;
+  std::vector<float> value;
 
   /// Phi a: the field of coefficients a (size K) at every vertex.
   /// \throw InvalidArgumentError for a of another size, row starts that do not match the
@@ -83,7 +89,8 @@ struct FingerprintBasis {
 /// The basis of (V, F) around center, over the carrier (histogram.h: carrier_vertices); w is
 /// the spacing sqrt(area / K) of K points over the carrier's surface. Deterministic: the first
 /// center is the counted vertex farthest from `center` (the smallest index among equals).
-/// \throw InvalidArgumentError for functions < 1, or fewer than 16 counted vertices a function.
+/// \throw InvalidArgumentError for functions outside [1, kMaxFingerprintFunctions], or fewer
+/// than 16 counted vertices a function.
 FingerprintBasis fingerprint_basis(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                                    const std::vector<std::uint8_t>& carrier,
                                    const Eigen::Vector3d& center, int functions);
