@@ -71,6 +71,16 @@ Mesh assemble(Parsed parsed, std::string bytes, FileFormat format, Encoding enco
   return mesh;
 }
 
+Polygons triangles_of_corners(std::vector<int> corners) {
+  Polygons faces;
+  std::vector<std::int64_t> offsets(corners.size() / 3 + 1);
+  for (std::size_t t = 0; t < offsets.size(); ++t) offsets[t] = static_cast<std::int64_t>(3 * t);
+  corners.resize(3 * (offsets.size() - 1));
+  faces.offsets = std::move(offsets);
+  faces.indices = std::move(corners);
+  return faces;
+}
+
 Mesh assemble_welded(Parsed parsed, FileFormat format, const std::string& name,
                      const ReadOptions& options, std::vector<int>& vertex_of_point) {
   const std::size_t np = parsed.xyz.size() / 3;

@@ -33,10 +33,7 @@ Mesh read_draco(std::string bytes, const std::string& name, const ReadOptions& o
   const DracoMesh& d = image->decoded;
   Parsed parsed;
   parsed.xyz = d.positions;
-  parsed.faces.indices.assign(d.triangles.begin(), d.triangles.end());
-  parsed.faces.offsets.resize(d.triangles.size() / 3 + 1);
-  for (std::size_t f = 0; f < parsed.faces.offsets.size(); ++f)
-    parsed.faces.offsets[f] = static_cast<std::int64_t>(3 * f);
+  parsed.faces = triangles_of_corners(std::vector<int>(d.triangles.begin(), d.triangles.end()));
   Mesh mesh =
       assemble_welded(std::move(parsed), FileFormat::Draco, name, options, image->vertex_of_point);
   attach_image(mesh, std::move(image), options);

@@ -101,6 +101,10 @@ struct Parsed {
   bool keep_slots = true;
 };
 
+/// Triangles from their corners' vertex indices, three by three (a count that is not a multiple
+/// of 3 leaves the last one or two out).
+Polygons triangles_of_corners(std::vector<int> corners);
+
 /// Welds the referenced vertices closer than tolerance (bit-identical ones, -0.0 and +0.0
 /// alike, when it is 0) into one vertex, at the position of its first member; unreferenced
 /// vertices stay apart. Vertices are renumbered in order of first appearance and the faces and

@@ -307,10 +307,7 @@ Mesh read_stl(std::string bytes, const std::string& name, const ReadOptions& opt
   parsed.xyz = std::move(corners.xyz);
   std::vector<int> corner(parsed.xyz.size() / 3);
   std::iota(corner.begin(), corner.end(), 0);
-  parsed.faces.indices = std::move(corner);
-  parsed.faces.offsets.resize(parsed.faces.indices.size() / 3 + 1);
-  for (std::size_t t = 0; t < parsed.faces.offsets.size(); ++t)
-    parsed.faces.offsets[t] = static_cast<std::int64_t>(3 * t);
+  parsed.faces = triangles_of_corners(std::move(corner));
   parsed.slots.resize(parsed.xyz.size());
   for (std::size_t k = 0; k < parsed.xyz.size(); ++k)
     parsed.slots[k] = {corners.offset[k],

@@ -46,8 +46,8 @@ struct TraceFilesRequest {
 /// What trace_files read and concluded.
 struct TraceFilesResult {
   TraceResult trace;  ///< the verdict, the scores and the registration
-  Mesh leaked;        ///< the leak as read
-  Mesh original;      ///< the original as read
+  Mesh leaked;        ///< the leak as read, without its file image (trace writes no mesh)
+  Mesh original;      ///< the original as read, without its file image
   /// content_hash of the original's file; its geometry_hash for an original in memory
   std::string original_hash;
   std::vector<std::string> warnings;  ///< what the readers noticed, "path: note" each
