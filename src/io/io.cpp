@@ -226,7 +226,7 @@ Mesh read_mesh_from_bytes(std::string bytes, FileFormat format, const std::strin
     case FileFormat::Glb:
       return detail::read_gltf(std::move(bytes), format, name, options);
     case FileFormat::Draco:
-      return detail::read_draco(std::move(bytes), name, options);
+      return detail::read_draco(bytes, name, options);
     case FileFormat::ThreeMf:
       return detail::read_3mf(std::move(bytes), name, options);
   }

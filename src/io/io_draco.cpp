@@ -27,7 +27,7 @@ constexpr int kScratchPositionBits = 14;
 
 }  // namespace
 
-Mesh read_draco(std::string bytes, const std::string& name, const ReadOptions& options) {
+Mesh read_draco(const std::string& bytes, const std::string& name, const ReadOptions& options) {
   auto image = std::make_shared<DracoImage>();
   image->decoded = decode_draco(bytes, name);
   const DracoMesh& d = image->decoded;

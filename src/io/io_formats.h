@@ -32,7 +32,7 @@ std::string write_gltf(const Mesh& mesh, FileFormat format, const WriteOptions& 
 /// with options.weld_tolerance. \throw InvalidInputError(name, 0, ...) for what decode_draco
 /// refuses (not Draco, a point cloud, corrupt or truncated data, no POSITION, a non-finite
 /// coordinate) and for no faces.
-Mesh read_draco(std::string bytes, const std::string& name, const ReadOptions& options);
+Mesh read_draco(const std::string& bytes, const std::string& name, const ReadOptions& options);
 /// Draco written back (the image applies): every point moved by its vertex's displacement and
 /// encoded again with the source's quantization bits per attribute, method, edgebreaker
 /// submethod, attribute unique ids, metadata and every other attribute (encode_draco; the
