@@ -23,35 +23,38 @@ namespace {
 
 using Vec = Eigen::Vector3d;
 
-struct Box {
-  Vec lo = Vec::Constant(std::numeric_limits<double>::infinity());
-  Vec hi = Vec::Constant(-std::numeric_limits<double>::infinity());
-  void grow(const Vec& p) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  void grow(const Box& b) {
-    lo = lo.cwiseMin(b.lo);
-    hi = hi.cwiseMax(b.hi);
-  }
+// A node: its box in single precision, rounded outward (so that its distance to a query is
+// never more than the distance to any triangle inside: pruning stays exact), and either two
+// children (left = this + 1, right = `next`; count 0) or a leaf's `count` triangles from `next`
+// on, in leaf order. 32 bytes.
+struct Node {
+  std::array<float, 3> lo{}, hi{};
+  int next = 0;
+  int count = 0;
   /// Squared distance from p to the box (0 inside).
   double squared_distance(const Vec& p) const {
     double d = 0;
     for (int c = 0; c < 3; ++c) {
-      const double e = std::max({lo[c] - p[c], 0.0, p[c] - hi[c]});
+      const double e = std::max({static_cast<double>(lo[static_cast<std::size_t>(c)]) - p[c], 0.0,
+                                 p[c] - static_cast<double>(hi[static_cast<std::size_t>(c)])});
       d += e * e;
     }
     return d;
   }
 };
 
-// A node: its box, and either two children (left = this + 1, right = `right`) or a leaf's
-// triangles [first, first + count) in leaf order.
-struct Node {
-  Box box;
-  int right = -1;
-  int first = 0, count = 0;
-};
+// The largest float not above x, and the smallest not below (infinite beyond float's range).
+float float_down(double x) {
+  constexpr double kMax = std::numeric_limits<float>::max();
+  if (x > kMax) return std::numeric_limits<float>::max();
+  if (x < -kMax) return -std::numeric_limits<float>::infinity();
+  const auto f = static_cast<float>(x);
+  return static_cast<double>(f) > x ? std::nextafter(f, -std::numeric_limits<float>::infinity())
+                                    : f;
+}
+float float_up(double x) {
+  return -float_down(-x);
+}
 
 constexpr int kLeafSize = 4;
 
@@ -117,74 +120,114 @@ struct SurfaceIndex::Impl {
 
 namespace {
 
-// Builds the subtree over items [first, first + count) of `order` (indices into centroids and
-// boxes) at nodes.back(); returns its index.
-int build(std::vector<Node>& nodes, std::vector<int>& order, const std::vector<Vec>& centroid,
-          const std::vector<Box>& box, int first, int count) {
+// Nodes of the tree over `count` triangles (what build makes), to reserve exactly.
+std::size_t node_count(int count) {
+  return count <= kLeafSize ? 1 : 1 + node_count(count / 2) + node_count(count - count / 2);
+}
+
+// Builds the subtree over items [first, first + count) of `order` (indices into corners) at
+// nodes.back(); returns its index. Boxes and centroids come from the corners as it goes: no
+// array of either per triangle.
+int build(std::vector<Node>& nodes, std::vector<int>& order,
+          const std::vector<std::array<Vec, 3>>& corners, int first, int count) {
   const int index = static_cast<int>(nodes.size());
   nodes.emplace_back();
-  Box bounds, centers;
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  Vec lo = Vec::Constant(kInf), hi = Vec::Constant(-kInf);
+  Vec center_lo = lo, center_hi = hi;
   for (int k = first; k < first + count; ++k) {
-    bounds.grow(box[static_cast<std::size_t>(order[k])]);
-    centers.grow(centroid[static_cast<std::size_t>(order[k])]);
+    const auto& t = corners[static_cast<std::size_t>(order[static_cast<std::size_t>(k)])];
+    lo = lo.cwiseMin(t[0]).cwiseMin(t[1]).cwiseMin(t[2]);
+    hi = hi.cwiseMax(t[0]).cwiseMax(t[1]).cwiseMax(t[2]);
+    const Vec center = t[0] + t[1] + t[2];  // 3 times the centroid: the same order
+    center_lo = center_lo.cwiseMin(center);
+    center_hi = center_hi.cwiseMax(center);
   }
-  nodes[index].box = bounds;
+  for (int c = 0; c < 3; ++c) {
+    nodes[static_cast<std::size_t>(index)].lo[static_cast<std::size_t>(c)] = float_down(lo[c]);
+    nodes[static_cast<std::size_t>(index)].hi[static_cast<std::size_t>(c)] = float_up(hi[c]);
+  }
   if (count <= kLeafSize) {
-    nodes[index].first = first;
-    nodes[index].count = count;
+    nodes[static_cast<std::size_t>(index)].next = first;
+    nodes[static_cast<std::size_t>(index)].count = count;
     return index;
   }
   int axis = 0;
-  (centers.hi - centers.lo).maxCoeff(&axis);
+  (center_hi - center_lo).maxCoeff(&axis);
   const int half = count / 2;
+  const auto center = [&](int item) {
+    const auto& t = corners[static_cast<std::size_t>(item)];
+    return t[0][axis] + t[1][axis] + t[2][axis];
+  };
   std::nth_element(order.begin() + first, order.begin() + first + half,
-                   order.begin() + first + count, [&](int a, int b) {
-                     return centroid[static_cast<std::size_t>(a)][axis] <
-                            centroid[static_cast<std::size_t>(b)][axis];
-                   });
-  build(nodes, order, centroid, box, first, half);
-  const int right = build(nodes, order, centroid, box, first + half, count - half);
-  nodes[index].right = right;
+                   order.begin() + first + count,
+                   [&](int a, int b) { return center(a) < center(b); });
+  build(nodes, order, corners, first, half);
+  const int right = build(nodes, order, corners, first + half, count - half);
+  nodes[static_cast<std::size_t>(index)].next = right;
   return index;
+}
+
+// Puts corners[k] = old corners[order[k]] and the same for rows, for every k, in place,
+// following each cycle of the permutation (order is used up: set to -1).
+void permute_in_place(std::vector<std::array<Vec, 3>>& corners, std::vector<int>& rows,
+                      std::vector<int>& order) {
+  for (std::size_t start = 0; start < order.size(); ++start) {
+    if (order[start] < 0) continue;
+    const std::array<Vec, 3> held_corners = corners[start];
+    const int held_row = rows[start];
+    std::size_t k = start;
+    for (;;) {
+      const auto from = static_cast<std::size_t>(order[k]);
+      order[k] = -1;
+      if (from == start) {
+        corners[k] = held_corners;
+        rows[k] = held_row;
+        break;
+      }
+      corners[k] = corners[from];
+      rows[k] = rows[from];
+      k = from;
+    }
+  }
 }
 
 }  // namespace
 
 SurfaceIndex::SurfaceIndex(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) : impl_(new Impl) {
-  std::vector<int> kept;
-  std::vector<Vec> centroid;
-  std::vector<Box> box;
-  kept.reserve(static_cast<std::size_t>(F.rows()));
-  centroid.reserve(kept.capacity());
-  box.reserve(kept.capacity());
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    const Vec a = V.row(F(f, 0)).transpose(), b = V.row(F(f, 1)).transpose(),
-              c = V.row(F(f, 2)).transpose();
-    // Degenerate: collinear corners (a zero cross product), as CGAL's is_degenerate skipped.
-    if ((b - a).cross(c - a).isZero(0)) continue;
-    if (!a.allFinite() || !b.allFinite() || !c.allFinite()) continue;
-    kept.push_back(static_cast<int>(f));
-    centroid.push_back((a + b + c) / 3);
-    Box bb;
-    bb.grow(a);
-    bb.grow(b);
-    bb.grow(c);
-    box.push_back(bb);
-  }
-  if (kept.empty())
+  // The usable triangles' corners and rows of F, in F's order; the tree is built over them and
+  // they are then put in leaf order. About 110 bytes a triangle at the peak (corners 72, rows 4,
+  // order 4, nodes 32 for every 1.5 triangles or so).
+  std::vector<std::array<Vec, 3>>& corners = impl_->corners;
+  std::vector<int>& face_of = impl_->face_of;
+  std::size_t usable = 0;
+  const auto corners_of = [&](Eigen::Index f) {
+    return std::array<Vec, 3>{V.row(F(f, 0)).transpose(), V.row(F(f, 1)).transpose(),
+                              V.row(F(f, 2)).transpose()};
+  };
+  // Degenerate: collinear corners (a zero cross product), as CGAL's is_degenerate skipped.
+  const auto is_usable = [](const std::array<Vec, 3>& t) {
+    return !(t[1] - t[0]).cross(t[2] - t[0]).isZero(0) && t[0].allFinite() && t[1].allFinite() &&
+           t[2].allFinite();
+  };
+  for (Eigen::Index f = 0; f < F.rows(); ++f) usable += is_usable(corners_of(f)) ? 1 : 0;
+  if (usable == 0)
     throw InvalidArgumentError("closest points: the mesh has no non-degenerate triangle");
-  std::vector<int> order(kept.size());
-  std::iota(order.begin(), order.end(), 0);
-  impl_->nodes.reserve(2 * kept.size() / kLeafSize + 2);
-  build(impl_->nodes, order, centroid, box, 0, static_cast<int>(order.size()));
-  impl_->corners.reserve(order.size());
-  impl_->face_of.reserve(order.size());
-  for (int k : order) {
-    const int f = kept[static_cast<std::size_t>(k)];
-    impl_->face_of.push_back(f);
-    impl_->corners.push_back(
-        {V.row(F(f, 0)).transpose(), V.row(F(f, 1)).transpose(), V.row(F(f, 2)).transpose()});
+  if (usable > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+    throw InvalidArgumentError("closest points: more than 2^31 - 1 triangles");
+  corners.reserve(usable);
+  face_of.reserve(usable);
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    auto t = corners_of(f);
+    if (!is_usable(t)) continue;
+    corners.push_back(t);
+    face_of.push_back(static_cast<int>(f));
   }
+  std::vector<int> order(usable);
+  std::iota(order.begin(), order.end(), 0);
+  impl_->nodes.reserve(node_count(static_cast<int>(usable)));
+  build(impl_->nodes, order, corners, 0, static_cast<int>(usable));
+  permute_in_place(corners, face_of, order);
 }
 
 SurfaceIndex::~SurfaceIndex() = default;
@@ -207,14 +250,14 @@ ClosestPoints SurfaceIndex::query(const Eigen::MatrixX3d& Q) const {
       int best_leaf = -1;
       Vec best_point = Vec::Zero(), best_weights(1, 0, 0);
       stack.clear();
-      stack.emplace_back(m.nodes[0].box.squared_distance(q), 0);
+      stack.emplace_back(m.nodes[0].squared_distance(q), 0);
       while (!stack.empty()) {
         const auto [bound, n] = stack.back();
         stack.pop_back();
         if (bound >= best) continue;
         const Node& node = m.nodes[static_cast<std::size_t>(n)];
-        if (node.right < 0) {
-          for (int k = node.first; k < node.first + node.count; ++k) {
+        if (node.count > 0) {
+          for (int k = node.next; k < node.next + node.count; ++k) {
             const auto& t = m.corners[static_cast<std::size_t>(k)];
             closest_on_triangle(q, t[0], t[1], t[2], point, weights);
             const double d = (point - q).squaredNorm();
@@ -227,9 +270,9 @@ ClosestPoints SurfaceIndex::query(const Eigen::MatrixX3d& Q) const {
           }
           continue;
         }
-        const int left = n + 1, right = node.right;
-        const double dl = m.nodes[static_cast<std::size_t>(left)].box.squared_distance(q),
-                     dr = m.nodes[static_cast<std::size_t>(right)].box.squared_distance(q);
+        const int left = n + 1, right = node.next;
+        const double dl = m.nodes[static_cast<std::size_t>(left)].squared_distance(q),
+                     dr = m.nodes[static_cast<std::size_t>(right)].squared_distance(q);
         // The nearer child on top of the stack: searched first, it makes the best small early.
         if (dl <= dr) {
           if (dr < best) stack.emplace_back(dr, right);
