@@ -147,10 +147,9 @@ double bump_mean_square(const FingerprintBasis& b, const Eigen::MatrixX3d& P,
 // entries for the others. The rows are counted first and then filled, so the entries take
 // exactly their size (a few dozen a vertex, 6 bytes each: the largest share of a trace's
 // memory).
-void evaluate_bumps(FingerprintBasis& b, const Eigen::MatrixX3d& P,
+void evaluate_bumps(FingerprintBasis& b, const BumpGrid& grid, const Eigen::MatrixX3d& P,
                     const std::vector<std::uint8_t>& mask) {
   const double inv = 1 / (2 * b.width * b.width);
-  const BumpGrid grid(b.points, 3 * b.width);
   const Eigen::Index n = P.rows();
   b.row_start.assign(static_cast<std::size_t>(n) + 1, 0);
   for_each_bump(b, grid, P, mask, [&](Eigen::Index i, int, double) { ++b.row_start[i + 1]; });
@@ -193,6 +192,109 @@ void check_rows(const FingerprintBasis& b, bool entries) {
       if (b.index[e] >= b.functions || (e > b.row_start[i] && b.index[e] <= b.index[e - 1]))
         throw InvalidArgumentError(fmt::format(
             "the basis' row {} is not in increasing order of bumps 0 to {}", i, b.functions - 1));
+}
+
+// basis' bumps (positions, width, scale) without rows, checked against P and its mask.
+FingerprintBasis bumps_of(const FingerprintBasis& basis, const Eigen::MatrixX3d& P,
+                          const std::vector<std::uint8_t>& mask) {
+  if (mask.size() != static_cast<std::size_t>(P.rows()))
+    throw InvalidArgumentError("the mask does not match the points");
+  if (basis.points.rows() != basis.functions)
+    throw InvalidArgumentError("the basis has no bump positions");
+  FingerprintBasis b;
+  b.functions = basis.functions, b.center = basis.center, b.diagonal = basis.diagonal;
+  b.width = basis.width, b.centers = basis.centers, b.points = basis.points;
+  b.scale = basis.scale;
+  return b;
+}
+
+// The normal equations of read_fingerprint, summed over rows given in blocks (rows [offset,
+// offset + block's rows) of the whole), in increasing order of rows: the same sums, whatever
+// the blocks. Normal equations of Phi b ~ residual, with both taken out of the span of (1, t)
+// in each radial class (with `keep`): A = Phi^T Phi - sum_c M_c G_c^-1 M_c^T and
+// y = Phi^T r - sum_c M_c G_c^-1 R_c, where per class G_c = sum x x^T, M_c = sum phi_i x^T
+// (K x 2) and R_c = sum x r_i, x = (1, t_i).
+class NormalEquations {
+ public:
+  NormalEquations(int functions, const Histogram* keep)
+      : K_(functions),
+        keep_(keep),
+        classes_(keep ? keep->bins * kSlices : 0),
+        A_(Eigen::MatrixXd::Zero(functions, functions)),
+        y_(Eigen::VectorXd::Zero(functions)),
+        G_(static_cast<std::size_t>(classes_), Eigen::Matrix2d::Zero()),
+        R_(static_cast<std::size_t>(classes_), Eigen::Vector2d::Zero()),
+        M_(static_cast<std::size_t>(classes_), Eigen::MatrixX2d::Zero(functions, 2)) {}
+
+  // Phi^T Phi and Phi^T r, accumulated row by row over the used vertices (each touches a few
+  // dozen bumps, in bump order: its products fall in A's upper triangle). rows' row i is the
+  // whole's row offset + i; residual and measured are the whole's.
+  void add(const FingerprintBasis& rows, Eigen::Index offset, const Eigen::VectorXd& residual,
+           const std::vector<std::uint8_t>& measured) {
+    const Eigen::Index n = static_cast<Eigen::Index>(rows.row_start.size()) - 1;
+    for (Eigen::Index j = 0; j < n; ++j) {
+      const Eigen::Index i = offset + j;
+      const int first = rows.row_start[j], last = rows.row_start[j + 1];
+      if (!measured[i] || !std::isfinite(residual(i)) || last <= first) continue;
+      const int c = keep_ ? radial_class(*keep_, i) : 0;
+      if (c < 0) continue;
+      for (int e = first; e < last; ++e) {
+        const int k = rows.index[e];
+        const double v = rows.value[e];
+        y_(k) += v * residual(i);
+        double* column = A_.col(k).data();
+        for (int f = first; f <= e; ++f) column[rows.index[f]] += rows.value[f] * v;
+      }
+      if (!keep_) continue;
+      const Eigen::Vector2d x(1, keep_->t(i));
+      G_[c] += x * x.transpose(), R_[c] += x * residual(i);
+      for (int e = first; e < last; ++e)
+        M_[c].row(rows.index[e]) += static_cast<double>(rows.value[e]) * x.transpose();
+    }
+  }
+
+  Eigen::VectorXd solve(double ridge) {
+    Eigen::MatrixXd& A = A_;
+    A.triangularView<Eigen::StrictlyLower>() = A.transpose();
+    // sum_c M_c G_c^-1 M_c^T as one product W W^T, W's columns M_c S_c with S_c S_c^T = G_c^-1
+    // (G_c^-1 is symmetric and positive semi-definite).
+    Eigen::MatrixXd W = Eigen::MatrixXd::Zero(K_, 2 * static_cast<Eigen::Index>(classes_));
+    for (int c = 0; c < classes_; ++c) {
+      if (G_[c](0, 0) == 0) continue;
+      const Eigen::Matrix2d Ginv = line_fit_operator(G_[c]);
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(Ginv);
+      const Eigen::Matrix2d S =
+          eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+      W.middleCols(2 * c, 2) = M_[c] * S;
+      y_.noalias() -= M_[c] * (Ginv * R_[c]);
+    }
+    if (classes_ > 0) A.selfadjointView<Eigen::Lower>().rankUpdate(W, -1.0);
+    A.triangularView<Eigen::StrictlyUpper>() = A.transpose();
+    A.diagonal().array() += std::max(ridge, 1e-9) * std::max(A.trace() / K_, 1e-300);
+    return A.ldlt().solve(y_);
+  }
+
+ private:
+  int K_;
+  const Histogram* keep_;
+  int classes_;
+  Eigen::MatrixXd A_;
+  Eigen::VectorXd y_;
+  std::vector<Eigen::Matrix2d> G_;
+  std::vector<Eigen::Vector2d> R_;
+  std::vector<Eigen::MatrixX2d> M_;
+};
+
+// \throw InvalidArgumentError for a ridge outside [0, 1e6), or a residual, mask or histogram
+// not of n rows.
+void check_reading(Eigen::Index n, const Eigen::VectorXd& residual,
+                   const std::vector<std::uint8_t>& measured, const Histogram* keep, double ridge) {
+  if (!(ridge >= 0 && ridge < 1e6))
+    throw InvalidArgumentError(fmt::format("the fingerprint ridge {} is outside [0, 1e6)", ridge));
+  if (residual.size() != n || measured.size() != static_cast<std::size_t>(n))
+    throw InvalidArgumentError("the residual, the measured mask and the basis differ in size");
+  if (keep && keep->bin.size() != static_cast<std::size_t>(n))
+    throw InvalidArgumentError("the histogram to keep is of another mesh");
 }
 
 }  // namespace
@@ -268,21 +370,14 @@ FingerprintBasis fingerprint_basis(const Eigen::MatrixX3d& V, const Eigen::Matri
   std::vector<std::uint8_t> mask(carrier.size());
   for (std::size_t i = 0; i < mask.size(); ++i) mask[i] = carrier[i] == kCounted;
   b.scale = 1 / std::sqrt(bump_mean_square(b, V, mask, counted.size()));
-  evaluate_bumps(b, V, mask);
+  evaluate_bumps(b, BumpGrid(b.points, 3 * b.width), V, mask);
   return b;
 }
 
 FingerprintBasis fingerprint_basis_at(const FingerprintBasis& basis, const Eigen::MatrixX3d& P,
                                       const std::vector<std::uint8_t>& mask) {
-  if (mask.size() != static_cast<std::size_t>(P.rows()))
-    throw InvalidArgumentError("the mask does not match the points");
-  if (basis.points.rows() != basis.functions)
-    throw InvalidArgumentError("the basis has no bump positions");
-  FingerprintBasis b;
-  b.functions = basis.functions, b.center = basis.center, b.diagonal = basis.diagonal;
-  b.width = basis.width, b.centers = basis.centers, b.points = basis.points;
-  b.scale = basis.scale;
-  evaluate_bumps(b, P, mask);
+  FingerprintBasis b = bumps_of(basis, P, mask);
+  evaluate_bumps(b, BumpGrid(b.points, 3 * b.width), P, mask);
   return b;
 }
 
@@ -520,65 +615,30 @@ Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX
 Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::VectorXd& residual,
                                  const std::vector<std::uint8_t>& measured, const Histogram* keep,
                                  double ridge) {
-  if (!(ridge >= 0 && ridge < 1e6))
-    throw InvalidArgumentError(fmt::format("the fingerprint ridge {} is outside [0, 1e6)", ridge));
-  const int K = basis.functions;
   const Eigen::Index n = static_cast<Eigen::Index>(basis.row_start.size()) - 1;
-  if (residual.size() != n || measured.size() != static_cast<std::size_t>(n))
-    throw InvalidArgumentError("the residual, the measured mask and the basis differ in size");
-  if (keep && keep->bin.size() != static_cast<std::size_t>(n))
-    throw InvalidArgumentError("the histogram to keep is of another mesh");
+  check_reading(n, residual, measured, keep, ridge);
   check_rows(basis, true);
-  std::vector<std::uint8_t> used(n, 0);
-  for (Eigen::Index i = 0; i < n; ++i)
-    used[i] = measured[i] && std::isfinite(residual(i)) &&
-              basis.row_start[i + 1] > basis.row_start[i] && (!keep || radial_class(*keep, i) >= 0);
-  // Normal equations of Phi b ~ residual, with both taken out of the span of (1, t) in each
-  // radial class (with `keep`): A = Phi^T Phi - sum_c M_c G_c^-1 M_c^T and
-  // y = Phi^T r - sum_c M_c G_c^-1 R_c, where per class G_c = sum x x^T, M_c = sum phi_i x^T
-  // (K x 2) and R_c = sum x r_i, x = (1, t_i).
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(K, K);
-  Eigen::VectorXd y = Eigen::VectorXd::Zero(K);
-  const int classes = keep ? keep->bins * kSlices : 0;
-  std::vector<Eigen::Matrix2d> G(classes, Eigen::Matrix2d::Zero());
-  std::vector<Eigen::Vector2d> R(classes, Eigen::Vector2d::Zero());
-  std::vector<Eigen::MatrixX2d> M(classes, Eigen::MatrixX2d::Zero(K, 2));
-  // Phi^T Phi and Phi^T r, accumulated row by row over the used vertices (each touches a few
-  // dozen bumps, in bump order: its products fall in A's upper triangle).
-  for (Eigen::Index i = 0; i < n; ++i) {
-    if (!used[i]) continue;
-    const int first = basis.row_start[i], last = basis.row_start[i + 1];
-    for (int e = first; e < last; ++e) {
-      const int k = basis.index[e];
-      const double v = basis.value[e];
-      y(k) += v * residual(i);
-      double* column = A.col(k).data();
-      for (int f = first; f <= e; ++f) column[basis.index[f]] += basis.value[f] * v;
-    }
-    if (!keep) continue;
-    const int c = radial_class(*keep, i);
-    const Eigen::Vector2d x(1, keep->t(i));
-    G[c] += x * x.transpose(), R[c] += x * residual(i);
-    for (int e = first; e < last; ++e)
-      M[c].row(basis.index[e]) += static_cast<double>(basis.value[e]) * x.transpose();
+  NormalEquations equations(basis.functions, keep);
+  equations.add(basis, 0, residual, measured);
+  return equations.solve(ridge);
+}
+
+Eigen::VectorXd read_fingerprint_at(const FingerprintBasis& basis, const Eigen::MatrixX3d& P,
+                                    const Eigen::VectorXd& residual,
+                                    const std::vector<std::uint8_t>& measured,
+                                    const Histogram* keep, double ridge) {
+  FingerprintBasis block = bumps_of(basis, P, measured);
+  check_reading(P.rows(), residual, measured, keep, ridge);
+  const BumpGrid grid(block.points, 3 * block.width);
+  NormalEquations equations(basis.functions, keep);
+  constexpr Eigen::Index kBlock = Eigen::Index{1} << 16;  // rows: about 14 MB of entries
+  for (Eigen::Index begin = 0; begin < P.rows(); begin += kBlock) {
+    const Eigen::Index rows = std::min(kBlock, P.rows() - begin);
+    const std::vector<std::uint8_t> mask(measured.begin() + begin, measured.begin() + begin + rows);
+    evaluate_bumps(block, grid, P.middleRows(begin, rows), mask);
+    equations.add(block, begin, residual, measured);
   }
-  A.triangularView<Eigen::StrictlyLower>() = A.transpose();
-  // sum_c M_c G_c^-1 M_c^T as one product W W^T, W's columns M_c S_c with S_c S_c^T = G_c^-1
-  // (G_c^-1 is symmetric and positive semi-definite).
-  Eigen::MatrixXd W = Eigen::MatrixXd::Zero(K, 2 * static_cast<Eigen::Index>(classes));
-  for (int c = 0; c < classes; ++c) {
-    if (G[c](0, 0) == 0) continue;
-    const Eigen::Matrix2d Ginv = line_fit_operator(G[c]);
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(Ginv);
-    const Eigen::Matrix2d S =
-        eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
-    W.middleCols(2 * c, 2) = M[c] * S;
-    y.noalias() -= M[c] * (Ginv * R[c]);
-  }
-  if (classes > 0) A.selfadjointView<Eigen::Lower>().rankUpdate(W, -1.0);
-  A.triangularView<Eigen::StrictlyUpper>() = A.transpose();
-  A.diagonal().array() += std::max(ridge, 1e-9) * std::max(A.trace() / K, 1e-300);
-  return A.ldlt().solve(y);
+  return equations.solve(ridge);
 }
 
 double fingerprint_score(const Eigen::VectorXd& g, const Eigen::VectorXd& b) {

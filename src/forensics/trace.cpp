@@ -419,9 +419,9 @@ std::optional<FingerprintBasis> fingerprint_reading(
                        VL, leak_carrier, h.center, erase);
     taken.push_back(fmt::format("against the {}original, {} ({} leak vertices)",
                                 against_processed ? "processed " : "", x.processing, x.count));
-    const FingerprintBasis at_leak = fingerprint_basis_at(basis, x.on_original, x.crossed);
     const Histogram classes = histogram_at(h, x.on_original, x.crossed);
-    readings.push_back(read_fingerprint(at_leak, x.residual, x.crossed, &classes, ridge));
+    readings.push_back(
+        read_fingerprint_at(basis, x.on_original, x.residual, x.crossed, &classes, ridge));
   }
   processing = fmt::format("{}", fmt::join(taken, "; "));
   return basis;

@@ -974,5 +974,40 @@ TEST(Fingerprint, RefusesWhatItCannotDo) {
                InvalidArgumentError);
 }
 
+// trace reads a leak without holding the basis at all its points (read_fingerprint_at sums
+// rows 65,536 at a time): the reading must be the one of the whole basis, bit for bit. 150,000
+// points on and off elephant's surface (three blocks, the last one partial), a mask with holes,
+// residuals with NaNs, with and without a histogram's classes taken out.
+TEST(Fingerprint, ReadingAtPointsInBlocksIsTheWholeBasisReadingBitForBit) {
+  const Scene s = setup("elephant.off");
+  Eigen::MatrixX3d P = sample_surface(s.original.V, s.original.F, 150000, 3);
+  const Eigen::Index n = P.rows();  // sample_surface adds the vertices
+  ASSERT_GT(n, 2 * 65536);
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> gauss;
+  Eigen::VectorXd r(n);
+  std::vector<std::uint8_t> mask(static_cast<std::size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    for (int c = 0; c < 3; ++c) P(i, c) += 1e-3 * s.basis.diagonal * gauss(rng);
+    r(i) = i % 997 == 0 ? std::nan("") : 1e-4 * s.basis.diagonal * gauss(rng);
+    mask[static_cast<std::size_t>(i)] = i % 7 != 0;
+  }
+  const Histogram h = build_histogram(s.original.V, s.carrier, s.basis.center, 64);
+  const Histogram classes = histogram_at(h, P, mask);
+  const FingerprintBasis whole = fingerprint_basis_at(s.basis, P, mask);
+  ASSERT_GT(whole.index.size(), 0U);
+  for (const Histogram* keep : {static_cast<const Histogram*>(nullptr), &classes})
+    for (const double ridge : {0.0, 1.0}) {
+      const Eigen::VectorXd expected = read_fingerprint(whole, r, mask, keep, ridge);
+      const Eigen::VectorXd b = read_fingerprint_at(s.basis, P, r, mask, keep, ridge);
+      ASSERT_TRUE(expected.allFinite());
+      EXPECT_EQ(b, expected) << (keep ? "with" : "without") << " classes, ridge " << ridge;
+    }
+  // Its checks are read_fingerprint's and fingerprint_basis_at's.
+  EXPECT_THROW(read_fingerprint_at(s.basis, P, r.head(n - 1), mask), InvalidArgumentError);
+  EXPECT_THROW(read_fingerprint_at(s.basis, P.topRows(n - 1), r, mask), InvalidArgumentError);
+  EXPECT_THROW(read_fingerprint_at(s.basis, P, r, mask, nullptr, -1), InvalidArgumentError);
+}
+
 }  // namespace
 }  // namespace meshmark

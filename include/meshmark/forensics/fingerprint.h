@@ -161,6 +161,16 @@ Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::Vec
                                  const std::vector<std::uint8_t>& measured,
                                  const Histogram* keep = nullptr, double ridge = 0);
 
+/// read_fingerprint(fingerprint_basis_at(basis, P, measured), residual, measured, keep, ridge),
+/// the same reading bit for bit, without holding the basis at P: its rows are evaluated and
+/// summed 65,536 at a time. What trace reads a leak with: the rows at all of a leak's points
+/// would be the largest allocation of a trace (about 216 bytes a vertex).
+/// \throw InvalidArgumentError as fingerprint_basis_at and read_fingerprint do.
+Eigen::VectorXd read_fingerprint_at(const FingerprintBasis& basis, const Eigen::MatrixX3d& P,
+                                    const Eigen::VectorXd& residual,
+                                    const std::vector<std::uint8_t>& measured,
+                                    const Histogram* keep = nullptr, double ridge = 0);
+
 /// A candidate's score: g.b / |b| (0 when b is 0). Exactly standard normal when g is a standard
 /// normal vector independent of b.
 double fingerprint_score(const Eigen::VectorXd& g, const Eigen::VectorXd& b);
