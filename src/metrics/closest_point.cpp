@@ -23,15 +23,15 @@ namespace {
 
 using Vec = Eigen::Vector3d;
 
-// A node: its box in single precision, rounded outward (so that its distance to a query is
-// never more than the distance to any triangle inside: pruning stays exact), and either two
-// children (left = this + 1, right = `next`; count 0) or a leaf's `count` triangles from `next`
-// on, in leaf order. 32 bytes.
+// A node: its box in single precision, in the tree's frame (below), rounded outward (so that
+// its distance to a query is never more than the distance to any triangle inside: pruning
+// stays exact), and either two children (left = this + 1, right = `next`; count 0) or a leaf's
+// `count` triangles from `next` on, in leaf order. 32 bytes.
 struct Node {
   std::array<float, 3> lo{}, hi{};
   int next = 0;
   int count = 0;
-  /// Squared distance from p to the box (0 inside).
+  /// Squared distance from p (in the tree's frame) to the box (0 inside).
   double squared_distance(const Vec& p) const {
     double d = 0;
     for (int c = 0; c < 3; ++c) {
@@ -43,17 +43,31 @@ struct Node {
   }
 };
 
-// The largest float not above x, and the smallest not below (infinite beyond float's range).
-float float_down(double x) {
+// The boxes' frame: x' = (x - origin) * scale, origin the center of all the triangles' box and
+// scale the power of two that brings its largest side into (1/2, 1]. Single precision then
+// resolves a box to about 1e-7 of the mesh's size wherever the mesh lies (a scan placed a
+// million units from 0 keeps its detail), and any size from 1e-300 to 1e300 fits in a float.
+// Scaling by a power of two is exact; the subtraction rounds to 2^-53 of its result, which
+// the boxes' extra step outward covers.
+struct Frame {
+  Vec origin = Vec::Zero();
+  double scale = 1, unscale2 = 1;  // unscale2 = 1 / scale^2: squared distances back
+  Vec to(const Vec& x) const { return (x - origin) * scale; }
+};
+
+// A float below x by at least one float step (x itself may be off by 2^-53 of it), and one
+// above; infinite beyond float's range.
+float float_below(double x) {
   constexpr double kMax = std::numeric_limits<float>::max();
+  constexpr float kInf = std::numeric_limits<float>::infinity();
   if (x > kMax) return std::numeric_limits<float>::max();
-  if (x < -kMax) return -std::numeric_limits<float>::infinity();
-  const auto f = static_cast<float>(x);
-  return static_cast<double>(f) > x ? std::nextafter(f, -std::numeric_limits<float>::infinity())
-                                    : f;
+  if (x < -kMax) return -kInf;
+  auto f = static_cast<float>(x);
+  if (static_cast<double>(f) > x) f = std::nextafter(f, -kInf);
+  return std::nextafter(f, -kInf);
 }
-float float_up(double x) {
-  return -float_down(-x);
+float float_above(double x) {
+  return -float_below(-x);
 }
 
 constexpr int kLeafSize = 4;
@@ -116,6 +130,7 @@ struct SurfaceIndex::Impl {
   std::vector<std::array<Vec, 3>> corners;  // leaf order
   std::vector<int> face_of;                 // leaf order: row of F
   std::vector<Node> nodes;                  // nodes[0]: the root
+  Frame frame;                              // the nodes' boxes are in it
 };
 
 namespace {
@@ -129,7 +144,8 @@ std::size_t node_count(int count) {
 // nodes.back(); returns its index. Boxes and centroids come from the corners as it goes: no
 // array of either per triangle.
 int build(std::vector<Node>& nodes, std::vector<int>& order,
-          const std::vector<std::array<Vec, 3>>& corners, int first, int count) {
+          const std::vector<std::array<Vec, 3>>& corners, const Frame& frame, int first,
+          int count) {
   const int index = static_cast<int>(nodes.size());
   nodes.emplace_back();
   constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -143,9 +159,12 @@ int build(std::vector<Node>& nodes, std::vector<int>& order,
     center_lo = center_lo.cwiseMin(center);
     center_hi = center_hi.cwiseMax(center);
   }
+  const Vec lo_in_frame = frame.to(lo), hi_in_frame = frame.to(hi);
   for (int c = 0; c < 3; ++c) {
-    nodes[static_cast<std::size_t>(index)].lo[static_cast<std::size_t>(c)] = float_down(lo[c]);
-    nodes[static_cast<std::size_t>(index)].hi[static_cast<std::size_t>(c)] = float_up(hi[c]);
+    nodes[static_cast<std::size_t>(index)].lo[static_cast<std::size_t>(c)] =
+        float_below(lo_in_frame[c]);
+    nodes[static_cast<std::size_t>(index)].hi[static_cast<std::size_t>(c)] =
+        float_above(hi_in_frame[c]);
   }
   if (count <= kLeafSize) {
     nodes[static_cast<std::size_t>(index)].next = first;
@@ -162,8 +181,8 @@ int build(std::vector<Node>& nodes, std::vector<int>& order,
   std::nth_element(order.begin() + first, order.begin() + first + half,
                    order.begin() + first + count,
                    [&](int a, int b) { return center(a) < center(b); });
-  build(nodes, order, corners, first, half);
-  const int right = build(nodes, order, corners, first + half, count - half);
+  build(nodes, order, corners, frame, first, half);
+  const int right = build(nodes, order, corners, frame, first + half, count - half);
   nodes[static_cast<std::size_t>(index)].next = right;
   return index;
 }
@@ -225,8 +244,21 @@ SurfaceIndex::SurfaceIndex(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F)
   }
   std::vector<int> order(usable);
   std::iota(order.begin(), order.end(), 0);
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  Vec lo = Vec::Constant(kInf), hi = Vec::Constant(-kInf);
+  for (const auto& t : corners)
+    for (const Vec& p : t) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  Frame& frame = impl_->frame;
+  if (const double side = (hi - lo).maxCoeff(); std::isfinite(side) && side > 0) {
+    frame.origin = lo + (hi - lo) / 2;  // (lo + hi) / 2 could overflow
+    int exponent = 0;
+    std::frexp(side, &exponent);  // side in [2^(e-1), 2^e); e kept where 2^-e and 2^2e are
+    exponent = std::clamp(exponent, -500, 500);  // finite (sizes beyond: correct, slower)
+    frame.scale = std::ldexp(1.0, -exponent);
+    frame.unscale2 = std::ldexp(1.0, 2 * exponent);
+  }
   impl_->nodes.reserve(node_count(static_cast<int>(usable)));
-  build(impl_->nodes, order, corners, 0, static_cast<int>(usable));
+  build(impl_->nodes, order, corners, frame, 0, static_cast<int>(usable));
   permute_in_place(corners, face_of, order);
 }
 
@@ -250,7 +282,8 @@ ClosestPoints SurfaceIndex::query(const Eigen::MatrixX3d& Q) const {
       int best_leaf = -1;
       Vec best_point = Vec::Zero(), best_weights(1, 0, 0);
       stack.clear();
-      stack.emplace_back(m.nodes[0].squared_distance(q), 0);
+      const Vec u = m.frame.to(q);  // the query in the boxes' frame
+      stack.emplace_back(m.nodes[0].squared_distance(u) * m.frame.unscale2, 0);
       while (!stack.empty()) {
         const auto [bound, n] = stack.back();
         stack.pop_back();
@@ -271,8 +304,10 @@ ClosestPoints SurfaceIndex::query(const Eigen::MatrixX3d& Q) const {
           continue;
         }
         const int left = n + 1, right = node.next;
-        const double dl = m.nodes[static_cast<std::size_t>(left)].squared_distance(q),
-                     dr = m.nodes[static_cast<std::size_t>(right)].squared_distance(q);
+        const double dl = m.nodes[static_cast<std::size_t>(left)].squared_distance(u) *
+                          m.frame.unscale2,
+                     dr = m.nodes[static_cast<std::size_t>(right)].squared_distance(u) *
+                          m.frame.unscale2;
         // The nearer child on top of the stack: searched first, it makes the best small early.
         if (dl <= dr) {
           if (dr < best) stack.emplace_back(dr, right);

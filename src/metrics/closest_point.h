@@ -20,7 +20,10 @@ struct ClosestPoints {
 };
 
 /// A tree of axis-aligned boxes over the triangles F of V (degenerate triangles skipped), built
-/// once and queried many times (registration queries one surface at every step).
+/// once and queried many times (registration queries one surface at every step). About 100
+/// bytes a triangle while built and after: the corners in double precision (72), the row of F,
+/// and nodes of 32 bytes whose boxes are single precision, relative to the mesh's center and
+/// rounded outward, so that every answer is the one double-precision boxes would give.
 class SurfaceIndex {
  public:
   /// \throw InvalidArgumentError when F has no usable triangle. V and F must outlive it.

@@ -100,15 +100,19 @@ TEST(ClosestPoint, SkipsDegenerateTrianglesAndRefusesAMeshOfThemOnly) {
 
 // The tree keeps its boxes in single precision, rounded outward: a query must still find the
 // exact closest triangle when the triangles differ far below float's resolution. 3,000 slivers
-// side by side 1e-10 apart near x = 1 (float's step there is 1.2e-7, so thousands share one
-// float box), each queried at its own centroid and 1e-11 off it. By construction the sliver
-// queried is the closest (its neighbours are at least 6e-11 away), so the answer must be that
-// triangle, at its plane's distance to the query, to 1e-15.
+// side by side 1e-10 apart near x = 1, and one large triangle at x = -3 (the boxes' frame is
+// centered on the whole mesh, so the slivers sit 2 from its center, where float's step is
+// 2.4e-7: thousands share one float box), each sliver queried at its own centroid and 1e-11
+// off it. By construction the sliver queried is the closest (its neighbours are at least
+// 6e-11 away, the large triangle 4), so the answer must be that triangle, at its plane's
+// distance to the query, to 1e-15.
 TEST(ClosestPoint, TrianglesFinerThanSinglePrecisionAreFoundExactly) {
   const int n = 3000;
   const double step = 1e-10, tolerance = 1e-15;
-  Eigen::MatrixX3d V(3 * n, 3);
-  Eigen::MatrixX3i F(n, 3);
+  Eigen::MatrixX3d V(3 * n + 3, 3);
+  Eigen::MatrixX3i F(n + 1, 3);
+  V.bottomRows(3) << -3, 0, 0, -3, 1, 0, -3, 0, 1;
+  F.row(n) << 3 * n, 3 * n + 1, 3 * n + 2;
   for (int i = 0; i < n; ++i) {
     const double x = 1 + i * step;
     V.row(3 * i) << x, 0, 0;
