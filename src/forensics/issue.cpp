@@ -280,6 +280,9 @@ struct Original {
   Histogram histogram;  ///< the original's, around the fingerprint's center (settings.bits)
   Eigen::MatrixX3d center_motion;  ///< FingerprintFrame's: the field leaves the center alone
   std::size_t counted = 0;         ///< counted carrier vertices
+  /// Why the original has no fingerprint though it has enough counted vertices (its geometry
+  /// gives the basis nothing to stand on: no area, sizes beyond double's squares); empty if not.
+  std::string no_fingerprint;
 };
 
 // What issue_copies keeps of the originals it has read, and Issuer across its calls.
@@ -298,19 +301,26 @@ std::shared_ptr<const Original> prepare_original(const CopyRequest& request,
   Histogram histogram;
   Eigen::MatrixX3d center_motion;
   std::size_t counted = 0;
+  std::string no_fingerprint;
   if (wants_fingerprint(settings)) {
     const std::vector<std::uint8_t> carrier = carrier_vertices(mesh.V, mesh.F);
     counted = static_cast<std::size_t>(std::count(carrier.begin(), carrier.end(), kCounted));
-    if (std::optional<FingerprintFrame> frame =
-            fingerprint_frame(mesh.V, mesh.F, settings.embedding.variant.center, settings.bits)) {
-      basis = std::move(frame->basis);
-      histogram = std::move(frame->histogram);
-      center_motion = std::move(frame->center_motion);
+    try {
+      if (std::optional<FingerprintFrame> frame =
+              fingerprint_frame(mesh.V, mesh.F, settings.embedding.variant.center, settings.bits)) {
+        basis = std::move(frame->basis);
+        histogram = std::move(frame->histogram);
+        center_motion = std::move(frame->center_motion);
+      }
+    } catch (const InvalidArgumentError& e) {
+      // The copy then goes as one without a fingerprint (make_copy says why), and its
+      // histogram mark says what it can do with such a shape.
+      no_fingerprint = e.what();
     }
   }
-  return std::make_shared<const Original>(Original{std::move(mesh), std::move(embedder),
-                                                   std::move(basis), std::move(histogram),
-                                                   std::move(center_motion), counted});
+  return std::make_shared<const Original>(
+      Original{std::move(mesh), std::move(embedder), std::move(basis), std::move(histogram),
+               std::move(center_motion), counted, std::move(no_fingerprint)});
 }
 
 // The distortion of positions V of the original O as calibration measures it: each counted
@@ -397,8 +407,12 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   }
   if (coded && wants_fingerprint(settings) && !original.fingerprint) {
     const std::string few =
-        fmt::format("{}: {} counted carrier vertices are too few for a fingerprint ({} at least)",
-                    request.input, original.counted, 16 * 8);
+        original.no_fingerprint.empty()
+            ? fmt::format(
+                  "{}: {} counted carrier vertices are too few for a fingerprint ({} at least)",
+                  request.input, original.counted, 16 * 8)
+            : fmt::format("{}: no fingerprint can be made on it ({})", request.input,
+                          original.no_fingerprint);
     if (required) {
       refuse(out, few + "; issue it without one");
       return;

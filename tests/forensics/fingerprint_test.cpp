@@ -729,6 +729,32 @@ TEST(Fingerprint, RegisteredCopiesCarryItByDefault) {
   EXPECT_EQ(refused.status, CopyStatus::Refused);
   EXPECT_NE(refused.message.find("too few for a fingerprint"), std::string::npos)
       << refused.message;
+  // Enough vertices, but a geometry the basis cannot stand on: coordinates 1e200 times the
+  // original's (areas and squared distances overflow double). The copy goes on without a
+  // fingerprint, saying why, and its histogram mark then says what it can do (here: not
+  // embedded, a named status); with a fingerprint required, it is refused naming the reason.
+  // Neither throws (the CLI exited 1, "bad command line", with no file named).
+  Mesh huge = read_mesh(original);
+  huge.V *= 1e200;
+  huge.image.reset();
+  CopyRequest h;
+  h.mesh = std::make_shared<const Mesh>(std::move(huge));
+  h.input = "huge original", h.output = dir + "/huge.ply", h.id = 6, h.buyer = "buyer 6";
+  settings.registry = dir + "/huge.db";
+  settings.fingerprint.reset();
+  const CopyOutcome without_basis = issue_copies({h}, settings).copies[0];
+  EXPECT_EQ(without_basis.status, CopyStatus::NotEmbedded) << without_basis.message;
+  EXPECT_TRUE(std::any_of(without_basis.warnings.begin(), without_basis.warnings.end(),
+                          [](const auto& w) {
+                            return w.find("huge original: no fingerprint can be made on it") !=
+                                   std::string::npos;
+                          }))
+      << without_basis.message;
+  settings.fingerprint = true;
+  const CopyOutcome huge_refused = issue_copies({h}, settings).copies[0];
+  EXPECT_EQ(huge_refused.status, CopyStatus::Refused);
+  EXPECT_NE(huge_refused.message.find("no fingerprint can be made on it"), std::string::npos)
+      << huge_refused.message;
   CopyRequest raw;
   raw.input = original, raw.output = dir + "/raw.ply", raw.payload_hex = "00ff00ff";
   settings.registry.clear();
