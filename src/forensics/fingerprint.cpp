@@ -297,6 +297,13 @@ void check_reading(Eigen::Index n, const Eigen::VectorXd& residual,
     throw InvalidArgumentError("the histogram to keep is of another mesh");
 }
 
+// 1 for the counted vertices of carrier, 0 for the others.
+std::vector<std::uint8_t> counted_mask(const std::vector<std::uint8_t>& carrier) {
+  std::vector<std::uint8_t> mask(carrier.size());
+  for (std::size_t i = 0; i < mask.size(); ++i) mask[i] = carrier[i] == kCounted;
+  return mask;
+}
+
 }  // namespace
 
 int fingerprint_functions(std::size_t counted, const FingerprintOptions& options) {
@@ -323,7 +330,7 @@ Eigen::VectorXd FingerprintBasis::field(const Eigen::VectorXd& a) const {
   return s;
 }
 
-FingerprintBasis fingerprint_basis(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+FingerprintBasis fingerprint_bumps(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                                    const std::vector<std::uint8_t>& carrier,
                                    const Eigen::Vector3d& center, int functions) {
   if (functions < 1 || functions > kMaxFingerprintFunctions)
@@ -366,11 +373,16 @@ FingerprintBasis fingerprint_basis(const Eigen::MatrixX3d& V, const Eigen::Matri
   }
   b.points.resize(functions, 3);
   for (int k = 0; k < functions; ++k) b.points.row(k) = V.row(b.centers[k]);
-  // The bumps at the counted vertices, then scaled to a mean square of 1 over them.
-  std::vector<std::uint8_t> mask(carrier.size());
-  for (std::size_t i = 0; i < mask.size(); ++i) mask[i] = carrier[i] == kCounted;
-  b.scale = 1 / std::sqrt(bump_mean_square(b, V, mask, counted.size()));
-  evaluate_bumps(b, BumpGrid(b.points, 3 * b.width), V, mask);
+  // Scaled to a mean square of 1 over the counted vertices.
+  b.scale = 1 / std::sqrt(bump_mean_square(b, V, counted_mask(carrier), counted.size()));
+  return b;
+}
+
+FingerprintBasis fingerprint_basis(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                                   const std::vector<std::uint8_t>& carrier,
+                                   const Eigen::Vector3d& center, int functions) {
+  FingerprintBasis b = fingerprint_bumps(V, F, carrier, center, functions);
+  evaluate_bumps(b, BumpGrid(b.points, 3 * b.width), V, counted_mask(carrier));
   return b;
 }
 

@@ -403,12 +403,9 @@ std::optional<FingerprintBasis> fingerprint_reading(
   for (const std::uint8_t c : carrier) counted += c == kCounted;
   const int functions = fingerprint_functions(counted);
   if (functions <= 0) return std::nullopt;
-  FingerprintBasis basis = fingerprint_basis(original.V, original.F, carrier, h.center, functions);
-  // Its rows at the original's vertices are not read again: the readings evaluate the bumps at
-  // the crossings. Freed, they leave room for those.
-  // (Moved from, not assigned {}: that keeps the capacity.)
-  basis.row_start = decltype(basis.row_start)(), basis.index = decltype(basis.index)();
-  basis.value = decltype(basis.value)();
+  // The bumps alone: the readings evaluate them at the crossings, never at the original's
+  // vertices.
+  FingerprintBasis basis = fingerprint_bumps(original.V, original.F, carrier, h.center, functions);
   const std::vector<std::uint8_t> leak_carrier = carrier_vertices(VL, FL);
   const Smoother on_original(original.F, original.V.rows()), on_leak(FL, VL.rows());
   std::vector<std::string> taken;

@@ -1022,12 +1022,21 @@ TEST(Fingerprint, ReadingAtPointsInBlocksIsTheWholeBasisReadingBitForBit) {
   const Histogram classes = histogram_at(h, P, mask);
   const FingerprintBasis whole = fingerprint_basis_at(s.basis, P, mask);
   ASSERT_GT(whole.index.size(), 0U);
+  const FingerprintBasis bumps =
+      fingerprint_bumps(s.original.V, s.original.F, s.carrier, s.basis.center, s.basis.functions);
+  EXPECT_TRUE(bumps.row_start.empty() && bumps.index.empty() && bumps.value.empty());
+  EXPECT_EQ(bumps.points, s.basis.points);
+  EXPECT_EQ(bumps.scale, s.basis.scale);
+  EXPECT_EQ(bumps.width, s.basis.width);
   for (const Histogram* keep : {static_cast<const Histogram*>(nullptr), &classes})
     for (const double ridge : {0.0, 1.0}) {
       const Eigen::VectorXd expected = read_fingerprint(whole, r, mask, keep, ridge);
       const Eigen::VectorXd b = read_fingerprint_at(s.basis, P, r, mask, keep, ridge);
       ASSERT_TRUE(expected.allFinite());
       EXPECT_EQ(b, expected) << (keep ? "with" : "without") << " classes, ridge " << ridge;
+      // trace reads with the bumps alone (fingerprint_bumps: no rows at the original's
+      // vertices): the same reading.
+      EXPECT_EQ(read_fingerprint_at(bumps, P, r, mask, keep, ridge), expected);
     }
   // Its checks are read_fingerprint's and fingerprint_basis_at's.
   EXPECT_THROW(read_fingerprint_at(s.basis, P, r.head(n - 1), mask), InvalidArgumentError);

@@ -95,6 +95,14 @@ FingerprintBasis fingerprint_basis(const Eigen::MatrixX3d& V, const Eigen::Matri
                                    const std::vector<std::uint8_t>& carrier,
                                    const Eigen::Vector3d& center, int functions);
 
+/// fingerprint_basis' bumps (functions, center, diagonal, width, centers, points, scale)
+/// without its rows (row_start, index and value empty): what read_fingerprint_at needs. trace
+/// reads a leak with them and never needs the rows at the original's vertices.
+/// \throw InvalidArgumentError as fingerprint_basis does.
+FingerprintBasis fingerprint_bumps(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                                   const std::vector<std::uint8_t>& carrier,
+                                   const Eigen::Vector3d& center, int functions);
+
 /// The same K bumps (basis' points, width and scale) evaluated at other points: row i holds
 /// phi_k(P_i) for the bumps within 3 w of P_i, for the rows with mask[i] != 0 (none for the
 /// others). trace reads a leak at its own vertices with it: a resampled leak's vertices lie on
