@@ -61,8 +61,7 @@ Mesh rebuilt(const Mesh& like, Eigen::MatrixX3d V, Polygons faces) {
   out.format = like.format;
   out.encoding = like.encoding;
   out.V = std::move(V);
-  out.F = triangulate(faces);
-  out.faces = std::move(faces);
+  set_faces(out, std::move(faces));
   return out;
 }
 
@@ -72,18 +71,18 @@ Mesh attack_reorder(const Mesh& mesh, std::uint64_t seed) {
   Random rng(seed);
   const std::vector<int> new_of_old =
       random_permutation(static_cast<std::size_t>(mesh.V.rows()), rng);
-  const std::vector<int> face_order = random_permutation(mesh.faces.size(), rng);
+  const FaceView from(mesh);
+  const std::vector<int> face_order = random_permutation(from.size(), rng);
   Eigen::MatrixX3d V(mesh.V.rows(), 3);
   for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) V.row(new_of_old[i]) = mesh.V.row(i);
   Polygons faces;
   std::vector<int> face;
   for (int k : face_order) {
-    const auto b = mesh.faces.offsets[k], e = mesh.faces.offsets[k + 1];
-    const auto n = static_cast<std::size_t>(e - b);
+    const auto f = static_cast<std::size_t>(k);
+    const std::size_t n = from.size_of(f);
     face.resize(n);
     const std::size_t shift = n > 0 ? rng.index(n) : 0;
-    for (std::size_t c = 0; c < n; ++c)
-      face[c] = new_of_old[mesh.faces.indices[b + (c + shift) % n]];
+    for (std::size_t c = 0; c < n; ++c) face[c] = new_of_old[from.corner(f, (c + shift) % n)];
     faces.push_back(face.data(), n);
   }
   return rebuilt(mesh, std::move(V), std::move(faces));
@@ -187,12 +186,13 @@ Mesh attack_crop(const Mesh& mesh, double fraction, std::uint64_t seed) {
     if (new_index[i] >= 0) V.row(new_index[i]) = mesh.V.row(i);
   Polygons faces;
   std::vector<int> face;
-  for (std::size_t k = 0; k < mesh.faces.size(); ++k) {
+  const FaceView from(mesh);
+  for (std::size_t k = 0; k < from.size(); ++k) {
     face.clear();
     bool keep = true;
-    for (auto c = mesh.faces.offsets[k]; c < mesh.faces.offsets[k + 1] && keep; ++c) {
-      keep = new_index[mesh.faces.indices[c]] >= 0;
-      face.push_back(new_index[mesh.faces.indices[c]]);
+    for (std::size_t c = 0; c < from.size_of(k) && keep; ++c) {
+      keep = new_index[from.corner(k, c)] >= 0;
+      face.push_back(new_index[from.corner(k, c)]);
     }
     if (keep) faces.push_back(face.data(), face.size());
   }

@@ -51,8 +51,7 @@ Mesh midpoint_step(const Mesh& mesh) {
   out.V.topRows(nv) = mesh.V;
   for (std::size_t k = 0; k < added.size(); ++k)
     out.V.row(nv + static_cast<Eigen::Index>(k)) = added[k];
-  out.F = triangulate(faces);
-  out.faces = std::move(faces);
+  set_faces(out, std::move(faces));
   return out;
 }
 

@@ -81,14 +81,15 @@ Mesh from_surface_mesh(SurfaceMesh& sm, const Mesh& like) {
     const auto& p = sm.point(v);
     out.V.row(static_cast<Eigen::Index>(v.idx())) << p.x(), p.y(), p.z();
   }
+  Polygons faces;
   std::vector<int> face;
   for (auto f : sm.faces()) {
     face.clear();
     for (auto v : CGAL::vertices_around_face(sm.halfedge(f), sm))
       face.push_back(static_cast<int>(v.idx()));
-    out.faces.push_back(face.data(), face.size());
+    faces.push_back(face.data(), face.size());
   }
-  out.F = triangulate(out.faces);
+  set_faces(out, std::move(faces));
   return out;
 }
 

@@ -81,9 +81,20 @@ Polygons polygons_from_triangles(const Eigen::MatrixX3i& F) {
   return faces;
 }
 
+void set_faces(Mesh& mesh, Polygons faces) {
+  mesh.F = triangulate(faces);
+  const bool triangles = static_cast<std::size_t>(mesh.F.rows()) == faces.size() &&
+                         faces.indices.size() == 3 * faces.size();
+  mesh.faces = triangles ? Polygons{} : std::move(faces);
+}
+
+Polygons file_faces(const Mesh& mesh) {
+  if (mesh.faces.size() > 0) return mesh.faces;
+  return polygons_from_triangles(mesh.F);
+}
+
 Mesh make_mesh(Eigen::MatrixX3d V, Eigen::MatrixX3i F) {
   Mesh mesh;
-  mesh.faces = polygons_from_triangles(F);
   mesh.V = std::move(V);
   mesh.F = std::move(F);
   return mesh;

@@ -6,7 +6,10 @@
 #include <cstring>
 #include <limits>
 
+#include <fmt/format.h>
+
 #include "core/text_scan.h"
+#include "meshmark/core/error.h"
 
 namespace meshmark::detail {
 
@@ -106,11 +109,29 @@ void write_scalar(char* data, SlotType type, bool big_endian, double value) {
   }
 }
 
+double slot_value(const std::string& bytes, const CoordSlot& slot) {
+  const std::uint64_t offset = slot.offset;
+  const std::uint64_t length = slot.type == SlotType::Text
+                                   ? std::uint64_t{slot.length}
+                                   : static_cast<std::uint64_t>(slot_type_size(slot.type));
+  if (offset > bytes.size() || length > bytes.size() - offset)
+    throw InvalidArgumentError(fmt::format(
+        "a stored coordinate at byte {} (length {}) lies outside the file image of {} bytes",
+        offset, length, bytes.size()));
+  if (slot.type != SlotType::Text)
+    return read_scalar(bytes.data() + offset, slot.type, slot.big_endian);
+  double value = 0;
+  if (!parse_double(std::string_view(bytes).substr(offset, length), value))
+    throw InvalidArgumentError(
+        fmt::format("the stored coordinate at byte {} is no longer a number", offset));
+  return value;
+}
+
 bool image_applies(const Mesh& mesh, FileFormat format, Encoding encoding) {
   const FileImage* image = mesh.image.get();
   return image && image->format == format && image->encoding == encoding &&
-         image->V.rows() == mesh.V.rows() && image->face_count == mesh.faces.size() &&
-         image->face_index_count == mesh.faces.indices.size();
+         image->vertices == mesh.V.rows() && image->face_count == FaceView(mesh).size() &&
+         image->face_index_count == FaceView(mesh).corners();
 }
 
 namespace {
@@ -118,9 +139,18 @@ namespace {
 bool new_value(const FileImage& image, const CoordSlot& slot, const Eigen::MatrixX3d& V,
                double& value) {
   const double now = V(slot.vertex, slot.axis);
+  const auto same = [now](double then) {
+    return now == then && std::signbit(now) == std::signbit(then);
+  };
+  if (image.V.size() == 0) {  // each slot holds its vertex's value as read (FileImage::V)
+    const double original = slot_value(image.bytes, slot);
+    value = now;
+    return !same(original);
+  }
   const double then = image.V(slot.vertex, slot.axis);
-  if (now == then && std::signbit(now) == std::signbit(then)) return false;
-  value = slot.original == then ? now : slot.original + (now - then);
+  if (same(then)) return false;
+  const double original = slot_value(image.bytes, slot);
+  value = original == then ? now : original + (now - then);
   return true;
 }
 }  // namespace

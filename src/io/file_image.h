@@ -24,15 +24,18 @@ enum class SlotType : std::uint8_t {
 };
 
 /// One stored coordinate: where it is, how it is stored, and which vertex and axis it holds.
+/// 16 bytes; the value stored is read again from the bytes when needed (slot_value).
 struct CoordSlot {
-  std::uint64_t offset = 0;  ///< byte offset in FileImage::bytes
-  double original = 0;       ///< the value stored there
-  std::int32_t vertex = 0;   ///< the vertex (row of V) it belongs to
-  std::uint16_t length = 0;  ///< byte length (text token length, or the binary type's size)
-  std::uint8_t axis = 0;     ///< 0, 1, 2 for x, y, z
+  std::uint64_t offset : 48 = 0;  ///< byte offset in FileImage::bytes (below 2^48)
+  std::uint64_t length : 16 = 0;  ///< byte length (text token length, or the binary type's size)
+  std::int32_t vertex = 0;        ///< the vertex (row of V) it belongs to
+  std::uint8_t axis = 0;          ///< 0, 1, 2 for x, y, z
   SlotType type = SlotType::Text;
   bool big_endian = false;
 };
+/// The longest text coordinate a slot holds (characters); the readers refuse longer ones.
+inline constexpr std::size_t kMaxCoordinateText = 65535;
+static_assert(sizeof(CoordSlot) == 16, "a stored coordinate costs 16 bytes");
 
 /// What a format's writer keeps beside the bytes (glTF, Draco, 3MF define their own).
 struct FormatImage {
@@ -44,8 +47,13 @@ struct FileImage {
   Encoding encoding = Encoding::Ascii;
   std::string bytes;             ///< the whole source file
   std::vector<CoordSlot> slots;  ///< in increasing offset order
-  Eigen::MatrixX3d V;            ///< positions as read (rows of the mesh)
-  std::size_t face_count = 0;    ///< faces as read, to detect changed connectivity
+  Eigen::Index vertices = 0;     ///< the mesh's vertices as read (rows of V)
+  /// Positions as read, where a stored coordinate may differ from its vertex's (welded files,
+  /// and the formats whose writers move file vertices: glTF, 3MF, Draco). Empty for OFF, OBJ
+  /// and PLY read without welding: each slot then holds its vertex's value as read, and
+  /// slot_value gives it back (24 bytes a vertex not held).
+  Eigen::MatrixX3d V;
+  std::size_t face_count = 0;  ///< faces as read, to detect changed connectivity
   std::size_t face_index_count = 0;
   std::shared_ptr<const FormatImage> extra;  ///< the format's own record, if any
 };
@@ -57,6 +65,11 @@ int slot_type_size(SlotType type);
 
 /// Reads a binary scalar of the given type at data (endianness as given) as a double.
 double read_scalar(const char* data, SlotType type, bool big_endian);
+
+/// The value a slot holds in bytes: its binary scalar, or its text token parsed as the readers
+/// parse it (parse_double). \throw InvalidArgumentError when the slot lies outside bytes or its
+/// token is not a number (the bytes are not those the slot was read from).
+double slot_value(const std::string& bytes, const CoordSlot& slot);
 
 /// Writes value, converted to type (integers rounded and clamped), at data.
 void write_scalar(char* data, SlotType type, bool big_endian, double value);

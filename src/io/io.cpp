@@ -47,9 +47,8 @@ Mesh assemble(Parsed parsed, std::string bytes, FileFormat format, Encoding enco
   const auto nv = static_cast<Eigen::Index>(parsed.xyz.size() / 3);
   mesh.V = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(
       parsed.xyz.data(), nv, 3);
-  mesh.F = triangulate(parsed.faces);
+  set_faces(mesh, std::move(parsed.faces));
   if (mesh.F.rows() == 0) fail(name, 0, "no face has three or more vertices");
-  mesh.faces = std::move(parsed.faces);
   mesh.format = format;
   mesh.encoding = encoding;
   mesh.source_path = name;
@@ -62,9 +61,11 @@ Mesh assemble(Parsed parsed, std::string bytes, FileFormat format, Encoding enco
     auto by_offset = [](const CoordSlot& a, const CoordSlot& b) { return a.offset < b.offset; };
     if (!std::is_sorted(image->slots.begin(), image->slots.end(), by_offset))
       std::sort(image->slots.begin(), image->slots.end(), by_offset);
-    image->V = mesh.V;
-    image->face_count = mesh.faces.size();
-    image->face_index_count = mesh.faces.indices.size();
+    image->vertices = mesh.V.rows();
+    if (split_format || options.weld_tolerance > 0) image->V = mesh.V;
+    const FaceView faces(mesh);
+    image->face_count = faces.size();
+    image->face_index_count = faces.corners();
     image->extra = std::move(extra);
     mesh.image = std::move(image);
   }
@@ -102,9 +103,11 @@ void attach_image(Mesh& mesh, std::shared_ptr<const FormatImage> extra,
   auto image = std::make_shared<FileImage>();
   image->format = mesh.format;
   image->encoding = mesh.encoding;
+  image->vertices = mesh.V.rows();
   image->V = mesh.V;
-  image->face_count = mesh.faces.size();
-  image->face_index_count = mesh.faces.indices.size();
+  const FaceView faces(mesh);
+  image->face_count = faces.size();
+  image->face_index_count = faces.corners();
   image->extra = std::move(extra);
   mesh.image = std::move(image);
 }

@@ -532,8 +532,9 @@ std::string write_gltf(const Mesh& mesh, FileFormat format, const WriteOptions& 
   const FileImage* image = mesh.image.get();
   const auto* g = image ? dynamic_cast<const GltfImage*>(image->extra.get()) : nullptr;
   const bool applies = options.keep_source && g && image->format == format &&
-                       image->V.rows() == mesh.V.rows() && image->face_count == mesh.faces.size() &&
-                       image->face_index_count == mesh.faces.indices.size();
+                       image->vertices == mesh.V.rows() &&
+                       image->face_count == FaceView(mesh).size() &&
+                       image->face_index_count == FaceView(mesh).corners();
   if (!applies) return write_new(mesh, format);
 
   Patch p{mesh, *image, *g, {}, {}, {}, {}};

@@ -27,9 +27,12 @@ void parse_vertex(const std::vector<Token>& tokens, const std::string& name, std
     if (!std::isfinite(x))
       fail(name, line, fmt::format("vertex {}: coordinate {} is not finite", i + 1, quote(t.text)));
     parsed.xyz.push_back(x);
+    if (t.text.size() > kMaxCoordinateText)
+      fail(name, line,
+           fmt::format("vertex {}: a coordinate of {} characters (at most {})", i + 1,
+                       t.text.size(), kMaxCoordinateText));
     if (parsed.keep_slots)
-      parsed.slots.push_back({t.offset, x, i, static_cast<std::uint16_t>(t.text.size()),
-                              static_cast<std::uint8_t>(a)});
+      parsed.slots.push_back({t.offset, t.text.size(), i, static_cast<std::uint8_t>(a)});
   }
 }
 
@@ -103,17 +106,18 @@ Mesh read_obj(std::string bytes, const std::string& name, const ReadOptions& opt
 
 std::string write_obj(const Mesh& mesh) {
   std::string out = "# written by meshmark\n";
-  out.reserve(static_cast<std::size_t>(mesh.V.rows()) * 40 + mesh.faces.indices.size() * 8);
+  const FaceView faces(mesh);
+  out.reserve(static_cast<std::size_t>(mesh.V.rows()) * 40 + faces.corners() * 8);
   for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
     out += "v ";
     append_position(out, mesh.V, i);
     out += '\n';
   }
-  for (std::size_t k = 0; k < mesh.faces.size(); ++k) {
+  for (std::size_t k = 0; k < faces.size(); ++k) {
     out += 'f';
-    for (auto c = mesh.faces.offsets[k]; c < mesh.faces.offsets[k + 1]; ++c) {
+    for (std::size_t c = 0; c < faces.size_of(k); ++c) {
       out += ' ';
-      out += std::to_string(mesh.faces.indices[c] + 1);
+      out += std::to_string(faces.corner(k, c) + 1);
     }
     out += '\n';
   }

@@ -90,10 +90,13 @@ Mesh read_off(std::string bytes, const std::string& name, const ReadOptions& opt
         fail(name, lines.line_number(),
              fmt::format("vertex {}: coordinate {} is not finite", i, quote(tokens[a].text)));
       parsed.xyz.push_back(x);
+      if (tokens[a].text.size() > kMaxCoordinateText)
+        fail(name, lines.line_number(),
+             fmt::format("vertex {}: a coordinate of {} characters (at most {})", i,
+                         tokens[a].text.size(), kMaxCoordinateText));
       if (parsed.keep_slots)
-        parsed.slots.push_back({tokens[a].offset, x, static_cast<std::int32_t>(i),
-                                static_cast<std::uint16_t>(tokens[a].text.size()),
-                                static_cast<std::uint8_t>(a)});
+        parsed.slots.push_back({tokens[a].offset, tokens[a].text.size(),
+                                static_cast<std::int32_t>(i), static_cast<std::uint8_t>(a)});
     }
   }
   std::vector<int> face;
@@ -129,17 +132,17 @@ Mesh read_off(std::string bytes, const std::string& name, const ReadOptions& opt
 }
 
 std::string write_off(const Mesh& mesh) {
-  std::string out = fmt::format("OFF\n{} {} 0\n", mesh.V.rows(), mesh.faces.size());
+  const FaceView faces(mesh);
+  std::string out = fmt::format("OFF\n{} {} 0\n", mesh.V.rows(), faces.size());
   for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
     append_position(out, mesh.V, i);
     out += '\n';
   }
-  for (std::size_t k = 0; k < mesh.faces.size(); ++k) {
-    const auto b = mesh.faces.offsets[k], e = mesh.faces.offsets[k + 1];
-    out += std::to_string(e - b);
-    for (auto c = b; c < e; ++c) {
+  for (std::size_t k = 0; k < faces.size(); ++k) {
+    out += std::to_string(faces.size_of(k));
+    for (std::size_t c = 0; c < faces.size_of(k); ++c) {
       out += ' ';
-      out += std::to_string(mesh.faces.indices[c]);
+      out += std::to_string(faces.corner(k, c));
     }
     out += '\n';
   }

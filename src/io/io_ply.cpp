@@ -248,9 +248,12 @@ void read_ascii_body(const std::string& bytes, const Header& header, std::int64_
               fail(name, tokens.line(),
                    fmt::format("vertex {}: coordinate {} is not finite", r, quote(t.text)));
             parsed.xyz[3 * r + axis] = x;
+            if (t.text.size() > kMaxCoordinateText)
+              fail(name, tokens.line(),
+                   fmt::format("vertex {}: a coordinate of {} characters (at most {})", r,
+                               t.text.size(), kMaxCoordinateText));
             if (parsed.keep_slots)
-              parsed.slots.push_back({t.offset, x, static_cast<std::int32_t>(r),
-                                      static_cast<std::uint16_t>(t.text.size()),
+              parsed.slots.push_back({t.offset, t.text.size(), static_cast<std::int32_t>(r),
                                       static_cast<std::uint8_t>(axis)});
           } else if (static_cast<int>(k) == plan.list_index) {
             if (x != std::floor(x) || std::abs(x) > 2e9)
@@ -316,9 +319,9 @@ void read_binary_body(const std::string& bytes, const Header& header, std::int64
             fail(name, 0, fmt::format("vertex {}: coordinate {} is not finite", r, "xyz"[axis]));
           parsed.xyz[3 * r + axis] = x;
           if (parsed.keep_slots)
-            parsed.slots.push_back({pos, x, static_cast<std::int32_t>(r),
-                                    static_cast<std::uint16_t>(size),
-                                    static_cast<std::uint8_t>(axis), p.type, big});
+            parsed.slots.push_back({pos, static_cast<std::uint64_t>(size),
+                                    static_cast<std::int32_t>(r), static_cast<std::uint8_t>(axis),
+                                    p.type, big});
         } else if (static_cast<int>(k) == plan.list_index) {
           list.resize(static_cast<std::size_t>(n));
           for (std::int64_t j = 0; j < n; ++j)
@@ -358,13 +361,14 @@ Mesh read_ply(std::string bytes, const std::string& name, const ReadOptions& opt
 std::string write_ply(const Mesh& mesh, Encoding encoding, bool single_precision,
                       const Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 3>* colors) {
   const char* scalar = single_precision ? "float" : "double";
+  const FaceView faces(mesh);
   std::string out = fmt::format(
       "ply\nformat {} 1.0\ncomment written by meshmark\nelement vertex {}\nproperty {} x\n"
       "property {} y\nproperty {} z\n{}element face {}\nproperty list uchar int vertex_indices\n"
       "end_header\n",
       encoding_name(encoding), mesh.V.rows(), scalar, scalar, scalar,
       colors ? "property uchar red\nproperty uchar green\nproperty uchar blue\n" : "",
-      mesh.faces.size());
+      faces.size());
   if (encoding == Encoding::Ascii) {
     for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
       if (single_precision) {
@@ -378,10 +382,10 @@ std::string write_ply(const Mesh& mesh, Encoding encoding, bool single_precision
                            int{(*colors)(i, 2)});
       out += '\n';
     }
-    for (std::size_t k = 0; k < mesh.faces.size(); ++k) {
-      out += std::to_string(mesh.faces.offsets[k + 1] - mesh.faces.offsets[k]);
-      for (auto c = mesh.faces.offsets[k]; c < mesh.faces.offsets[k + 1]; ++c)
-        out += ' ' + std::to_string(mesh.faces.indices[c]);
+    for (std::size_t k = 0; k < faces.size(); ++k) {
+      out += std::to_string(faces.size_of(k));
+      for (std::size_t c = 0; c < faces.size_of(k); ++c)
+        out += ' ' + std::to_string(faces.corner(k, c));
       out += '\n';
     }
     return out;
@@ -397,16 +401,16 @@ std::string write_ply(const Mesh& mesh, Encoding encoding, bool single_precision
       write_scalar(out.data() + pos, type, big, mesh.V(i, a));
     for (std::size_t a = 0; a < color_bytes; ++a) out[pos++] = static_cast<char>((*colors)(i, a));
   }
-  for (std::size_t k = 0; k < mesh.faces.size(); ++k) {
-    const auto n = mesh.faces.offsets[k + 1] - mesh.faces.offsets[k];
+  for (std::size_t k = 0; k < faces.size(); ++k) {
+    const std::size_t n = faces.size_of(k);
     if (n > 255)
       throw InvalidArgumentError(
           fmt::format("face {} has {} vertices; PLY uchar counts allow 255", k, n));
-    out.resize(out.size() + 1 + static_cast<std::size_t>(n) * 4);
+    out.resize(out.size() + 1 + n * 4);
     write_scalar(out.data() + pos, SlotType::UInt8, big, static_cast<double>(n));
     pos += 1;
-    for (auto c = mesh.faces.offsets[k]; c < mesh.faces.offsets[k + 1]; ++c, pos += 4)
-      write_scalar(out.data() + pos, SlotType::Int32, big, mesh.faces.indices[c]);
+    for (std::size_t c = 0; c < n; ++c, pos += 4)
+      write_scalar(out.data() + pos, SlotType::Int32, big, faces.corner(k, c));
   }
   return out;
 }

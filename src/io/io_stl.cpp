@@ -226,6 +226,10 @@ Corners read_ascii_corners(const std::string& bytes, const std::string& name) {
         if (!std::isfinite(x))
           fail(name, ln,
                fmt::format("facet {}: coordinate {} is not finite", facets, quote(tokens[a].text)));
+        if (tokens[a].text.size() > kMaxCoordinateText)
+          fail(name, ln,
+               fmt::format("facet {}: a coordinate of {} characters (at most {})", facets,
+                           tokens[a].text.size(), kMaxCoordinateText));
         corners.xyz.push_back(x);
         corners.offset.push_back(tokens[a].offset);
         corners.length.push_back(static_cast<std::uint16_t>(tokens[a].text.size()));
@@ -311,9 +315,8 @@ Mesh read_stl(std::string bytes, const std::string& name, const ReadOptions& opt
   parsed.slots.resize(parsed.xyz.size());
   for (std::size_t k = 0; k < parsed.xyz.size(); ++k)
     parsed.slots[k] = {corners.offset[k],
-                       parsed.xyz[k],
-                       static_cast<std::int32_t>(k / 3),
                        corners.length[k],
+                       static_cast<std::int32_t>(k / 3),
                        static_cast<std::uint8_t>(k % 3),
                        binary ? SlotType::Float32 : SlotType::Text,
                        false};

@@ -23,6 +23,56 @@ TEST(Mesh, TriangulateFansPolygonsAndSkipsShortFaces) {
   EXPECT_EQ(F.row(2), Eigen::RowVector3i(2, 4, 5));
 }
 
+// The faces as a list of corner lists, read through FaceView.
+std::vector<std::vector<int>> viewed(const Mesh& m) {
+  const FaceView view(m);
+  std::vector<std::vector<int>> out(view.size());
+  std::size_t corners = 0;
+  for (std::size_t k = 0; k < view.size(); ++k) {
+    for (std::size_t c = 0; c < view.size_of(k); ++c) out[k].push_back(view.corner(k, c));
+    corners += out[k].size();
+  }
+  EXPECT_EQ(corners, view.corners());
+  return out;
+}
+
+TEST(Mesh, TrianglesAreKeptOnceAndPolygonsBesideTheirTriangles) {
+  const int t0[] = {0, 1, 2}, t1[] = {2, 1, 3}, quad[] = {0, 1, 3, 4}, edge[] = {4, 2};
+  const std::vector<std::vector<int>> triangles = {{0, 1, 2}, {2, 1, 3}};
+  Polygons faces;
+  faces.push_back(t0, 3);
+  faces.push_back(t1, 3);
+  Mesh m;
+  m.V = Eigen::MatrixX3d::Zero(5, 3);
+  set_faces(m, faces);
+  EXPECT_EQ(m.faces.size(), 0u) << "triangles only: F holds them, no second copy";
+  ASSERT_EQ(m.F.rows(), 2);
+  EXPECT_EQ(m.F.row(1), Eigen::RowVector3i(2, 1, 3));
+  EXPECT_EQ(viewed(m), triangles);
+  EXPECT_EQ(file_faces(m), faces);
+  // A quad, or a face too short for a triangle, is not F's rows: the polygons are kept.
+  for (const bool with_quad : {true, false}) {
+    Polygons mixed = faces;
+    if (with_quad)
+      mixed.push_back(quad, 4);
+    else
+      mixed.push_back(edge, 2);
+    Mesh p;
+    p.V = m.V;
+    set_faces(p, mixed);
+    EXPECT_EQ(p.faces, mixed);
+    EXPECT_EQ(p.F.rows(), with_quad ? 4 : 2);
+    std::vector<std::vector<int>> expected = triangles;
+    expected.push_back(with_quad ? std::vector<int>{0, 1, 3, 4} : std::vector<int>{4, 2});
+    EXPECT_EQ(viewed(p), expected);
+    EXPECT_EQ(file_faces(p), mixed);
+  }
+  // make_mesh keeps none either, and a write gives F back.
+  const Mesh made = make_mesh(m.V, m.F);
+  EXPECT_EQ(made.faces.size(), 0u);
+  EXPECT_EQ(viewed(made), triangles);
+}
+
 TEST(Mesh, ReferencedVerticesMarksOnlyVerticesOfTriangles) {
   Eigen::MatrixX3i F(1, 3);
   F << 0, 2, 3;

@@ -45,7 +45,18 @@ std::vector<Bad> cases() {
   std::string ply_nan = binary_ply_header(3, 1) + std::string(36, '\0');
   std::memcpy(ply_nan.data() + ply_nan.size() - 36 + 4, &nan, 4);
   ply_nan += std::string("\x03\0\0\0\0\x01\0\0\0\x02\0\0\0", 13);
+  // A coordinate longer than a write-back slot can hold (65,535 characters).
+  const std::string longx = "0." + std::string(70000, '0') + "1e70000";  // 0.1
   return {
+      {"off coordinate too long", FileFormat::Off,
+       "OFF\n3 1 0\n0 0 0\n" + longx + " 0 0\n0 1 0\n3 0 1 2\n", 4, "70009 characters"},
+      {"obj coordinate too long", FileFormat::Obj,
+       "v 0 0 0\nv 1 " + longx + " 0\nv 0 1 0\nf 1 2 3\n", 2, "70009 characters"},
+      {"ply ascii coordinate too long", FileFormat::Ply,
+       ply_ascii + "0 0 0\n1 0 0\n0 " + longx + " 0\n3 0 1 2\n", 12, "70009 characters"},
+      {"stl ascii coordinate too long", FileFormat::Stl,
+       "solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 " + longx + "\n", 4,
+       "70009 characters"},
       {"off truncated vertices", FileFormat::Off, "OFF\n4 1 0\n0 0 0\n1 0 0\n", 4,
        "ends after 2 of 4 vertices"},
       {"off wrong face count", FileFormat::Off, "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", 6,
@@ -168,7 +179,7 @@ TEST(IoDefects, UnreferencedDuplicateAndDegenerateAreNormalInput) {
       "f 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\nf 1 1 2\nf 6 3 4\n";  // a degenerate face
   const Mesh m = read_mesh_from_bytes(obj, FileFormat::Obj, "defects.obj");
   EXPECT_EQ(m.V.rows(), 6);
-  EXPECT_EQ(m.faces.size(), 6u);
+  EXPECT_EQ(FaceView(m).size(), 6u);
   EXPECT_EQ(m.F.rows(), 6);
   const auto used = referenced_vertices(m.F, m.V.rows());
   EXPECT_EQ(used[4], 0);

@@ -60,7 +60,10 @@ struct FileImage;
 struct Mesh {
   Eigen::MatrixX3d V;  ///< #V x 3 positions
   Eigen::MatrixX3i F;  ///< #F x 3 triangles (polygons fan-triangulated), 0-based
-  Polygons faces;      ///< the faces as the file gave them (polygons, strips unrolled)
+  /// The faces as the file gave them (polygons, strips unrolled) when they are not exactly F's
+  /// rows; empty when they are (a file of triangles: F alone holds them, and a mesh keeps no
+  /// second copy, 20 bytes a face). FaceView reads them either way; set_faces fills both.
+  Polygons faces;
   FileFormat format = FileFormat::Obj;  ///< format of the source file
   Encoding encoding = Encoding::Ascii;  ///< encoding of the source file
   std::string source_path;              ///< the path it was read from, if any
@@ -84,7 +87,7 @@ void validate_mesh(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                    std::string_view what = "the mesh");
 
 /// validate_mesh(mesh.V, mesh.F, what), and every index of mesh.faces (the polygons a write
-/// gives back) in [0, #V), with consistent offsets.
+/// gives back, when they are not F's rows) in [0, #V), with consistent offsets.
 /// \throw InvalidArgumentError as validate_mesh.
 void validate_mesh(const Mesh& mesh, std::string_view what = "the mesh");
 
@@ -95,7 +98,43 @@ Eigen::MatrixX3i triangulate(const Polygons& faces);
 /// Polygons holding exactly the rows of F.
 Polygons polygons_from_triangles(const Eigen::MatrixX3i& F);
 
-/// A mesh made of V and F alone (faces = F, no file image).
+/// Sets mesh.F to faces fan-triangulated (triangulate) and keeps faces in mesh.faces only when
+/// they are not exactly F's rows (some face is not a triangle); otherwise mesh.faces is empty.
+void set_faces(Mesh& mesh, Polygons faces);
+
+/// The faces a write gives back, without copying them: Mesh::faces, or F's rows when faces is
+/// empty. Valid while the mesh is alive and unchanged.
+class FaceView {
+ public:
+  /// A view of mesh's faces.
+  explicit FaceView(const Mesh& mesh)
+      : polygons_(mesh.faces.size() > 0 ? &mesh.faces : nullptr), F_(&mesh.F) {}
+  /// The number of faces.
+  std::size_t size() const {
+    return polygons_ ? polygons_->size() : static_cast<std::size_t>(F_->rows());
+  }
+  /// The number of corners over all faces (3 a triangle).
+  std::size_t corners() const { return polygons_ ? polygons_->indices.size() : 3 * size(); }
+  /// The number of corners of face k (k < size()).
+  std::size_t size_of(std::size_t k) const {
+    return polygons_ ? static_cast<std::size_t>(polygons_->offsets[k + 1] - polygons_->offsets[k])
+                     : 3;
+  }
+  /// Corner c of face k, a 0-based vertex index (c < size_of(k)).
+  int corner(std::size_t k, std::size_t c) const {
+    return polygons_ ? polygons_->indices[static_cast<std::size_t>(polygons_->offsets[k]) + c]
+                     : (*F_)(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(c));
+  }
+
+ private:
+  const Polygons* polygons_;
+  const Eigen::MatrixX3i* F_;
+};
+
+/// The faces a write gives back (FaceView), copied into polygons.
+Polygons file_faces(const Mesh& mesh);
+
+/// A mesh made of V and F alone (faces empty: they are F's rows; no file image).
 Mesh make_mesh(Eigen::MatrixX3d V, Eigen::MatrixX3i F);
 
 /// 1 for every vertex that some triangle of F references, 0 otherwise (size nv).
