@@ -297,6 +297,9 @@ void check_reading(Eigen::Index n, const Eigen::VectorXd& residual,
     throw InvalidArgumentError("the histogram to keep is of another mesh");
 }
 
+// The rows evaluated at once where a basis' rows are not held: about 14 MB of entries.
+constexpr Eigen::Index kFieldBlock = Eigen::Index{1} << 16;
+
 // 1 for the counted vertices of carrier, 0 for the others.
 std::vector<std::uint8_t> counted_mask(const std::vector<std::uint8_t>& carrier) {
   std::vector<std::uint8_t> mask(carrier.size());
@@ -313,20 +316,55 @@ int fingerprint_functions(std::size_t counted, const FingerprintOptions& options
   return k >= 8 ? k : 0;
 }
 
-Eigen::VectorXd FingerprintBasis::field(const Eigen::VectorXd& a) const {
-  if (a.size() != functions)
-    throw InvalidArgumentError(
-        fmt::format("a fingerprint of {} coefficients for a basis of {}", a.size(), functions));
-  check_rows(*this, false);
-  const Eigen::Index n = static_cast<Eigen::Index>(row_start.size()) - 1;
-  Eigen::VectorXd s = Eigen::VectorXd::Zero(n);
-  for (Eigen::Index i = 0; i < n; ++i)
-    for (int e = row_start[i]; e < row_start[i + 1]; ++e) {
-      if (static_cast<unsigned>(index[e]) >= static_cast<unsigned>(functions))
+namespace {
+
+// Rows [offset, offset + rows' rows) of Phi a into s (and 1 into covered where a row has
+// entries), summed in each row's order of bumps.
+void add_field(const FingerprintBasis& rows, Eigen::Index offset, const Eigen::VectorXd& a,
+               Eigen::VectorXd& s, std::vector<std::uint8_t>* covered) {
+  const Eigen::Index n = static_cast<Eigen::Index>(rows.row_start.size()) - 1;
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const Eigen::Index i = offset + j;
+    for (int e = rows.row_start[j]; e < rows.row_start[j + 1]; ++e) {
+      if (static_cast<unsigned>(rows.index[e]) >= static_cast<unsigned>(rows.functions))
         throw InvalidArgumentError(
-            fmt::format("the basis' row {} names bump {} of {}", i, index[e], functions));
-      s(i) += value[e] * a(index[e]);
+            fmt::format("the basis' row {} names bump {} of {}", i, rows.index[e], rows.functions));
+      s(i) += rows.value[e] * a(rows.index[e]);
     }
+    if (covered && rows.row_start[j + 1] > rows.row_start[j]) (*covered)[i] = 1;
+  }
+}
+
+void check_coefficients(const FingerprintBasis& b, const Eigen::VectorXd& a) {
+  if (a.size() != b.functions)
+    throw InvalidArgumentError(
+        fmt::format("a fingerprint of {} coefficients for a basis of {}", a.size(), b.functions));
+}
+
+}  // namespace
+
+Eigen::VectorXd FingerprintBasis::field(const Eigen::VectorXd& a) const {
+  check_coefficients(*this, a);
+  check_rows(*this, false);
+  Eigen::VectorXd s = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(row_start.size()) - 1);
+  add_field(*this, 0, a, s, nullptr);
+  return s;
+}
+
+Eigen::VectorXd fingerprint_field_at(const FingerprintBasis& basis, const Eigen::MatrixX3d& P,
+                                     const std::vector<std::uint8_t>& mask,
+                                     const Eigen::VectorXd& a, std::vector<std::uint8_t>* covered) {
+  FingerprintBasis block = bumps_of(basis, P, mask);
+  check_coefficients(block, a);
+  const BumpGrid grid(block.points, 3 * block.width);
+  Eigen::VectorXd s = Eigen::VectorXd::Zero(P.rows());
+  if (covered) covered->assign(static_cast<std::size_t>(P.rows()), 0);
+  for (Eigen::Index begin = 0; begin < P.rows(); begin += kFieldBlock) {
+    const Eigen::Index rows = std::min(kFieldBlock, P.rows() - begin);
+    const std::vector<std::uint8_t> part(mask.begin() + begin, mask.begin() + begin + rows);
+    evaluate_bumps(block, grid, P.middleRows(begin, rows), part);
+    add_field(block, begin, a, s, covered);
+  }
   return s;
 }
 
@@ -395,7 +433,7 @@ FingerprintBasis fingerprint_basis_at(const FingerprintBasis& basis, const Eigen
 
 std::optional<FingerprintFrame> fingerprint_frame(const Eigen::MatrixX3d& V,
                                                   const Eigen::MatrixX3i& F, CenterKind kind,
-                                                  int nbits) {
+                                                  int nbits, bool rows) {
   const std::vector<std::uint8_t> carrier = carrier_vertices(V, F);
   const int functions = fingerprint_functions(
       static_cast<std::size_t>(std::count(carrier.begin(), carrier.end(), kCounted)));
@@ -404,9 +442,11 @@ std::optional<FingerprintFrame> fingerprint_frame(const Eigen::MatrixX3d& V,
   Eigen::MatrixX3d U = V.rowwise() - c.point.transpose();  // the rays the field moves along
   for (Eigen::Index i = 0; i < U.rows(); ++i)
     if (const double n = U.row(i).norm(); n > 0) U.row(i) /= n;
-  return FingerprintFrame{fingerprint_basis(V, F, carrier, c.point, functions),
+  return FingerprintFrame{rows ? fingerprint_basis(V, F, carrier, c.point, functions)
+                               : fingerprint_bumps(V, F, carrier, c.point, functions),
                           build_histogram(V, carrier, c.point, nbits),
-                          center_jacobian_products(V, F, carrier, kind, U).E};
+                          center_jacobian_products(V, F, carrier, kind, U).E,
+                          counted_mask(carrier)};
 }
 
 namespace {
@@ -561,15 +601,14 @@ void keep_in_bins(const Eigen::MatrixX3d& V, const Histogram& keep, const Eigen:
 
 }  // namespace
 
-Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX3d& VO,
-                                 const FingerprintBasis& basis, const Eigen::VectorXd& g,
-                                 double rms, const Histogram* keep,
-                                 const Eigen::MatrixX3d* center_motion) {
-  if (V.rows() != VO.rows() || static_cast<Eigen::Index>(basis.row_start.size()) != V.rows() + 1)
-    throw InvalidArgumentError("the copy, the original and the basis differ in vertex count");
-  if (!(rms >= 0 && rms < 0.01))
-    throw InvalidArgumentError(fmt::format("fingerprint RMS {} is outside [0, 0.01)", rms));
-  Eigen::VectorXd s = basis.field(g) * (rms * basis.diagonal);
+namespace {
+
+// add_fingerprint with the field s = Phi g at VO's rows (in model units) and covered[i] != 0
+// where row i has basis entries.
+Eigen::MatrixX3d place_field(const Eigen::MatrixX3d& V, const Eigen::MatrixX3d& VO,
+                             const Eigen::Vector3d& center, Eigen::VectorXd s,
+                             const std::vector<std::uint8_t>& covered, const Histogram* keep,
+                             const Eigen::MatrixX3d* center_motion) {
   if (keep) {
     if (keep->bin.size() != static_cast<std::size_t>(VO.rows()))
       throw InvalidArgumentError("the histogram to keep is of another mesh");
@@ -596,7 +635,7 @@ Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX
   // only when there are any: a map here cost a copy of 44k vertices 15 ms).
   std::vector<Eigen::Index> owner(static_cast<std::size_t>(VO.rows()), -1), without;
   for (Eigen::Index i = 0; i < VO.rows(); ++i) {
-    if (basis.row_start[i + 1] > basis.row_start[i])
+    if (covered[i])
       owner[i] = i;
     else
       without.push_back(i);
@@ -617,11 +656,46 @@ Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX
   Eigen::MatrixX3d out = V;
   for (Eigen::Index i = 0; i < V.rows(); ++i) {
     if (owner[i] < 0) continue;
-    const Eigen::Vector3d u = VO.row(owner[i]).transpose() - basis.center;
+    const Eigen::Vector3d u = VO.row(owner[i]).transpose() - center;
     const double len = u.norm();
     if (len > 0) out.row(i) += (s(owner[i]) / len) * u.transpose();
   }
   return out;
+}
+
+void check_adding(const Eigen::MatrixX3d& V, const Eigen::MatrixX3d& VO, double rms) {
+  if (V.rows() != VO.rows())
+    throw InvalidArgumentError("the copy and the original differ in vertex count");
+  if (!(rms >= 0 && rms < 0.01))
+    throw InvalidArgumentError(fmt::format("fingerprint RMS {} is outside [0, 0.01)", rms));
+}
+
+}  // namespace
+
+Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX3d& VO,
+                                 const FingerprintBasis& basis, const Eigen::VectorXd& g,
+                                 double rms, const Histogram* keep,
+                                 const Eigen::MatrixX3d* center_motion) {
+  check_adding(V, VO, rms);
+  if (static_cast<Eigen::Index>(basis.row_start.size()) != V.rows() + 1)
+    throw InvalidArgumentError("the copy, the original and the basis differ in vertex count");
+  Eigen::VectorXd s = basis.field(g) * (rms * basis.diagonal);
+  std::vector<std::uint8_t> covered(static_cast<std::size_t>(V.rows()), 0);
+  for (Eigen::Index i = 0; i < V.rows(); ++i)
+    covered[i] = basis.row_start[i + 1] > basis.row_start[i];
+  return place_field(V, VO, basis.center, std::move(s), covered, keep, center_motion);
+}
+
+Eigen::MatrixX3d add_fingerprint_at(const Eigen::MatrixX3d& V, const Eigen::MatrixX3d& VO,
+                                    const FingerprintBasis& bumps,
+                                    const std::vector<std::uint8_t>& counted,
+                                    const Eigen::VectorXd& g, double rms, const Histogram* keep,
+                                    const Eigen::MatrixX3d* center_motion) {
+  check_adding(V, VO, rms);
+  std::vector<std::uint8_t> covered;
+  Eigen::VectorXd s = fingerprint_field_at(bumps, VO, counted, g, &covered);
+  s *= rms * bumps.diagonal;
+  return place_field(V, VO, bumps.center, std::move(s), covered, keep, center_motion);
 }
 
 Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::VectorXd& residual,
@@ -643,9 +717,8 @@ Eigen::VectorXd read_fingerprint_at(const FingerprintBasis& basis, const Eigen::
   check_reading(P.rows(), residual, measured, keep, ridge);
   const BumpGrid grid(block.points, 3 * block.width);
   NormalEquations equations(basis.functions, keep);
-  constexpr Eigen::Index kBlock = Eigen::Index{1} << 16;  // rows: about 14 MB of entries
-  for (Eigen::Index begin = 0; begin < P.rows(); begin += kBlock) {
-    const Eigen::Index rows = std::min(kBlock, P.rows() - begin);
+  for (Eigen::Index begin = 0; begin < P.rows(); begin += kFieldBlock) {
+    const Eigen::Index rows = std::min(kFieldBlock, P.rows() - begin);
     const std::vector<std::uint8_t> mask(measured.begin() + begin, measured.begin() + begin + rows);
     evaluate_bumps(block, grid, P.middleRows(begin, rows), mask);
     equations.add(block, begin, residual, measured);

@@ -275,11 +275,14 @@ struct Original {
   Mesh mesh;
   PreparedEmbedder embedder;
   /// The fingerprint's basis (IssueSettings::fingerprint); none without, or for an original
-  /// too small for one (fingerprint_functions()).
+  /// too small for one (fingerprint_functions()). Its bumps alone (no rows) for an original
+  /// prepared for one copy: the rows are then evaluated as the copy is made (add_fingerprint_at).
   std::optional<FingerprintBasis> fingerprint;
   Histogram histogram;  ///< the original's, around the fingerprint's center (settings.bits)
   Eigen::MatrixX3d center_motion;  ///< FingerprintFrame's: the field leaves the center alone
   std::size_t counted = 0;         ///< counted carrier vertices
+  /// Where the basis is evaluated (FingerprintFrame::counted), when its rows are not held.
+  std::vector<std::uint8_t> counted_mask;
   /// Why the original has no fingerprint though it has enough counted vertices (its geometry
   /// gives the basis nothing to stand on: no area, sizes beyond double's squares); empty if not.
   std::string no_fingerprint;
@@ -289,11 +292,15 @@ struct Original {
 struct OriginalCache {
   std::map<std::string, std::shared_ptr<const Original>> prepared;  // by original_key
   std::map<std::string, IssuedCopy> records;  // by original_key: its registry record
+  /// Whether the cache outlives one issue (Issuer): its originals are then prepared with the
+  /// fingerprint's rows, for the copies to come.
+  bool kept = false;
 };
 
-// Reads (unless in memory), checks and prepares an original for every copy made from it.
+// Reads (unless in memory), checks and prepares an original for every copy made from it; for
+// one copy (`several` false), without the fingerprint's rows (Original::fingerprint).
 std::shared_ptr<const Original> prepare_original(const CopyRequest& request,
-                                                 const IssueSettings& settings) {
+                                                 const IssueSettings& settings, bool several) {
   Mesh mesh = request.mesh ? *request.mesh : read_mesh(request.input, settings.read);
   if (request.mesh) validate_mesh(mesh.V, mesh.F, request.input);
   PreparedEmbedder embedder(mesh.V, mesh.F, settings.embedding);
@@ -301,16 +308,18 @@ std::shared_ptr<const Original> prepare_original(const CopyRequest& request,
   Histogram histogram;
   Eigen::MatrixX3d center_motion;
   std::size_t counted = 0;
+  std::vector<std::uint8_t> counted_mask;
   std::string no_fingerprint;
   if (wants_fingerprint(settings)) {
     const std::vector<std::uint8_t> carrier = carrier_vertices(mesh.V, mesh.F);
     counted = static_cast<std::size_t>(std::count(carrier.begin(), carrier.end(), kCounted));
     try {
-      if (std::optional<FingerprintFrame> frame =
-              fingerprint_frame(mesh.V, mesh.F, settings.embedding.variant.center, settings.bits)) {
+      if (std::optional<FingerprintFrame> frame = fingerprint_frame(
+              mesh.V, mesh.F, settings.embedding.variant.center, settings.bits, several)) {
         basis = std::move(frame->basis);
         histogram = std::move(frame->histogram);
         center_motion = std::move(frame->center_motion);
+        if (!several) counted_mask = std::move(frame->counted);
       }
     } catch (const InvalidArgumentError& e) {
       // The copy then goes as one without a fingerprint (make_copy says why), and its
@@ -318,9 +327,9 @@ std::shared_ptr<const Original> prepare_original(const CopyRequest& request,
       no_fingerprint = e.what();
     }
   }
-  return std::make_shared<const Original>(
-      Original{std::move(mesh), std::move(embedder), std::move(basis), std::move(histogram),
-               std::move(center_motion), counted, std::move(no_fingerprint)});
+  return std::make_shared<const Original>(Original{
+      std::move(mesh), std::move(embedder), std::move(basis), std::move(histogram),
+      std::move(center_motion), counted, std::move(counted_mask), std::move(no_fingerprint)});
 }
 
 // The distortion of positions V of the original O as calibration measures it: each counted
@@ -427,13 +436,17 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
     const FingerprintBasis& b = *original.fingerprint;
     const Eigen::VectorXd g =
         fingerprint_coefficients(id_key(settings.key), *request.id, b.functions);
-    fingerprint = [&original, &b, g](const Eigen::MatrixX3d& V) {
-      return add_fingerprint(V, original.mesh.V, b, g, FingerprintOptions().rms,
-                             &original.histogram);
+    const auto add = [&original, &b, g](const Eigen::MatrixX3d& V,
+                                        const Eigen::MatrixX3d* center_motion) {
+      const double rms = FingerprintOptions().rms;
+      if (b.row_start.empty())  // prepared for one copy: the rows are not held
+        return add_fingerprint_at(V, original.mesh.V, b, original.counted_mask, g, rms,
+                                  &original.histogram, center_motion);
+      return add_fingerprint(V, original.mesh.V, b, g, rms, &original.histogram, center_motion);
     };
-    centered = [&original, &b, g](const Eigen::MatrixX3d& V) {
-      return add_fingerprint(V, original.mesh.V, b, g, FingerprintOptions().rms,
-                             &original.histogram, &original.center_motion);
+    fingerprint = [add](const Eigen::MatrixX3d& V) { return add(V, nullptr); };
+    centered = [add, &original](const Eigen::MatrixX3d& V) {
+      return add(V, &original.center_motion);
     };
   }
   const EmbedOptions searched = o;  // what a search starts from
@@ -788,9 +801,12 @@ IssueResult issue_with(std::vector<CopyRequest> requests, const IssueSettings& s
   std::map<std::string, std::shared_ptr<const Original>>& originals = cache.prepared;
   std::map<std::string, std::pair<CopyStatus, std::string>> failed;
   std::set<std::string> inputs, to_prepare;
+  std::map<std::string, std::size_t> copies_of;  // pending copies per original to prepare
   for (std::size_t k = 0; k < requests.size(); ++k)
-    if (pending(out[k]) && !originals.count(original_key(requests[k])))
+    if (pending(out[k]) && !originals.count(original_key(requests[k]))) {
       to_prepare.insert(original_key(requests[k]));
+      ++copies_of[original_key(requests[k])];
+    }
   // Progress: each original read and prepared (on a million vertices, a few seconds each),
   // then each copy made.
   detail::ProgressCounter preparing(settings.progress, "preparing",
@@ -806,7 +822,8 @@ IssueResult issue_with(std::vector<CopyRequest> requests, const IssueSettings& s
       ~Step() { counter.step(1, what); }
     } step{preparing, requests[k].input};
     try {
-      originals[input] = prepare_original(requests[k], settings);
+      originals[input] =
+          prepare_original(requests[k], settings, cache.kept || copies_of[input] > 1);
     } catch (const IOError& e) {
       failed[input] = {CopyStatus::Unreadable, e.what()};
     } catch (const InvalidInputError& e) {
@@ -902,6 +919,7 @@ Issuer::Issuer(IssueSettings settings, std::size_t max_originals)
     throw InvalidArgumentError(fmt::format("{} payload bits: at least 1", settings.bits));
   impl_->settings = std::move(settings);
   impl_->max_originals = max_originals;
+  impl_->cache.kept = true;
   if (!impl_->settings.registry.empty()) impl_->registry.emplace(impl_->settings.registry);
 }
 
@@ -926,7 +944,7 @@ PreparedOriginal Issuer::prepare(Mesh mesh, const std::string& name) {
   CopyRequest r;
   r.input = name;
   r.mesh = p.mesh;
-  impl_->cache.prepared[original_key(r)] = prepare_original(r, impl_->settings);
+  impl_->cache.prepared[original_key(r)] = prepare_original(r, impl_->settings, true);
   impl_->cache.records[original_key(r)] = issued_copy(*p.mesh, name, "", 0, impl_->settings);
   impl_->order.push_back(p);
   impl_->touch(geometry);

@@ -23,7 +23,9 @@ struct ClosestPoints {
 /// once and queried many times (registration queries one surface at every step). About 100
 /// bytes a triangle while built and after: the corners in double precision (72), the row of F,
 /// and nodes of 32 bytes whose boxes are single precision, relative to the mesh's center and
-/// rounded outward, so that every answer is the one double-precision boxes would give.
+/// rounded outward, so that no box is nearer to a query than a triangle inside it: every answer
+/// is the one double-precision boxes would give, except between triangles whose distances tie
+/// to within double rounding (either may be returned, as with any visiting order).
 class SurfaceIndex {
  public:
   /// \throw InvalidArgumentError when F has no usable triangle. V and F must outlive it.

@@ -118,13 +118,17 @@ struct FingerprintFrame {
   /// #V x 3: row i, how the center (of the frame's kind) moves per unit of vertex i's move
   /// along the ray from the center (center_jacobian_products), for add_fingerprint.
   Eigen::MatrixX3d center_motion;
+  /// #V: 1 for the counted carrier vertices, where the basis is evaluated (add_fingerprint_at).
+  std::vector<std::uint8_t> counted;
 };
 
 /// The frame of (V, F) for a histogram mark of nbits bits centered as `kind` says, with
 /// fingerprint_functions' K; none when the original has too few counted carrier vertices.
+/// With `rows` false, the basis is its bumps alone (fingerprint_bumps), for add_fingerprint_at:
+/// a copy made once need not hold the rows (about 216 bytes a vertex).
 std::optional<FingerprintFrame> fingerprint_frame(const Eigen::MatrixX3d& V,
                                                   const Eigen::MatrixX3i& F, CenterKind kind,
-                                                  int nbits);
+                                                  int nbits, bool rows = true);
 
 /// The K coefficients of buyer `id` under key for a copy of mark `format`, the same on every
 /// machine:
@@ -153,6 +157,26 @@ Eigen::MatrixX3d add_fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX
                                  const FingerprintBasis& basis, const Eigen::VectorXd& g,
                                  double rms, const Histogram* keep = nullptr,
                                  const Eigen::MatrixX3d* center_motion = nullptr);
+
+/// add_fingerprint with the basis' bumps alone (fingerprint_bumps), evaluated at the rows of VO
+/// with counted[i] != 0 (FingerprintFrame::counted, where fingerprint_basis evaluates them): the
+/// same copy bit for bit, the rows evaluated 65,536 vertices at a time and never held.
+/// \throw InvalidArgumentError as add_fingerprint, or for a mask of another size.
+Eigen::MatrixX3d add_fingerprint_at(const Eigen::MatrixX3d& V, const Eigen::MatrixX3d& VO,
+                                    const FingerprintBasis& bumps,
+                                    const std::vector<std::uint8_t>& counted,
+                                    const Eigen::VectorXd& g, double rms,
+                                    const Histogram* keep = nullptr,
+                                    const Eigen::MatrixX3d* center_motion = nullptr);
+
+/// Phi a at points P: FingerprintBasis::field of fingerprint_basis_at(basis, P, mask), bit for
+/// bit, without holding its rows (evaluated 65,536 points at a time). `covered`, when given,
+/// gets 1 for the rows with entries (a bump within reach), 0 for the others.
+/// \throw InvalidArgumentError for a of another size than K, or a mask of another size than P.
+Eigen::VectorXd fingerprint_field_at(const FingerprintBasis& basis, const Eigen::MatrixX3d& P,
+                                     const std::vector<std::uint8_t>& mask,
+                                     const Eigen::VectorXd& a,
+                                     std::vector<std::uint8_t>* covered = nullptr);
 
 /// b: the least-squares fit Phi b ~ residual over the vertices where measured[i] != 0 and the
 /// basis has entries, with `ridge` times the mean diagonal of Phi^T Phi added to its diagonal
