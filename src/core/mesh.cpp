@@ -82,10 +82,23 @@ Polygons polygons_from_triangles(const Eigen::MatrixX3i& F) {
 }
 
 void set_faces(Mesh& mesh, Polygons faces) {
-  mesh.F = triangulate(faces);
-  const bool triangles = static_cast<std::size_t>(mesh.F.rows()) == faces.size() &&
-                         faces.indices.size() == 3 * faces.size();
-  mesh.faces = triangles ? Polygons{} : std::move(faces);
+  const std::size_t n = faces.size();
+  bool triangles = true;
+  for (std::size_t k = 0; k < n && triangles; ++k)
+    triangles = faces.offsets[k + 1] - faces.offsets[k] == 3;
+  if (!triangles) {
+    mesh.F = triangulate(faces);
+    mesh.faces = std::move(faces);
+    return;
+  }
+  // Every face a triangle: F's rows are the faces. The offsets go first, so that the largest
+  // moment of a read holds the corners and F, not the offsets too.
+  std::vector<std::int64_t>().swap(faces.offsets);
+  mesh.F.resize(static_cast<Eigen::Index>(n), 3);
+  for (std::size_t t = 0; t < n; ++t)
+    for (int c = 0; c < 3; ++c)
+      mesh.F(static_cast<Eigen::Index>(t), c) = faces.indices[3 * t + static_cast<std::size_t>(c)];
+  mesh.faces = Polygons{};
 }
 
 Polygons file_faces(const Mesh& mesh) {

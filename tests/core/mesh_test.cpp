@@ -67,6 +67,17 @@ TEST(Mesh, TrianglesAreKeptOnceAndPolygonsBesideTheirTriangles) {
     EXPECT_EQ(viewed(p), expected);
     EXPECT_EQ(file_faces(p), mixed);
   }
+  // A quad and a face too short for a triangle: as many triangles as faces, and as many
+  // corners as triangles have, yet not F's rows.
+  Polygons odd;
+  odd.push_back(quad, 4);
+  odd.push_back(edge, 2);
+  Mesh q;
+  q.V = m.V;
+  set_faces(q, odd);
+  EXPECT_EQ(q.F.rows(), 2);
+  EXPECT_EQ(q.faces, odd);
+  EXPECT_EQ(viewed(q), (std::vector<std::vector<int>>{{0, 1, 3, 4}, {4, 2}}));
   // make_mesh keeps none either, and a write gives F back.
   const Mesh made = make_mesh(m.V, m.F);
   EXPECT_EQ(made.faces.size(), 0u);
