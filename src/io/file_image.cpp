@@ -159,6 +159,23 @@ std::string patch_image(const FileImage& image, const Eigen::MatrixX3d& V) {
   double value = 0;
   if (image.encoding != Encoding::Ascii) {
     std::string out = image.bytes;
+    if (const std::optional<RegularLayout>& r = image.regular) {
+      if (r->vertices > V.rows())
+        throw InvalidArgumentError("the file image has more vertices than the mesh");
+      for (std::int64_t i = 0; i < r->vertices; ++i)
+        for (int a = 0; a < 3; ++a) {
+          const std::uint64_t at =
+              r->first + static_cast<std::uint64_t>(i) * r->stride + r->offset[a];
+          const CoordSlot slot{at,
+                               static_cast<std::uint64_t>(slot_type_size(r->type[a])),
+                               static_cast<std::int32_t>(i),
+                               static_cast<std::uint8_t>(a),
+                               r->type[a],
+                               r->big_endian};
+          if (new_value(image, slot, V, value))
+            write_scalar(out.data() + slot.offset, slot.type, slot.big_endian, value);
+        }
+    }
     for (const CoordSlot& slot : image.slots)
       if (new_value(image, slot, V, value))
         write_scalar(out.data() + slot.offset, slot.type, slot.big_endian, value);

@@ -1,8 +1,10 @@
 #pragma once
 // Internal: the image of a source file that lets a write change positions and nothing else.
 
+#include <array>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -37,6 +39,18 @@ struct CoordSlot {
 inline constexpr std::size_t kMaxCoordinateText = 65535;
 static_assert(sizeof(CoordSlot) == 16, "a stored coordinate costs 16 bytes");
 
+/// Where a binary file stores every vertex's coordinates at a fixed stride, in place of a slot per
+/// coordinate (binary PLY whose vertex records have no list, read without welding): coordinate
+/// a of vertex i at first + i * stride + offset[a], of type[a].
+struct RegularLayout {
+  std::uint64_t first = 0;                ///< byte offset of vertex 0's record
+  std::uint64_t stride = 0;               ///< bytes a record
+  std::array<std::uint32_t, 3> offset{};  ///< of x, y, z within a record
+  std::array<SlotType, 3> type{};
+  bool big_endian = false;
+  std::int64_t vertices = 0;  ///< records
+};
+
 /// What a format's writer keeps beside the bytes (glTF, Draco, 3MF define their own).
 struct FormatImage {
   virtual ~FormatImage() = default;
@@ -47,7 +61,10 @@ struct FileImage {
   Encoding encoding = Encoding::Ascii;
   std::string bytes;             ///< the whole source file
   std::vector<CoordSlot> slots;  ///< in increasing offset order
-  Eigen::Index vertices = 0;     ///< the mesh's vertices as read (rows of V)
+  /// Instead of slots, where every vertex's coordinates sit at a fixed stride (none, 0 bytes
+  /// a coordinate, where slots would take 16).
+  std::optional<RegularLayout> regular;
+  Eigen::Index vertices = 0;  ///< the mesh's vertices as read (rows of V)
   /// Positions as read, where a stored coordinate may differ from its vertex's (welded files,
   /// and the formats whose writers move file vertices: glTF, 3MF, Draco). Empty for OFF, OBJ
   /// and PLY read without welding: each slot then holds its vertex's value as read, and

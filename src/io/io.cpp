@@ -36,7 +36,7 @@ void append_position(std::string& out, const Eigen::MatrixX3d& V, Eigen::Index i
   append_double(out, V(i, 2));
 }
 
-Mesh assemble(Parsed parsed, std::string bytes, FileFormat format, Encoding encoding,
+Mesh assemble(Parsed parsed, std::string* image_bytes, FileFormat format, Encoding encoding,
               const std::string& name, const ReadOptions& options,
               std::shared_ptr<const FormatImage> extra) {
   if (parsed.faces.size() == 0) fail(name, 0, "the file has no faces");
@@ -56,8 +56,9 @@ Mesh assemble(Parsed parsed, std::string bytes, FileFormat format, Encoding enco
     auto image = std::make_shared<FileImage>();
     image->format = format;
     image->encoding = encoding;
-    image->bytes = std::move(bytes);
+    if (image_bytes) image->bytes = std::move(*image_bytes);
     image->slots = std::move(parsed.slots);
+    image->regular = parsed.regular;
     auto by_offset = [](const CoordSlot& a, const CoordSlot& b) { return a.offset < b.offset; };
     if (!std::is_sorted(image->slots.begin(), image->slots.end(), by_offset))
       std::sort(image->slots.begin(), image->slots.end(), by_offset);
@@ -94,7 +95,7 @@ Mesh assemble_welded(Parsed parsed, FileFormat format, const std::string& name,
   ReadOptions welded = options;
   welded.weld_tolerance = 0;
   welded.keep_image = false;
-  return assemble(std::move(parsed), {}, format, Encoding::BinaryLittleEndian, name, welded);
+  return assemble(std::move(parsed), nullptr, format, Encoding::BinaryLittleEndian, name, welded);
 }
 
 void attach_image(Mesh& mesh, std::shared_ptr<const FormatImage> extra,
@@ -211,20 +212,26 @@ std::string read_file(const std::string& path, std::size_t max_bytes, std::strin
   return bytes;
 }
 
-Mesh read_mesh_from_bytes(std::string bytes, FileFormat format, const std::string& name,
-                          const ReadOptions& options) {
+namespace {
+void check_weld_tolerance(const ReadOptions& options) {
   if (!(options.weld_tolerance >= 0) || !std::isfinite(options.weld_tolerance))
     throw InvalidArgumentError(fmt::format(
         "weld tolerance {} is not a finite non-negative distance", options.weld_tolerance));
+}
+}  // namespace
+
+Mesh read_mesh_from_bytes(std::string bytes, FileFormat format, const std::string& name,
+                          const ReadOptions& options) {
+  check_weld_tolerance(options);
   switch (format) {
     case FileFormat::Off:
-      return detail::read_off(std::move(bytes), name, options);
+      return detail::read_off(bytes, options.keep_image ? &bytes : nullptr, name, options);
     case FileFormat::Obj:
-      return detail::read_obj(std::move(bytes), name, options);
+      return detail::read_obj(bytes, options.keep_image ? &bytes : nullptr, name, options);
     case FileFormat::Ply:
-      return detail::read_ply(std::move(bytes), name, options);
+      return detail::read_ply(bytes, options.keep_image ? &bytes : nullptr, name, options);
     case FileFormat::Stl:
-      return detail::read_stl(std::move(bytes), name, options);
+      return detail::read_stl(bytes, options.keep_image ? &bytes : nullptr, name, options);
     case FileFormat::Gltf:
     case FileFormat::Glb:
       return detail::read_gltf(std::move(bytes), format, name, options);
@@ -234,6 +241,25 @@ Mesh read_mesh_from_bytes(std::string bytes, FileFormat format, const std::strin
       return detail::read_3mf(std::move(bytes), name, options);
   }
   throw InvalidArgumentError("unknown format");
+}
+
+Mesh read_mesh_from_buffer(const std::string& bytes, FileFormat format, const std::string& name,
+                           const ReadOptions& options) {
+  check_weld_tolerance(options);
+  ReadOptions ro = options;
+  ro.keep_image = false;
+  switch (format) {
+    case FileFormat::Off:
+      return detail::read_off(bytes, nullptr, name, ro);
+    case FileFormat::Obj:
+      return detail::read_obj(bytes, nullptr, name, ro);
+    case FileFormat::Ply:
+      return detail::read_ply(bytes, nullptr, name, ro);
+    case FileFormat::Stl:
+      return detail::read_stl(bytes, nullptr, name, ro);
+    default:
+      return read_mesh_from_bytes(bytes, format, name, ro);
+  }
 }
 
 Mesh read_mesh(const std::string& path, const ReadOptions& options) {
@@ -256,6 +282,9 @@ void check_fits_float32(const Mesh& mesh, const char* stored_as) {
 }
 
 bool has_float32_slots(const FileImage& image) {
+  if (image.regular)
+    for (const SlotType t : image.regular->type)
+      if (t == SlotType::Float32) return true;
   return std::any_of(image.slots.begin(), image.slots.end(),
                      [](const CoordSlot& s) { return s.type == SlotType::Float32; });
 }

@@ -11,10 +11,17 @@
 
 namespace meshmark::detail {
 
-Mesh read_off(std::string bytes, const std::string& name, const ReadOptions& options);
-Mesh read_obj(std::string bytes, const std::string& name, const ReadOptions& options);
-Mesh read_ply(std::string bytes, const std::string& name, const ReadOptions& options);
-Mesh read_stl(std::string bytes, const std::string& name, const ReadOptions& options);
+/// The readers of OFF, OBJ, PLY and STL parse bytes where they are. image_bytes: the string
+/// bytes refers to, moved into the mesh's image once parsed when options.keep_image (it must
+/// then not be null); null when no image is kept, and bytes are left as they were.
+Mesh read_off(const std::string& bytes, std::string* image_bytes, const std::string& name,
+              const ReadOptions& options);
+Mesh read_obj(const std::string& bytes, std::string* image_bytes, const std::string& name,
+              const ReadOptions& options);
+Mesh read_ply(const std::string& bytes, std::string* image_bytes, const std::string& name,
+              const ReadOptions& options);
+Mesh read_stl(const std::string& bytes, std::string* image_bytes, const std::string& name,
+              const ReadOptions& options);
 
 /// glTF 2.0 (format Gltf or Glb; io_gltf.cpp), Draco (io_draco.cpp) and 3MF (io_3mf.cpp). Their
 /// writers use the mesh's image when it applies (FileImage::extra holds what they need) and
@@ -97,8 +104,12 @@ struct Parsed {
   Polygons faces;
   std::vector<CoordSlot> slots;
   /// Whether the OFF, OBJ and PLY readers record slots: not when no image is kept
-  /// (ReadOptions::keep_image false), which saves 32 bytes a coordinate while reading.
+  /// (ReadOptions::keep_image false), which saves 16 bytes a coordinate while reading.
   bool keep_slots = true;
+  /// Whether the binary PLY reader may record its vertices' layout instead of slots (its
+  /// records have no list and each axis once; no welding to come), and the layout it recorded.
+  bool regular_allowed = false;
+  std::optional<RegularLayout> regular;
 };
 
 /// Triangles from their corners' vertex indices, three by three (a count that is not a multiple
@@ -114,9 +125,10 @@ void weld_vertices(Parsed& parsed, double tolerance);
 
 /// Builds the Mesh: V from xyz (welded first: for STL, glTF, Draco and 3MF always, whose files
 /// split vertices at every seam; for OFF, OBJ and PLY when options.weld_tolerance > 0), F by
-/// triangulation, the image when asked (with the format's own record `extra`). Throws
-/// InvalidInputError when there are no faces or no triangles.
-Mesh assemble(Parsed parsed, std::string bytes, FileFormat format, Encoding encoding,
+/// triangulation, the image when asked (with the format's own record `extra`, and the file's
+/// bytes moved from image_bytes when not null). Throws InvalidInputError when there are no
+/// faces or no triangles.
+Mesh assemble(Parsed parsed, std::string* image_bytes, FileFormat format, Encoding encoding,
               const std::string& name, const ReadOptions& options,
               std::shared_ptr<const FormatImage> extra = nullptr);
 

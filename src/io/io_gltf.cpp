@@ -902,8 +902,8 @@ Mesh read_gltf_document(std::string bytes, FileFormat format, const std::string&
   scene.gather();
   scene.finish(notes);
   if (options.weld_tolerance > 0) img.world_as_read = scene.parsed().xyz;
-  Mesh mesh = assemble(std::move(scene.parsed()), std::string(), format,
-                       Encoding::BinaryLittleEndian, name, options, std::move(image));
+  Mesh mesh = assemble(std::move(scene.parsed()), nullptr, format, Encoding::BinaryLittleEndian,
+                       name, options, std::move(image));
   mesh.notes = std::move(notes);
   return mesh;
 }

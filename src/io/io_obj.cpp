@@ -74,7 +74,8 @@ void parse_face(const std::vector<Token>& tokens, const std::string& name, std::
 
 }  // namespace
 
-Mesh read_obj(std::string bytes, const std::string& name, const ReadOptions& options) {
+Mesh read_obj(const std::string& bytes, std::string* image_bytes, const std::string& name,
+              const ReadOptions& options) {
   LineScanner lines(bytes);
   std::vector<Token> tokens;
   std::vector<int> face;
@@ -100,8 +101,7 @@ Mesh read_obj(std::string bytes, const std::string& name, const ReadOptions& opt
         fail(name, face_line[k],
              fmt::format("face {}: vertex index {} is out of range [1, {}]", k + 1,
                          parsed.faces.indices[c] + 1, nv));
-  return assemble(std::move(parsed), std::move(bytes), FileFormat::Obj, Encoding::Ascii, name,
-                  options);
+  return assemble(std::move(parsed), image_bytes, FileFormat::Obj, Encoding::Ascii, name, options);
 }
 
 std::string write_obj(const Mesh& mesh) {

@@ -44,7 +44,8 @@ std::int64_t count_value(const Token& t, const std::string& name, std::size_t li
 
 }  // namespace
 
-Mesh read_off(std::string bytes, const std::string& name, const ReadOptions& options) {
+Mesh read_off(const std::string& bytes, std::string* image_bytes, const std::string& name,
+              const ReadOptions& options) {
   LineScanner lines(bytes);
   std::vector<Token> tokens;
   if (!next_tokens(lines, tokens)) fail(name, 0, "the file is empty");
@@ -127,8 +128,7 @@ Mesh read_off(std::string bytes, const std::string& name, const ReadOptions& opt
     }
     parsed.faces.push_back(face.data(), face.size());
   }
-  return assemble(std::move(parsed), std::move(bytes), FileFormat::Off, Encoding::Ascii, name,
-                  options);
+  return assemble(std::move(parsed), image_bytes, FileFormat::Off, Encoding::Ascii, name, options);
 }
 
 std::string write_off(const Mesh& mesh) {

@@ -4,6 +4,7 @@
 // Everything else is carried by the file image.
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <optional>
 
@@ -288,6 +289,20 @@ void read_binary_body(const std::string& bytes, const Header& header, std::int64
           name, 0,
           fmt::format("element '{}' declares {} records but only {} bytes remain (truncated file?)",
                       e.name, e.count, left));
+    if (plan.role == Role::Vertex && parsed.regular_allowed) {
+      // Fixed-size records: their layout instead of a slot per coordinate.
+      RegularLayout layout;
+      layout.first = pos, layout.big_endian = big, layout.vertices = e.count;
+      for (std::size_t k = 0; k < e.properties.size(); ++k) {
+        const int axis = k < 64 ? plan.axis_of[k] : -1;
+        if (axis >= 0) {
+          layout.offset[static_cast<std::size_t>(axis)] = static_cast<std::uint32_t>(layout.stride);
+          layout.type[static_cast<std::size_t>(axis)] = e.properties[k].type;
+        }
+        layout.stride += static_cast<std::uint64_t>(slot_type_size(e.properties[k].type));
+      }
+      parsed.regular = layout;
+    }
     if (plan.role == Role::Face) {
       // Room for the triangles (most files' faces), no more than the bytes left can hold (a
       // face takes at least 4: a count and three indices), so a lying count reserves little.
@@ -318,7 +333,7 @@ void read_binary_body(const std::string& bytes, const Header& header, std::int64
           if (!std::isfinite(x))
             fail(name, 0, fmt::format("vertex {}: coordinate {} is not finite", r, "xyz"[axis]));
           parsed.xyz[3 * r + axis] = x;
-          if (parsed.keep_slots)
+          if (parsed.keep_slots && !parsed.regular)
             parsed.slots.push_back({pos, static_cast<std::uint64_t>(size),
                                     static_cast<std::int32_t>(r), static_cast<std::uint8_t>(axis),
                                     p.type, big});
@@ -337,7 +352,8 @@ void read_binary_body(const std::string& bytes, const Header& header, std::int64
 
 }  // namespace
 
-Mesh read_ply(std::string bytes, const std::string& name, const ReadOptions& options) {
+Mesh read_ply(const std::string& bytes, std::string* image_bytes, const std::string& name,
+              const ReadOptions& options) {
   const Header header = parse_header(bytes, name);
   std::int64_t nv = -1;
   for (const Element& e : header.elements)
@@ -349,13 +365,31 @@ Mesh read_ply(std::string bytes, const std::string& name, const ReadOptions& opt
   Parsed parsed;
   parsed.keep_slots = options.keep_image;
   parsed.xyz.assign(static_cast<std::size_t>(nv) * 3, 0.0);
-  if (parsed.keep_slots) parsed.slots.reserve(static_cast<std::size_t>(nv) * 3);
+  // A binary file's vertex records of a fixed size (no list, each axis once), read without
+  // welding: their layout is kept instead of a slot per coordinate.
+  if (parsed.keep_slots && header.encoding != Encoding::Ascii && options.weld_tolerance == 0) {
+    int vertex_elements = 0;
+    bool fixed = true;
+    for (const Element& e : header.elements) {
+      if (e.name != "vertex") continue;
+      ++vertex_elements;
+      std::array<int, 3> seen{};
+      for (const Property& p : e.properties) {
+        fixed = fixed && !p.is_list;
+        const int axis = p.name == "x" ? 0 : p.name == "y" ? 1 : p.name == "z" ? 2 : -1;
+        if (axis >= 0) ++seen[static_cast<std::size_t>(axis)];
+      }
+      fixed = fixed && e.properties.size() <= 64 && seen == std::array<int, 3>{1, 1, 1};
+    }
+    parsed.regular_allowed = fixed && vertex_elements == 1;
+  }
+  if (parsed.keep_slots && !parsed.regular_allowed)
+    parsed.slots.reserve(static_cast<std::size_t>(nv) * 3);
   if (header.encoding == Encoding::Ascii)
     read_ascii_body(bytes, header, nv, name, parsed);
   else
     read_binary_body(bytes, header, nv, name, parsed);
-  return assemble(std::move(parsed), std::move(bytes), FileFormat::Ply, header.encoding, name,
-                  options);
+  return assemble(std::move(parsed), image_bytes, FileFormat::Ply, header.encoding, name, options);
 }
 
 std::string write_ply(const Mesh& mesh, Encoding encoding, bool single_precision,

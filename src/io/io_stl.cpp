@@ -294,7 +294,8 @@ void weld_vertices(Parsed& parsed, double tolerance) {
   parsed.xyz = std::move(xyz);
 }
 
-Mesh read_stl(std::string bytes, const std::string& name, const ReadOptions& options) {
+Mesh read_stl(const std::string& bytes, std::string* image_bytes, const std::string& name,
+              const ReadOptions& options) {
   // A binary file's size is 84 + 50 n; some binary headers start with "solid" too.
   bool binary = false;
   if (bytes.size() >= 84) {
@@ -321,7 +322,7 @@ Mesh read_stl(std::string bytes, const std::string& name, const ReadOptions& opt
                        binary ? SlotType::Float32 : SlotType::Text,
                        false};
   const Encoding encoding = binary ? Encoding::BinaryLittleEndian : Encoding::Ascii;
-  return assemble(std::move(parsed), std::move(bytes), FileFormat::Stl, encoding, name, options);
+  return assemble(std::move(parsed), image_bytes, FileFormat::Stl, encoding, name, options);
 }
 
 std::string write_stl(const Mesh& mesh, Encoding encoding) {

@@ -140,7 +140,7 @@ WrittenCheck write_marked_mesh(const std::string& path, const Mesh& mesh,
   ReadOptions ro = read_options;
   ro.keep_image = false;
   ro.resources = &files.resources;
-  const Mesh back = read_mesh_from_bytes(files.bytes, format, path, ro);
+  const Mesh back = read_mesh_from_buffer(files.bytes, format, path, ro);  // no copy of the bytes
   ExtractOptions eo = extract_options;
   eo.bits = bins.size();
   const ExtractResult x = extract(back.V, back.F, eo);

@@ -11,6 +11,8 @@
 #include <sstream>
 #include <tuple>
 
+#include <fmt/format.h>
+
 #include "meshmark/core/error.h"
 #include "meshmark/core/random.h"
 #include "meshmark/io/io.h"
@@ -130,6 +132,16 @@ TEST(IoRead, WithoutAnImageTheSameMeshIsRead) {
       EXPECT_TRUE(a.V == b.V);
       EXPECT_TRUE(a.F == b.F);
       EXPECT_EQ(file_faces(a), file_faces(b));
+      // Read where the bytes are (read_mesh_from_buffer, embed's check of its output): the
+      // same mesh, and the bytes left as they were.
+      const std::string bytes = read_file(f);
+      const std::string before = bytes;
+      const Mesh c = read_mesh_from_buffer(bytes, format_from_path(f), f, with);
+      EXPECT_EQ(c.image, nullptr);
+      EXPECT_TRUE(a.V == c.V);
+      EXPECT_TRUE(a.F == c.F);
+      EXPECT_EQ(file_faces(a), file_faces(c));
+      EXPECT_EQ(bytes, before);
     }
   }
 }
@@ -211,6 +223,65 @@ TEST(IoFaithful, BinaryPlyChangesOnlyVertexCoordinateBytes) {
   for (std::size_t k = 0; k < out.size(); ++k)
     if (!is_coordinate[k]) differing += out[k] != original[k];
   EXPECT_EQ(differing, 0u) << "bytes outside x, y, z changed (normals, faces, header)";
+}
+
+// A binary PLY's fixed-size vertex records are written back through their layout (no slot per
+// coordinate): in both byte orders, in single and double precision, with an extra property
+// between the coordinates, every moved coordinate reads back as moved and every other byte of
+// the file is unchanged; read with welding (slots then), the same bytes.
+TEST(IoFaithful, BinaryPlyInEitherByteOrderWritesMovedVerticesBack) {
+  const Mesh sphere = bumpy_sphere(8, 12, 3);
+  for (const bool big : {false, true})
+    for (const bool single : {false, true}) {
+      SCOPED_TRACE(std::string(big ? "big" : "little") + (single ? " float" : " double"));
+      const char* type = single ? "float" : "double";
+      std::string file = fmt::format(
+          "ply\nformat binary_{}_endian 1.0\nelement vertex {}\nproperty {} x\nproperty uchar "
+          "flag\nproperty {} y\nproperty {} z\nelement face {}\nproperty list uchar int "
+          "vertex_indices\nend_header\n",
+          big ? "big" : "little", sphere.V.rows(), type, type, type, sphere.F.rows());
+      const auto put = [&](const void* data, std::size_t n) {
+        std::string b(static_cast<const char*>(data), n);
+        if (big) std::reverse(b.begin(), b.end());
+        file += b;
+      };
+      for (Eigen::Index i = 0; i < sphere.V.rows(); ++i)
+        for (int a = 0; a < 3; ++a) {
+          if (single) {
+            const auto f = static_cast<float>(sphere.V(i, a));
+            put(&f, 4);
+          } else {
+            put(&sphere.V(i, a), 8);
+          }
+          if (a == 0) file += static_cast<char>(i % 7);  // the flag between x and y
+        }
+      for (Eigen::Index t = 0; t < sphere.F.rows(); ++t) {
+        file += '\3';
+        for (int c = 0; c < 3; ++c) put(&sphere.F(t, c), 4);
+      }
+      for (const double weld : {0.0, 1e-12}) {
+        ReadOptions ro;
+        ro.weld_tolerance = weld;
+        Mesh m = read_mesh_from_bytes(file, FileFormat::Ply, "layout.ply", ro);
+        ASSERT_EQ(m.V.rows(), sphere.V.rows());
+        m.V = moved(m.V, 3, 7);
+        if (single) m.V = m.V.cast<float>().cast<double>();
+        const std::string out = write_mesh_to_bytes(m, FileFormat::Ply);
+        ASSERT_EQ(out.size(), file.size());
+        const Mesh back = read_mesh_from_bytes(out, FileFormat::Ply, "back.ply");
+        EXPECT_EQ(back.V, m.V);
+        // Only coordinate bytes may differ: the flags, the header and the faces are kept.
+        const std::size_t body = file.find("end_header\n") + 11, size = single ? 4 : 8;
+        std::size_t differing = 0;
+        for (std::size_t k = 0; k < out.size(); ++k) {
+          const bool vertex_part = k >= body && k < body + sphere.V.rows() * (3 * size + 1);
+          const std::size_t in_record = (k - body) % (3 * size + 1);
+          const bool coordinate = vertex_part && in_record != size;  // the flag's byte
+          if (!coordinate) differing += out[k] != file[k];
+        }
+        EXPECT_EQ(differing, 0u) << "weld " << weld;
+      }
+    }
 }
 
 TEST(IoFaithful, AsciiPlyKeepsOtherPropertiesAndElements) {

@@ -56,6 +56,13 @@ Mesh read_mesh(const std::string& path, const ReadOptions& options = {});
 Mesh read_mesh_from_bytes(std::string bytes, FileFormat format, const std::string& name,
                           const ReadOptions& options = {});
 
+/// read_mesh_from_bytes without an image (options.keep_image is taken as false) and, for OFF,
+/// OBJ, PLY and STL, without a copy of bytes: they are parsed where they are (glTF, GLB, Draco
+/// and 3MF from a copy). What embed reads its own output back with before writing it.
+/// \throw as read_mesh_from_bytes.
+Mesh read_mesh_from_buffer(const std::string& bytes, FileFormat format, const std::string& name,
+                           const ReadOptions& options = {});
+
 /// Options of write_mesh.
 struct WriteOptions {
   /// Output format; default: from the output path's extension.
