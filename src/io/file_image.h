@@ -51,6 +51,21 @@ struct RegularLayout {
   std::int64_t vertices = 0;  ///< records
 };
 
+/// A section of a binary source file that the mesh encodes again byte for byte, and that
+/// FileImage::bytes therefore leaves out (checked when the file is read): binary PLY vertex
+/// records of x, y and z alone (encoded from V in the RegularLayout), and face records of one
+/// index list alone (encoded from the faces a write gives back, FaceView). A write puts it back.
+struct ElidedSection {
+  enum class Kind : std::uint8_t { Positions, Faces };
+  Kind kind = Kind::Faces;
+  std::uint64_t at = 0;                   ///< where it goes back in FileImage::bytes (byte offset)
+  std::uint64_t length = 0;               ///< its length in the source file (bytes)
+  std::int64_t records = 0;               ///< vertices or faces it holds
+  SlotType count_type = SlotType::UInt8;  ///< Faces: a record's corner count
+  SlotType index_type = SlotType::Int32;  ///< Faces: each corner's vertex index
+  bool big_endian = false;
+};
+
 /// What a format's writer keeps beside the bytes (glTF, Draco, 3MF define their own).
 struct FormatImage {
   virtual ~FormatImage() = default;
@@ -59,7 +74,11 @@ struct FormatImage {
 struct FileImage {
   FileFormat format = FileFormat::Obj;
   Encoding encoding = Encoding::Ascii;
-  std::string bytes;             ///< the whole source file
+  std::string bytes;  ///< the source file, without its elided sections
+  /// Sections left out of bytes (in increasing offset order), encoded again from the mesh
+  /// when a copy is written: a binary PLY of plain vertex and face records keeps its header
+  /// alone (about 50 bytes a vertex not held).
+  std::vector<ElidedSection> elided;
   std::vector<CoordSlot> slots;  ///< in increasing offset order
   /// Instead of slots, where every vertex's coordinates sit at a fixed stride (none, 0 bytes
   /// a coordinate, where slots would take 16).
@@ -95,10 +114,18 @@ void write_scalar(char* data, SlotType type, bool big_endian, double value);
 /// and face counts.
 bool image_applies(const Mesh& mesh, FileFormat format, Encoding encoding);
 
-/// The image's bytes with every coordinate whose vertex moved replaced by the new value; other
-/// bytes as read. A slot whose stored value differs from the vertex's value as read (a
-/// tolerance-welded STL corner) is written as stored value + displacement.
-std::string patch_image(const FileImage& image, const Eigen::MatrixX3d& V);
+/// The source file's bytes with every coordinate whose vertex moved replaced by its position in
+/// mesh.V; other bytes as read (elided sections encoded again from the mesh). A slot whose
+/// stored value differs from the vertex's value as read (a tolerance-welded STL corner) is
+/// written as stored value + displacement.
+std::string patch_image(const FileImage& image, const Mesh& mesh);
+
+/// Leaves each candidate section out of image.bytes when the mesh, as read, encodes it again
+/// byte for byte (candidates in increasing offset order, FileImage::bytes the whole file,
+/// each `at` an offset into it). The bytes left are reallocated, so the memory is returned.
+/// A candidate that does not encode exactly stays in bytes.
+void elide_sections(FileImage& image, const Mesh& mesh,
+                    const std::vector<ElidedSection>& candidates);
 
 }  // namespace detail
 }  // namespace meshmark

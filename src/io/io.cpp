@@ -68,6 +68,7 @@ Mesh assemble(Parsed parsed, std::string* image_bytes, FileFormat format, Encodi
     image->face_count = faces.size();
     image->face_index_count = faces.corners();
     image->extra = std::move(extra);
+    elide_sections(*image, mesh, parsed.elidable);
     mesh.image = std::move(image);
   }
   return mesh;
@@ -315,7 +316,7 @@ std::string write_mesh_to_bytes(const Mesh& mesh, FileFormat format, const Write
   if (options.keep_source && !options.single_precision && !options.vertex_colors &&
       detail::image_applies(mesh, format, encoding)) {
     if (has_float32_slots(*mesh.image)) check_fits_float32(mesh, "the source file");
-    return detail::patch_image(*mesh.image, mesh.V);
+    return detail::patch_image(*mesh.image, mesh);
   }
   if (format == FileFormat::Stl && encoding != Encoding::Ascii)
     check_fits_float32(mesh, "binary STL");

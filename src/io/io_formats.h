@@ -110,6 +110,9 @@ struct Parsed {
   /// records have no list and each axis once; no welding to come), and the layout it recorded.
   bool regular_allowed = false;
   std::optional<RegularLayout> regular;
+  /// Sections the mesh may encode again byte for byte (binary PLY's plain vertex and face
+  /// records), offsets into the file; assemble leaves out of the image those that do.
+  std::vector<ElidedSection> elidable;
 };
 
 /// Triangles from their corners' vertex indices, three by three (a count that is not a multiple

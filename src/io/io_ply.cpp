@@ -279,6 +279,7 @@ void read_binary_body(const std::string& bytes, const Header& header, std::int64
   std::vector<std::int64_t> list;
   for (const Element& e : header.elements) {
     const ElementPlan plan = plan_element(e, name);
+    const std::size_t element_start = pos;
     // Every record takes at least this many bytes: check the count before reading.
     std::size_t min_size = 0;
     for (const Property& p : e.properties)
@@ -346,6 +347,21 @@ void read_binary_body(const std::string& bytes, const Header& header, std::int64
         }
         pos += static_cast<std::size_t>(n) * size;
       }
+    }
+    // Plain records (x, y and z alone; one index list alone), which the mesh may encode again:
+    // the image need not hold them (assemble checks that it does, byte for byte).
+    ElidedSection section;
+    section.at = element_start, section.length = pos - element_start, section.records = e.count;
+    section.big_endian = big;
+    if (parsed.keep_slots && plan.role == Role::Vertex && parsed.regular &&
+        parsed.regular->first == element_start && e.properties.size() == 3) {
+      section.kind = ElidedSection::Kind::Positions;
+      parsed.elidable.push_back(section);
+    } else if (parsed.keep_slots && plan.role == Role::Face && e.properties.size() == 1) {
+      section.kind = ElidedSection::Kind::Faces;
+      section.count_type = e.properties[0].count_type;
+      section.index_type = e.properties[0].type;
+      parsed.elidable.push_back(section);
     }
   }
 }

@@ -13,6 +13,7 @@
 
 #include <fmt/format.h>
 
+#include "io/file_image.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/random.h"
 #include "meshmark/io/io.h"
@@ -282,6 +283,111 @@ TEST(IoFaithful, BinaryPlyInEitherByteOrderWritesMovedVerticesBack) {
         EXPECT_EQ(differing, 0u) << "weld " << weld;
       }
     }
+}
+
+// A binary PLY of plain records (x, y and z alone; one index list alone) keeps its header and
+// other elements in the image, not its vertex and face records, and writes the same bytes as a
+// file built from the moved positions, in both byte orders and precisions and with several
+// count and index types; records that do not encode again exactly (a float index stored as
+// -0.0) are kept as read.
+TEST(IoFaithful, PlainBinaryPlyRecordsAreNotHeldAndWriteTheSameBytes) {
+  const Mesh sphere = bumpy_sphere(8, 12, 3);
+  struct Case {
+    bool big, single;
+    const char* count_type;
+    const char* index_type;
+    bool faces_first, minus_zero;
+  };
+  const Case cases[] = {{false, false, "uchar", "int", false, false},
+                        {true, true, "uchar", "int", false, false},
+                        {false, true, "ushort", "uint", true, false},
+                        {true, false, "int", "short", false, false},
+                        {false, true, "uchar", "float", false, true}};
+  Eigen::Index zero_face = 0;  // the first face with vertex 0: its index 0 stored as -0.0
+  while (zero_face < sphere.F.rows() && (sphere.F.row(zero_face).array() != 0).all()) ++zero_face;
+  ASSERT_LT(zero_face, sphere.F.rows());
+  for (const Case& c : cases) {
+    SCOPED_TRACE(fmt::format("{} {} {} {}{}", c.big ? "big" : "little",
+                             c.single ? "float" : "double", c.count_type, c.index_type,
+                             c.minus_zero ? " -0.0" : ""));
+    const std::size_t scalar = c.single ? 4 : 8;
+    const auto type_size = [](std::string_view t) -> std::size_t {
+      return t == "uchar" ? 1 : t == "ushort" || t == "short" ? 2 : 4;
+    };
+    // Builds the file independently of the reader and writer.
+    const auto build = [&](const Eigen::MatrixX3d& V) {
+      std::string body_v, body_f;
+      const auto put = [&](std::string& to, const void* data, std::size_t n) {
+        std::string b(static_cast<const char*>(data), n);
+        if (c.big) std::reverse(b.begin(), b.end());
+        to += b;
+      };
+      const auto put_int = [&](std::string& to, std::string_view t, long value,
+                               bool negative_zero) {
+        if (t == "uchar") {
+          to += static_cast<char>(value);
+        } else if (t == "ushort" || t == "short") {
+          const auto v = static_cast<std::uint16_t>(value);
+          put(to, &v, 2);
+        } else if (t == "float") {
+          const float v = negative_zero ? -0.0F : static_cast<float>(value);
+          put(to, &v, 4);
+        } else {
+          const auto v = static_cast<std::uint32_t>(value);
+          put(to, &v, 4);
+        }
+      };
+      for (Eigen::Index i = 0; i < V.rows(); ++i)
+        for (int a = 0; a < 3; ++a) {
+          if (c.single) {
+            const auto f = static_cast<float>(V(i, a));
+            put(body_v, &f, 4);
+          } else {
+            put(body_v, &V(i, a), 8);
+          }
+        }
+      for (Eigen::Index t = 0; t < sphere.F.rows(); ++t) {
+        put_int(body_f, c.count_type, 3, false);
+        for (int k = 0; k < 3; ++k)
+          put_int(body_f, c.index_type, sphere.F(t, k),
+                  c.minus_zero && t == zero_face && sphere.F(t, k) == 0);
+      }
+      const char* type = c.single ? "float" : "double";
+      const std::string vertex_header =
+          fmt::format("element vertex {}\nproperty {} x\nproperty {} y\nproperty {} z\n", V.rows(),
+                      type, type, type);
+      const std::string face_header =
+          fmt::format("element face {}\nproperty list {} {} vertex_indices\n", sphere.F.rows(),
+                      c.count_type, c.index_type);
+      const std::string other = "element material 2\nproperty uchar red\n";
+      return fmt::format("ply\nformat binary_{}_endian 1.0\n{}{}{}end_header\n{}{}\x07\x09",
+                         c.big ? "big" : "little", c.faces_first ? face_header : vertex_header,
+                         c.faces_first ? vertex_header : face_header, other,
+                         c.faces_first ? body_f : body_v, c.faces_first ? body_v : body_f);
+    };
+    Eigen::MatrixX3d V0 = sphere.V;
+    if (c.single) V0 = V0.cast<float>().cast<double>();
+    const std::string file = build(V0);
+    Mesh m = read_mesh_from_bytes(file, FileFormat::Ply, "plain.ply");
+    ASSERT_TRUE(m.image);
+    const std::size_t vertex_bytes = static_cast<std::size_t>(sphere.V.rows()) * 3 * scalar;
+    const std::size_t face_bytes = static_cast<std::size_t>(sphere.F.rows()) *
+                                   (type_size(c.count_type) + 3 * type_size(c.index_type));
+    const std::size_t held = file.size() - vertex_bytes - (c.minus_zero ? 0 : face_bytes);
+    EXPECT_EQ(m.image->bytes.size(), held);
+    EXPECT_EQ(m.image->elided.size(), c.minus_zero ? 1U : 2U);
+    m.V = moved(m.V, 3, 7);
+    if (c.single) m.V = m.V.cast<float>().cast<double>();
+    const std::string out = write_mesh_to_bytes(m, FileFormat::Ply);
+    EXPECT_TRUE(out == build(m.V))
+        << "the written file differs from one built from the moved positions";
+    const Mesh back = read_mesh_from_bytes(out, FileFormat::Ply, "back.ply");
+    EXPECT_EQ(back.V, m.V);
+    EXPECT_EQ(back.F, sphere.F);
+    // Unmoved, the same file byte for byte.
+    m.V = V0;
+    EXPECT_TRUE(write_mesh_to_bytes(m, FileFormat::Ply) == file);
+  }
 }
 
 TEST(IoFaithful, AsciiPlyKeepsOtherPropertiesAndElements) {
