@@ -15,7 +15,7 @@ void init_attack(py::module_& m) {
       "attack",
       [](py::handle mesh, const std::string& kind, double strength, std::uint64_t seed,
          double lambda, double mu, bool fixed_boundary, const std::string& weighting,
-         const std::string& convention) {
+         const std::string& convention, py::handle progress) {
         AttackParams params;
         params.lambda = lambda;
         params.mu = mu;
@@ -24,18 +24,22 @@ void init_attack(py::module_& m) {
         params.convention = parse_quantize_convention(convention);
         const std::vector<AttackStep> steps = attack_steps(kind, strength, params);
         const Mesh input = to_mesh(mesh);
-        py::gil_scoped_release unlocked;
-        return apply_attack_chain(input, steps, seed);
+        return with_progress(progress, [&](const ProgressCallback& report) {
+          return apply_attack_chain(input, steps, seed, report);
+        });
       },
       py::arg("mesh"), py::arg("kind"), py::arg("strength") = 0.0, py::kw_only(),
       py::arg("seed") = 1, py::arg("lambda_") = 0.0, py::arg("mu") = 0.0,
       py::arg("fixed_boundary") = false, py::arg("weighting") = "uniform",
-      py::arg("convention") = "levels",
+      py::arg("convention") = "levels", py::arg("progress") = py::none(),
       "Applies an attack to a Mesh (or a (V, F) pair) and returns the attacked Mesh, as the "
       "CLI's attack (same kinds, strengths and seed). kind: a name from attack_kinds(), or a "
       "chain 'noise:0.001,quant:10' (then strength is unused). lambda_, mu, fixed_boundary, "
       "weighting ('uniform', 'inverse-distance'): smooth and taubin; convention ('levels', "
-      "'benchmark'): quant. Attacks that keep the connectivity keep the file image.");
+      "'benchmark'): quant. progress(phase, done, total, what) is called as the long kinds "
+      "(simplify, qsimplify, remesh, the subdivisions) go, and once at the start and end of "
+      "the others; an exception it raises (or Ctrl-C) stops the attack and is raised here. "
+      "Attacks that keep the connectivity keep the file image.");
   m.def(
       "attack_kinds",
       [] {

@@ -100,7 +100,7 @@ void init_calibrate(py::module_& m) {
   m.def(
       "calibrate",
       [](py::handle V, py::handle F, py::handle payload, py::handle bits, py::handle options,
-         py::handle limits, const py::kwargs& kwargs) {
+         py::handle limits, py::handle progress, const py::kwargs& kwargs) {
         const Eigen::MatrixX3d v = to_positions(V);
         const Eigen::MatrixX3i f = to_faces(F, v.rows());
         const Payload word =
@@ -108,23 +108,29 @@ void init_calibrate(py::module_& m) {
                 ? calibration_payload(checked_bits(bits.is_none() ? 64 : bits.cast<int>()), 1)
                 : to_payload(payload, bits);
         const EmbedOptions eo = options.is_none() ? EmbedOptions{} : options.cast<EmbedOptions>();
-        const CalibrateOptions co = to_limits(limits, kwargs);
-        py::gil_scoped_release unlocked;
-        return calibrate_strength(v, f, word, eo, co);
+        CalibrateOptions co = to_limits(limits, kwargs);
+        return with_progress(progress, [&](const ProgressCallback& report) {
+          co.progress = report;
+          return calibrate_strength(v, f, word, eo, co);
+        });
       },
       py::arg("V"), py::arg("F"), py::arg("payload") = py::none(), py::kw_only(),
       py::arg("bits") = py::none(), py::arg("options") = py::none(), py::arg("limits") = py::none(),
+      py::arg("progress") = py::none(),
       "The strongest mark of payload on (V, F) whose vertex RMS and MSDM stay within the "
       "limits (C++ calibrate_strength); returns a CalibrateResult.\n\n"
       "payload: hexadecimal str or 0/1 sequence in bin order (as embed without a key); None: "
       "the calibration payload of `bits` bits (64), the one `meshmark calibrate` uses. options: "
       "the EmbedOptions to embed with (variant, method, bin_offset G, ...; the search sets "
       "strength). limits: a CalibrateOptions; further keywords set its fields "
-      "(max_rms_percent=0.04, max_msdm=0.25, bin_offset='fixed', ...).");
+      "(max_rms_percent=0.04, max_msdm=0.25, bin_offset='fixed', ...). progress(phase, done, "
+      "total, what) is called as each strength tried is measured (the phase names it); an "
+      "exception it raises (or Ctrl-C) stops the search and is raised here.");
   m.def(
       "calibrate_file",
       [](py::handle path, py::handle variant, py::handle method, int bits, double bin_offset,
-         py::handle cache, double weld_tolerance, py::handle limits, const py::kwargs& kwargs) {
+         py::handle cache, double weld_tolerance, py::handle limits, py::handle progress,
+         const py::kwargs& kwargs) {
         FileCalibrationOptions o;
         o.variant = to_variant(variant);
         o.method = to_enum<Method>(method, "method");
@@ -137,11 +143,10 @@ void init_calibrate(py::module_& m) {
         o.read.weld_tolerance = weld_tolerance;
         o.cache = cache.is_none() ? "" : to_path(cache);
         const std::string file = to_path(path);
-        FileCalibration c;
-        {
-          py::gil_scoped_release unlocked;
-          c = calibrate_file(file, o);
-        }
+        const FileCalibration c = with_progress(progress, [&](const ProgressCallback& report) {
+          o.limits.progress = report;
+          return calibrate_file(file, o);
+        });
         if (!c.warning.empty() && PyErr_WarnEx(PyExc_UserWarning, c.warning.c_str(), 1) != 0)
           throw py::error_already_set();
         py::object out = json_object(file_calibration_to_json(c));
@@ -152,11 +157,12 @@ void init_calibrate(py::module_& m) {
       py::arg("path"), py::kw_only(), py::arg("variant") = "DRS", py::arg("method") = Method::Qp,
       py::arg("bits") = 64, py::arg("bin_offset") = 0.05, py::arg("cache") = py::none(),
       py::arg("weld_tolerance") = 0.0, py::arg("limits") = py::none(),
+      py::arg("progress") = py::none(),
       "The calibration of a mesh file as the CLI's `meshmark calibrate --json` prints it (a "
       "dict: status, strength, bin_offset, rms_percent, msdm, cause, diagnostics, evaluations, "
       "seconds, key, cached, cache, ...), with the same defaults. cache: a JSON-lines file read "
       "first and appended to (None: no cache, unlike the CLI; default_calibration_cache() is "
-      "the CLI's). limits and keywords: as calibrate's.");
+      "the CLI's). limits, progress and keywords: as calibrate's.");
   m.def("default_calibration_cache", &default_calibration_cache,
         "The CLI's cache: $XDG_CACHE_HOME/meshmark/calibration.jsonl, else "
         "~/.cache/meshmark/calibration.jsonl.");

@@ -19,27 +19,17 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Thrown through the library when a Python callback raised: the run stops, and the Python
-// exception is raised once the GIL is back.
-struct CallbackRaised : std::exception {
-  const char* what() const noexcept override { return "a Python callback raised"; }
-};
-
 // Python's progress and warning callbacks, called from the library's worker threads.
 class Callbacks {
  public:
   Callbacks(py::handle progress, py::handle warn)
-      : progress_(py::reinterpret_borrow<py::object>(progress)),
-        warn_(py::reinterpret_borrow<py::object>(warn)) {}
+      : gate_(progress), warn_(py::reinterpret_borrow<py::object>(warn)) {}
 
   /// The library's hooks, calling the Python callables under the GIL.
   void install(CampaignRunOptions& o) {
-    if (!progress_.is_none())
-      o.progress = [this](const std::string& phase, long done, long total, const std::string& w) {
-        call([&] { progress_(phase, done, total, w); });
-      };
+    o.progress = gate_.progress();
     o.warn = [this](const std::string& message) {
-      call([&] {
+      gate_.call([&] {
         if (!warn_.is_none())
           warn_(message);
         else if (PyErr_WarnEx(PyExc_UserWarning, message.c_str(), 1) != 0)
@@ -49,26 +39,11 @@ class Callbacks {
   }
 
   /// Raises what a callback raised, if one did (with the GIL held).
-  void rethrow() {
-    if (raised_) throw *raised_;
-  }
+  void rethrow() { gate_.rethrow(); }
 
  private:
-  template <class F>
-  void call(F f) {
-    py::gil_scoped_acquire gil;
-    if (raised_) throw CallbackRaised();  // another worker's callback raised: stop too
-    try {
-      f();
-      if (PyErr_CheckSignals() != 0) throw py::error_already_set();  // Ctrl-C on the main thread
-    } catch (py::error_already_set& e) {
-      raised_ = std::move(e);
-      throw CallbackRaised();
-    }
-  }
-
-  py::object progress_, warn_;
-  std::optional<py::error_already_set> raised_;
+  CallbackGate gate_;
+  py::object warn_;
 };
 
 // A dict's model paths made absolute (relative ones: to the current directory), "${...}"

@@ -218,7 +218,7 @@ void init_issue(py::module_& m) {
       "issue",
       [](const py::iterable& copies, const std::string& registry, py::handle key,
          py::handle key_file, int bits, int id_bits, double strength_spread, py::handle options,
-         int threads, bool resume, bool public_key, py::handle fingerprint,
+         int threads, bool resume, bool public_key, py::handle fingerprint, py::handle progress,
          const py::kwargs& kwargs) {
         std::vector<CopyRequest> requests;
         std::size_t k = 0;
@@ -228,11 +228,13 @@ void init_issue(py::module_& m) {
                                          options, public_key, fingerprint, kwargs);
         s.threads = threads;
         s.resume = resume;
-        IssueResult r;
-        {
-          py::gil_scoped_release unlocked;
-          r = issue_copies(requests, s);
-        }
+        const IssueResult r = with_progress(
+            progress,
+            [&](const ProgressCallback& report) {
+              s.progress = report;
+              return issue_copies(requests, s);
+            },
+            /*stops=*/false);
         py::list out;
         for (std::size_t c = 0; c < r.copies.size(); ++c)
           out.append(to_dict(requests[c], r.copies[c]));
@@ -242,6 +244,7 @@ void init_issue(py::module_& m) {
       py::arg("key_file") = py::none(), py::arg("bits") = 64, py::arg("id_bits") = 32,
       py::arg("strength_spread") = 0.25, py::arg("options") = py::none(), py::arg("threads") = 0,
       py::arg("resume") = true, py::arg("public_key") = false, py::arg("fingerprint") = py::none(),
+      py::arg("progress") = py::none(),
       "Issues watermarked copies as the CLI's embed --batch does: copies is a list of dicts "
       "{input (a path, or a meshmark.Mesh or (V, F) pair in memory: the registry then "
       "knows the original by its geometry), output, id (a coded buyer ID, or 'auto': the "
@@ -259,12 +262,16 @@ void init_issue(py::module_& m) {
       "(strength, variant, method); further keywords set its fields, as embed() takes them "
       "(variant='VRS', strength=0.05, ...). Returns one dict per copy: id, status, ok, "
       "message, warnings, strength, bin_offset, "
-      "rms_percent, min_margin, rounds, msdm (with fidelity limits).");
+      "rms_percent, min_margin, rounds, msdm (with fidelity limits). progress(phase, done, total, "
+      "what) is called as originals are prepared and copies made; an exception it raises (or "
+      "Ctrl-C) is raised here once the issue is done: it does not stop the issue halfway "
+      "(every copy is written and recorded as without it), and progress is not called again.");
   m.def(
       "trace",
       [](py::handle leaked, py::handle original, const std::string& registry, py::handle key,
          py::handle key_file, double threshold, bool register_leak, py::handle report,
-         py::handle pdf, const std::string& case_id, const std::string& analyst, bool redact) {
+         py::handle pdf, const std::string& case_id, const std::string& analyst, bool redact,
+         py::handle progress) {
         // A passphrase stands for the key its copies in the registry were issued under (the
         // earlier derivation for copies issued before schema 4), as the CLI's trace.
         std::optional<Key> k;
@@ -299,11 +306,10 @@ void init_issue(py::module_& m) {
         request.case_id = case_id;
         request.analyst = analyst;
         request.redact = redact;
-        TraceFilesResult found;
-        {
-          py::gil_scoped_release unlocked;
-          found = trace_files(request, *k);
-        }
+        const TraceFilesResult found = with_progress(progress, [&](const ProgressCallback& report) {
+          request.options.progress = report;
+          return trace_files(request, *k);
+        });
         const TraceResult& r = found.trace;
         py::dict out;
         out["status"] = trace_status_name(r.status);
@@ -329,6 +335,7 @@ void init_issue(py::module_& m) {
       py::arg("key") = py::none(), py::arg("key_file") = py::none(), py::arg("threshold") = 1e-6,
       py::arg("register") = true, py::arg("report") = py::none(), py::arg("pdf") = py::none(),
       py::arg("case") = "", py::arg("analyst") = "", py::arg("redact") = false,
+      py::arg("progress") = py::none(),
       "Names the buyers whose copies the leaked mesh came from, as the CLI's trace does: "
       "leaked and original are paths, or meshes in memory (a meshmark.Mesh or a (V, F) pair; "
       "an original in memory finds its copies by geometry, whatever file they were issued "
@@ -340,7 +347,9 @@ void init_issue(py::module_& m) {
       "matches, bits, p_value, corrected_p, copy, row, row_auth: authentic, edited (never "
       "named), unauthenticated), registration, warnings (rows that fail their MAC or carry "
       "none, a leak whose bytes are another row's copy), identical_row (the row whose "
-      "recorded file the leak's bytes are, 0 if none), report, pdf.");
+      "recorded file the leak's bytes are, 0 if none), report, pdf. progress(phase, done, total, "
+      "what) is called as the trace goes (registration, then the candidates); an exception it "
+      "raises (or Ctrl-C) stops the trace, which then writes no report, and is raised here.");
 }
 
 }  // namespace meshmark::python

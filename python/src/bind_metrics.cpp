@@ -46,16 +46,16 @@ void require_triangles(const Eigen::MatrixX3i& F, const char* name) {
 }
 
 // The CLI's compare of two meshes, with its JSON report's keys.
-py::dict compare(const Mesh& A, const Mesh& B, const SurfaceDistanceOptions& sampling) {
+py::dict compare(const Mesh& A, const Mesh& B, const SurfaceDistanceOptions& sampling,
+                 py::handle progress) {
   require_triangles(A.F, "a");
   require_triangles(B.F, "b");
-  MeshComparison c;
-  {
-    py::gil_scoped_release unlocked;
+  const MeshComparison c = with_progress(progress, [&](const ProgressCallback& report) {
     CompareOptions options;
     options.sampling = sampling;
-    c = compare_meshes(A, B, options);
-  }
+    options.progress = report;
+    return compare_meshes(A, B, options);
+  });
   const SurfaceDistance& d = c.surface;
   py::dict out;
   out["same_connectivity"] = c.same_connectivity;
@@ -86,16 +86,19 @@ void init_metrics(py::module_& m) {
   bind_types(m);
   m.def(
       "compare",
-      [](py::handle a, py::handle b, int samples, std::uint64_t seed) {
+      [](py::handle a, py::handle b, int samples, std::uint64_t seed, py::handle progress) {
         SurfaceDistanceOptions o;
         o.samples = samples;
         o.seed = seed;
-        return compare(to_mesh(a, "a"), to_mesh(b, "b"), o);
+        return compare(to_mesh(a, "a"), to_mesh(b, "b"), o, progress);
       },
       py::arg("a"), py::arg("b"), py::kw_only(), py::arg("samples") = 0, py::arg("seed") = 1,
+      py::arg("progress") = py::none(),
       "The CLI's compare of two Meshes (or (V, F) pairs), as a dict with its JSON keys: "
       "same_connectivity, rms_percent and msdm (same connectivity only), mrms_percent, "
-      "hausdorff_percent, rms_ab, rms_ba, hausdorff (model units), msdm2.");
+      "hausdorff_percent, rms_ab, rms_ba, hausdorff (model units), msdm2. progress(phase, done, "
+      "total, what) is called as MSDM and MSDM2 walk their windows (minutes on a million "
+      "vertices); an exception it raises (or Ctrl-C) stops the comparison and is raised here.");
   m.def(
       "vertex_rms_percent",
       [](py::handle A, py::handle B, py::handle F) {
@@ -125,13 +128,17 @@ void init_metrics(py::module_& m) {
       "surface besides the vertices, 0 for 2 per vertex and at least 50,000).");
   m.def(
       "msdm",
-      [](py::handle A, py::handle B, py::handle F, const MsdmOptions& options) {
+      [](py::handle A, py::handle B, py::handle F, const MsdmOptions& options,
+         py::handle progress) {
         const SharedConnectivity s = shared(A, B, F);
-        py::gil_scoped_release unlocked;
-        return msdm(s.A, s.B, s.F, options);
+        return with_progress(progress, [&](const ProgressCallback& report) {
+          return msdm(s.A, s.B, s.F, options, report);
+        });
       },
-      py::arg("A"), py::arg("B"), py::arg("F"), py::arg("options") = MsdmOptions{},
-      "MSDM (Lavoue et al. 2006) between positions A and B of one connectivity F.");
+      py::arg("A"), py::arg("B"), py::arg("F"), py::arg("options") = MsdmOptions{}, py::kw_only(),
+      py::arg("progress") = py::none(),
+      "MSDM (Lavoue et al. 2006) between positions A and B of one connectivity F. progress: as "
+      "compare's.");
   m.def(
       "msdm2",
       [](py::handle VA, py::handle FA, py::handle VB, py::handle FB) {

@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <exception>
 #include <optional>
 #include <string>
 #include <utility>
@@ -17,6 +18,7 @@
 #include "meshmark/carrier/variant.h"
 #include "meshmark/core/enum_names.h"
 #include "meshmark/core/mesh.h"
+#include "meshmark/core/progress.h"
 #include "meshmark/mark/payload.h"
 #include "meshmark/protocol/key.h"
 
@@ -81,6 +83,81 @@ E to_enum(py::handle value, const char* what) {
                          py::str(py::type::of<E>().attr("__name__")).cast<std::string>() +
                          " or its name (" + EnumTable<E>::what + ")");
   return value.cast<E>();
+}
+
+/// Thrown through the library when a Python callback raised: the work stops, and the Python
+/// exception is raised again once the GIL is held (CallbackGate::rethrow).
+struct CallbackRaised : std::exception {
+  const char* what() const noexcept override { return "a Python callback raised"; }
+};
+
+/// Python callables called back from the library's worker threads, under the GIL. A callable
+/// that raises, or a Ctrl-C seen while one runs, stops the work: CallbackRaised goes through
+/// the library, later calls throw it at once, and rethrow() raises the Python exception. A
+/// gate that does not stop the work (work that must not end halfway) calls no callable after
+/// one raised, and rethrow() raises it once the work is done.
+class CallbackGate {
+ public:
+  /// progress: progress(phase, done, total, what), or None.
+  explicit CallbackGate(py::handle progress = py::none(), bool stops = true)
+      : progress_(py::reinterpret_borrow<py::object>(progress)), stops_(stops) {}
+
+  /// The progress callable as the library's ProgressCallback (empty for None). The gate must
+  /// outlive the work it is given to.
+  ProgressCallback progress() {
+    if (progress_.is_none()) return {};
+    return [this](const std::string& phase, long done, long total, const std::string& what) {
+      call([&] { progress_(phase, done, total, what); });
+    };
+  }
+
+  /// Runs f under the GIL, as every callback of the gate runs.
+  template <class F>
+  void call(F f) {
+    py::gil_scoped_acquire gil;
+    if (raised_) {  // another worker's callback raised: stop too, or call nothing more
+      if (stops_) throw CallbackRaised();
+      return;
+    }
+    try {
+      f();
+      if (PyErr_CheckSignals() != 0) throw py::error_already_set();  // Ctrl-C on the main thread
+    } catch (py::error_already_set& e) {
+      raised_ = std::move(e);
+      if (stops_) throw CallbackRaised();
+    }
+  }
+
+  /// Raises what a callback raised, if one did (with the GIL held), even when the library
+  /// caught CallbackRaised and went on (a copy recorded as failed).
+  void rethrow() {
+    if (raised_) throw *raised_;
+  }
+
+ private:
+  py::object progress_;
+  bool stops_ = true;
+  std::optional<py::error_already_set> raised_;
+};
+
+/// Runs work(ProgressCallback) without the GIL, progress (a callable or None) called back under
+/// it; raises what progress raised (the work stopped there, or with stops false once it is
+/// done), else returns what work returned.
+template <class Work>
+auto with_progress(py::handle progress, Work work, bool stops = true) {
+  CallbackGate gate(progress, stops);
+  const ProgressCallback callback = gate.progress();
+  try {
+    auto result = [&] {
+      py::gil_scoped_release unlocked;
+      return work(callback);
+    }();
+    gate.rethrow();
+    return result;
+  } catch (const CallbackRaised&) {
+    gate.rethrow();
+    throw;
+  }
 }
 
 /// An ID: a non-negative Python int below 2^64. \throw InvalidArgumentError otherwise.
