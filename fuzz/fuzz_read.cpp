@@ -25,7 +25,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       for (int c = 0; c < 3; ++c)
         if (mesh.F(t, c) < 0 || mesh.F(t, c) >= mesh.V.rows()) __builtin_trap();
     // A .gltf naming external buffers reads them beside "fuzz" (none exist: refused by name).
-    (void)meshmark::write_mesh_to_bytes(mesh, format);
+    const std::string written = meshmark::write_mesh_to_bytes(mesh, format);
+    // Nothing moved: OFF, OBJ, PLY and STL write the file back byte for byte through its image
+    // (a binary PLY's plain records encoded again from the mesh, not kept).
+    const bool faithful = format == FileFormat::Off || format == FileFormat::Obj ||
+                          format == FileFormat::Ply || format == FileFormat::Stl;
+    if (faithful && written.size() != size - 1) __builtin_trap();
+    if (faithful && written.compare(0, written.size(), reinterpret_cast<const char*>(data) + 1,
+                                    size - 1) != 0)
+      __builtin_trap();
   } catch (const meshmark::Error&) {
   }
   return 0;

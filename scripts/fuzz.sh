@@ -30,7 +30,8 @@ add_seed() { # FILE FORMAT_BYTE
 for f in data/meshes/spot.obj data/meshes/spider.obj /usr/share/assimp/models/OBJ/WusonOBJ.obj; do add_seed "$f" 1; done
 add_seed data/meshes/featuretype.STL 3
 for f in build/cgal-data/data/meshes/cube.off build/cgal-data/data/meshes/tetrahedron.off build/cgal-data/data/meshes/elephant.off; do add_seed "$f" 0; done
-for f in build/cgal-data/data/meshes/colored_tetra.ply build/cgal-data/data/meshes/sphere.ply; do add_seed "$f" 2; done
+for f in build/cgal-data/data/meshes/colored_tetra.ply build/cgal-data/data/meshes/sphere.ply \
+         /usr/share/assimp/models/PLY/cube_binary.ply; do add_seed "$f" 2; done
 add_seed build/cgal-data/data/meshes/sphere.stl 3
 # glTF and GLB seeds: gltfpack's outputs (quantized, float, meshopt) and Debian's sample files.
 if command -v gltfpack >/dev/null; then

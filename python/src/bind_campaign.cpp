@@ -154,6 +154,7 @@ void init_campaign(py::module_& m) {
           callbacks.rethrow();
           throw;
         }
+        callbacks.rethrow();  // a callback raised where the library went on
         return result_dict(r);
       },
       py::arg("config"), py::arg("out_dir"), py::kw_only(), py::arg("jobs") = 0,

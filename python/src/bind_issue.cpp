@@ -306,10 +306,11 @@ void init_issue(py::module_& m) {
         request.case_id = case_id;
         request.analyst = analyst;
         request.redact = redact;
-        const TraceFilesResult found = with_progress(progress, [&](const ProgressCallback& report) {
-          request.options.progress = report;
-          return trace_files(request, *k);
-        });
+        const TraceFilesResult found =
+            with_progress(progress, [&](const ProgressCallback& on_step) {
+              request.options.progress = on_step;
+              return trace_files(request, *k);
+            });
         const TraceResult& r = found.trace;
         py::dict out;
         out["status"] = trace_status_name(r.status);

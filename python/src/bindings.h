@@ -98,9 +98,16 @@ struct CallbackRaised : std::exception {
 /// one raised, and rethrow() raises it once the work is done.
 class CallbackGate {
  public:
-  /// progress: progress(phase, done, total, what), or None.
+  /// progress: progress(phase, done, total, what), or None. \throw TypeError when it is
+  /// neither (before any work).
   explicit CallbackGate(py::handle progress = py::none(), bool stops = true)
-      : progress_(py::reinterpret_borrow<py::object>(progress)), stops_(stops) {}
+      : progress_(py::reinterpret_borrow<py::object>(progress)), stops_(stops) {
+    if (!progress_.is_none() && PyCallable_Check(progress_.ptr()) == 0)
+      throw py::type_error(
+          "progress must be a callable progress(phase, done, total, what) or None");
+  }
+  CallbackGate(const CallbackGate&) = delete;  // the callbacks it hands out hold its address
+  CallbackGate& operator=(const CallbackGate&) = delete;
 
   /// The progress callable as the library's ProgressCallback (empty for None). The gate must
   /// outlive the work it is given to.
@@ -115,7 +122,7 @@ class CallbackGate {
   template <class F>
   void call(F f) {
     py::gil_scoped_acquire gil;
-    if (raised_) {  // another worker's callback raised: stop too, or call nothing more
+    if (raised_ || other_) {  // another worker's callback raised: stop too, or call no more
       if (stops_) throw CallbackRaised();
       return;
     }
@@ -125,6 +132,9 @@ class CallbackGate {
     } catch (py::error_already_set& e) {
       raised_ = std::move(e);
       if (stops_) throw CallbackRaised();
+    } catch (...) {  // a C++ error in the call itself (a failed conversion, no memory)
+      if (stops_) throw;
+      other_ = std::current_exception();
     }
   }
 
@@ -132,12 +142,14 @@ class CallbackGate {
   /// caught CallbackRaised and went on (a copy recorded as failed).
   void rethrow() {
     if (raised_) throw *raised_;
+    if (other_) std::rethrow_exception(other_);
   }
 
  private:
   py::object progress_;
   bool stops_ = true;
   std::optional<py::error_already_set> raised_;
+  std::exception_ptr other_;
 };
 
 /// Runs work(ProgressCallback) without the GIL, progress (a callable or None) called back under

@@ -115,6 +115,10 @@ def test_issue_reports_and_finishes_even_when_the_callback_raises(fandisk, tmp_p
     assert out[0]["status"] == "written"
     assert [(c[0], c[1], c[2]) for c in calls] == [
         ("preparing", 0, 1), ("preparing", 1, 1), ("issuing", 0, 1), ("issuing", 1, 1)]
+    # A progress that cannot be called is refused before any work.
+    with pytest.raises(TypeError, match="callable"):
+        meshmark.issue(copies[1:], registry=registry, key=KEY, progress=5)
+    assert not copies[1]["output"].exists()
     # Raising at the first call: raised once the issue is done; every copy written and recorded.
     seen, callback = raising_at(1)
     with pytest.raises(Stop):

@@ -172,6 +172,8 @@ CampaignConfig load_campaign(const std::string& path) {
     j = json::parse(text);
   } catch (const json::parse_error& e) {
     bad(path, fmt::format("not valid JSON (byte {}): {}", e.byte, e.what()));
+  } catch (const json::exception& e) {  // a number beyond double's range: out_of_range
+    bad(path, fmt::format("not valid JSON: {}", e.what()));
   }
   if (!j.is_object()) bad(path, "a campaign is a JSON object");
   check_keys(path, j, "campaign",

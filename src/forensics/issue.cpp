@@ -816,11 +816,6 @@ IssueResult issue_with(std::vector<CopyRequest> requests, const IssueSettings& s
     if (!pending(out[k])) continue;
     inputs.insert(input);
     if (originals.count(input) || failed.count(input)) continue;
-    struct Step {  // the original counted as prepared however its preparation ends
-      detail::ProgressCounter& counter;
-      const std::string& what;
-      ~Step() { counter.step(1, what); }
-    } step{preparing, requests[k].input};
     try {
       originals[input] =
           prepare_original(requests[k], settings, cache.kept || copies_of[input] > 1);
@@ -833,6 +828,7 @@ IssueResult issue_with(std::vector<CopyRequest> requests, const IssueSettings& s
     } catch (const std::exception& e) {
       failed[input] = {CopyStatus::NotEmbedded, e.what()};
     }
+    preparing.step(1, requests[k].input);  // counted as prepared however its preparation ended
   }
   result.inputs = inputs.size();
   std::vector<std::size_t> jobs;

@@ -127,11 +127,38 @@ double slot_value(const std::string& bytes, const CoordSlot& slot) {
   return value;
 }
 
+std::uint64_t face_hash(const FaceView& faces) {
+  std::uint64_t h = 0x243F6A8885A308D3ULL;
+  const auto mix = [&h](std::uint64_t v) {
+    h = (h ^ v) * 0x9E3779B97F4A7C15ULL;
+    h ^= h >> 29;
+  };
+  for (std::size_t k = 0; k < faces.size(); ++k) {
+    const std::size_t n = faces.size_of(k);
+    mix(n);
+    for (std::size_t c = 0; c < n; ++c) mix(static_cast<std::uint32_t>(faces.corner(k, c)));
+  }
+  return h;
+}
+
+void record_connectivity(FileImage& image, const Mesh& mesh) {
+  const FaceView faces(mesh);
+  image.vertices = mesh.V.rows();
+  image.face_count = faces.size();
+  image.face_index_count = faces.corners();
+  image.face_hash = face_hash(faces);
+}
+
+bool same_connectivity(const FileImage& image, const Mesh& mesh) {
+  const FaceView faces(mesh);
+  return image.vertices == mesh.V.rows() && image.face_count == faces.size() &&
+         image.face_index_count == faces.corners() && image.face_hash == face_hash(faces);
+}
+
 bool image_applies(const Mesh& mesh, FileFormat format, Encoding encoding) {
   const FileImage* image = mesh.image.get();
   return image && image->format == format && image->encoding == encoding &&
-         image->vertices == mesh.V.rows() && image->face_count == FaceView(mesh).size() &&
-         image->face_index_count == FaceView(mesh).corners();
+         same_connectivity(*image, mesh);
 }
 
 namespace {

@@ -28,7 +28,7 @@ enum class SlotType : std::uint8_t {
 /// One stored coordinate: where it is, how it is stored, and which vertex and axis it holds.
 /// 16 bytes; the value stored is read again from the bytes when needed (slot_value).
 struct CoordSlot {
-  std::uint64_t offset : 48 = 0;  ///< byte offset in FileImage::bytes (below 2^48)
+  std::uint64_t offset : 48 = 0;  ///< byte offset in the source file (below 2^48)
   std::uint64_t length : 16 = 0;  ///< byte length (text token length, or the binary type's size)
   std::int32_t vertex = 0;        ///< the vertex (row of V) it belongs to
   std::uint8_t axis = 0;          ///< 0, 1, 2 for x, y, z
@@ -43,7 +43,7 @@ static_assert(sizeof(CoordSlot) == 16, "a stored coordinate costs 16 bytes");
 /// coordinate (binary PLY whose vertex records have no list, read without welding): coordinate
 /// a of vertex i at first + i * stride + offset[a], of type[a].
 struct RegularLayout {
-  std::uint64_t first = 0;                ///< byte offset of vertex 0's record
+  std::uint64_t first = 0;                ///< byte offset of vertex 0's record in the source file
   std::uint64_t stride = 0;               ///< bytes a record
   std::array<std::uint32_t, 3> offset{};  ///< of x, y, z within a record
   std::array<SlotType, 3> type{};
@@ -91,6 +91,7 @@ struct FileImage {
   Eigen::MatrixX3d V;
   std::size_t face_count = 0;  ///< faces as read, to detect changed connectivity
   std::size_t face_index_count = 0;
+  std::uint64_t face_hash = 0;               ///< of the faces as read (detail::face_hash)
   std::shared_ptr<const FormatImage> extra;  ///< the format's own record, if any
 };
 
@@ -110,8 +111,18 @@ double slot_value(const std::string& bytes, const CoordSlot& slot);
 /// Writes value, converted to type (integers rounded and clamped), at data.
 void write_scalar(char* data, SlotType type, bool big_endian, double value);
 
+/// A 64-bit hash of the faces (each face's corner count and corners, in order): faces changed
+/// with their counts kept (a triangle turned over) do not write through the image.
+std::uint64_t face_hash(const FaceView& faces);
+
+/// Records the mesh's vertex and face counts and face_hash in image, as read.
+void record_connectivity(FileImage& image, const Mesh& mesh);
+
+/// True when the mesh still has the vertex count and the faces its image was read with.
+bool same_connectivity(const FileImage& image, const Mesh& mesh);
+
 /// True when a mesh can be written through its image: same format and encoding, same vertex
-/// and face counts.
+/// count and faces (same_connectivity).
 bool image_applies(const Mesh& mesh, FileFormat format, Encoding encoding);
 
 /// The source file's bytes with every coordinate whose vertex moved replaced by its position in
@@ -121,8 +132,9 @@ bool image_applies(const Mesh& mesh, FileFormat format, Encoding encoding);
 std::string patch_image(const FileImage& image, const Mesh& mesh);
 
 /// Leaves each candidate section out of image.bytes when the mesh, as read, encodes it again
-/// byte for byte (candidates in increasing offset order, FileImage::bytes the whole file,
-/// each `at` an offset into it). The bytes left are reallocated, so the memory is returned.
+/// byte for byte (candidates in increasing offset order, FileImage::bytes still the whole
+/// file, each `at` an offset into it; afterwards each kept section's `at` is where it goes
+/// back in the shortened bytes). The bytes left are reallocated, so the memory is returned.
 /// A candidate that does not encode exactly stays in bytes.
 void elide_sections(FileImage& image, const Mesh& mesh,
                     const std::vector<ElidedSection>& candidates);

@@ -62,11 +62,8 @@ Mesh assemble(Parsed parsed, std::string* image_bytes, FileFormat format, Encodi
     auto by_offset = [](const CoordSlot& a, const CoordSlot& b) { return a.offset < b.offset; };
     if (!std::is_sorted(image->slots.begin(), image->slots.end(), by_offset))
       std::sort(image->slots.begin(), image->slots.end(), by_offset);
-    image->vertices = mesh.V.rows();
     if (split_format || options.weld_tolerance > 0) image->V = mesh.V;
-    const FaceView faces(mesh);
-    image->face_count = faces.size();
-    image->face_index_count = faces.corners();
+    record_connectivity(*image, mesh);
     image->extra = std::move(extra);
     elide_sections(*image, mesh, parsed.elidable);
     mesh.image = std::move(image);
@@ -105,11 +102,8 @@ void attach_image(Mesh& mesh, std::shared_ptr<const FormatImage> extra,
   auto image = std::make_shared<FileImage>();
   image->format = mesh.format;
   image->encoding = mesh.encoding;
-  image->vertices = mesh.V.rows();
   image->V = mesh.V;
-  const FaceView faces(mesh);
-  image->face_count = faces.size();
-  image->face_index_count = faces.corners();
+  record_connectivity(*image, mesh);
   image->extra = std::move(extra);
   mesh.image = std::move(image);
 }

@@ -532,7 +532,7 @@ void parse_document(Reader& r) {
   const std::string& name = r.name;
   try {
     r.doc = Json::parse(r.img.json);
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {  // malformed, or a number beyond double's range
     fail(name, 0, fmt::format("the JSON does not parse: {}", e.what()));
   }
   if (!r.doc.is_object()) fail(name, 0, "the JSON is not an object");

@@ -531,13 +531,11 @@ std::string write_gltf(const Mesh& mesh, FileFormat format, const WriteOptions& 
                        std::map<std::string, std::string>* resources) {
   const FileImage* image = mesh.image.get();
   const auto* g = image ? dynamic_cast<const GltfImage*>(image->extra.get()) : nullptr;
-  const bool applies = options.keep_source && g && image->format == format &&
-                       image->vertices == mesh.V.rows() &&
-                       image->face_count == FaceView(mesh).size() &&
-                       image->face_index_count == FaceView(mesh).corners();
+  const bool applies =
+      options.keep_source && g && image->format == format && same_connectivity(*image, mesh);
   if (!applies) return write_new(mesh, format);
 
-  Patch p{mesh, *image, *g, {}, {}, {}, {}};
+  Patch p{mesh, *image, *g, {}, {}, {}, {}, false, {}, {}, {}};
   for (const GltfBuffer& b : g->buffers) p.buffers.emplace_back(b.data);
   for (const GltfView& v : g->views) p.views.push_back(v.decoded);
   p.view_changed.assign(g->views.size(), 0);

@@ -61,6 +61,8 @@ TEST(Campaign, RejectsBadFilesNamingFileAndKey) {
       {head + ", \"strength\": 0.7}", "strength 0.7 is out of (0, 1/2)"},
       {head + ", \"bits\": \"many\"}", "wrong type"},
       {"{\"models\": [", "not valid JSON"},
+      // A number beyond double's range ended the process (found by the fuzzer).
+      {head + ", \"seed\": 666666666666e66666666666666667}", "not valid JSON"},
       // Chains: the last step takes the strengths; every step must be an attack.
       {head + ", \"attacks\": [{\"kind\": \"similarity:2,simplify:0.3\", \"strengths\": [0.5]}]}",
        "attacks[0]: the last step of the chain \"similarity:2,simplify:0.3\" takes the strengths"},

@@ -825,6 +825,9 @@ TEST(Gltf, MalformedContainersAndJsonAreRefusedByName) {
   v1[4] = 1;
   expect_refused(v1, FileFormat::Glb, "version 1");
   expect_refused("{\"asset\": {\"version\": \"2.0\"", FileFormat::Gltf, "does not parse");
+  // A number beyond double's range (found by the fuzzer in a campaign file): not a type error.
+  expect_refused("{\"asset\": {\"version\": \"2.0\"}, \"x\": 1e999}", FileFormat::Gltf,
+                 "does not parse");
   expect_refused("{\"asset\": {\"version\": \"1.0\"}}", FileFormat::Gltf, "not glTF 2.0");
   auto edited = [&](const std::function<void(Json&)>& edit) {
     Json j = g.json;

@@ -7,6 +7,7 @@
 #include <array>
 #include <cstring>
 #include <filesystem>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <tuple>
@@ -387,6 +388,41 @@ TEST(IoFaithful, PlainBinaryPlyRecordsAreNotHeldAndWriteTheSameBytes) {
     // Unmoved, the same file byte for byte.
     m.V = V0;
     EXPECT_TRUE(write_mesh_to_bytes(m, FileFormat::Ply) == file);
+  }
+}
+
+// Faces changed with their counts kept (a triangle turned over) are written as changed, in
+// every format that writes through an image: the image no longer applies (its face hash), where
+// it used to write the faces as read.
+TEST(IoFaithful, FacesChangedWithTheirCountsKeptAreWrittenAsChanged) {
+  const Mesh sphere = bumpy_sphere(8, 12, 3);
+  struct Case {
+    FileFormat format;
+    std::optional<Encoding> encoding;
+  };
+  const Case cases[] = {{FileFormat::Off, std::nullopt},
+                        {FileFormat::Obj, std::nullopt},
+                        {FileFormat::Ply, Encoding::Ascii},
+                        {FileFormat::Ply, Encoding::BinaryLittleEndian},
+                        {FileFormat::Glb, std::nullopt}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(
+        fmt::format("{} {}", format_name(c.format), c.encoding ? encoding_name(*c.encoding) : ""));
+    WriteOptions wo;
+    wo.encoding = c.encoding;
+    const std::string file = write_mesh_to_bytes(sphere, c.format, wo);
+    Mesh m = read_mesh_from_bytes(file, c.format, "turned");
+    ASSERT_TRUE(m.image);
+    ASSERT_EQ(m.F.rows(), sphere.F.rows());
+    ASSERT_TRUE(m.faces.size() == 0) << "a file of triangles keeps them in F alone";
+    std::swap(m.F(0, 1), m.F(0, 2));  // turned over: the same counts
+    const Mesh back = read_mesh_from_bytes(write_mesh_to_bytes(m, c.format, wo), c.format, "back");
+    ASSERT_EQ(back.F.rows(), m.F.rows());
+    for (int k = 0; k < 3; ++k)
+      EXPECT_EQ(back.V.row(back.F(0, k)), m.V.row(m.F(0, k))) << "corner " << k;
+    // Unchanged, the file comes back byte for byte.
+    std::swap(m.F(0, 1), m.F(0, 2));
+    EXPECT_TRUE(write_mesh_to_bytes(m, c.format, wo) == file);
   }
 }
 

@@ -35,11 +35,12 @@ struct ReadOptions {
   /// 0; the other formats weld nothing at 0. Unreferenced vertices are never welded.
   /// \throw InvalidArgumentError (from the readers) when not finite or negative.
   double weld_tolerance = 0.0;
-  /// Keep the file image for faithful writing (costs the file's size in memory, plus 16 bytes
-  /// for each stored coordinate of an OFF, OBJ, ASCII PLY, STL or glTF file, none for a binary
-  /// PLY whose vertex records have a fixed size read without welding, plus 24 bytes a vertex for a
-  /// welded file or a glTF, 3MF or Draco one). Without it, the OFF, OBJ and PLY readers record no
-  /// coordinate slots.
+  /// Keep the file image for faithful writing (costs the file's size in memory, less a binary
+  /// PLY's vertex records of x, y and z alone and face records of one index list alone, plus 16
+  /// bytes for each stored coordinate of an OFF, OBJ, ASCII PLY, STL or glTF file, none for a
+  /// binary PLY whose vertex records have a fixed size read without welding, plus 24 bytes a vertex
+  /// for a welded file or a glTF, 3MF or Draco one). Without it, the OFF, OBJ and PLY readers
+  /// record no coordinate slots.
   bool keep_image = true;
   /// glTF: external buffers by their uri (percent-decoded), consulted before the disk (to read
   /// back files not yet written, see MeshFiles). Not owned; null for none.
