@@ -19,8 +19,16 @@ std::vector<std::uint8_t> carrier_vertices(const Eigen::MatrixX3d& V, const Eige
     const Eigen::RowVector3d pa = V.row(a), pb = V.row(b), pc = V.row(c);
     if (pa == pb || pb == pc || pc == pa) continue;  // collapsed
     // Flat: the sine of the angle at a below 1e-9 (three collinear corners, or a sliver an
-    // attacker hides a vertex in).
-    const Eigen::RowVector3d u = pb - pa, v = pc - pa;
+    // attacker hides a vertex in). Each side is scaled by a power of two (exactly), so that the
+    // test's fourth powers neither underflow (coordinates below about 1e-77 made every triangle
+    // flat) nor overflow (above about 1e77); elsewhere the answer is the unscaled one, bit for
+    // bit.
+    const auto scaled = [](const Eigen::RowVector3d& x) {
+      int e = 0;
+      std::frexp(x.cwiseAbs().maxCoeff(), &e);
+      return Eigen::RowVector3d(x.unaryExpr([e](double xi) { return std::ldexp(xi, -e); }));
+    };
+    const Eigen::RowVector3d u = scaled(pb - pa), v = scaled(pc - pa);
     if (u.cross(v).squaredNorm() <= 1e-18 * u.squaredNorm() * v.squaredNorm()) continue;
     used[a] = used[b] = used[c] = 1;
   }

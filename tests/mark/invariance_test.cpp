@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <cmath>
 
 #include "meshmark/attacks/attack.h"
 #include "meshmark/io/io.h"
@@ -80,4 +81,25 @@ TEST(Invariance, RotationAloneChangesNoBinMean) {
   const ExtractResult a = extract(r.V, m.F, eo), b = extract(rotated, m.F, eo);
   EXPECT_EQ(bit_error_rate(b.bits, p), 0.0);
   for (int j = 0; j < 48; ++j) EXPECT_NEAR(a.means[j], b.means[j], 1e-9);
+}
+
+// Scaling by a power of two is exact in floating point, so embedding a mesh scaled by 2^k must
+// give the copy of the unscaled mesh scaled by 2^k, bit for bit, whatever k within double's
+// range: the carrier's flatness test underflowed below about 1e-77 (every triangle "flat", the
+// mesh refused with "0 distinct positions") and overflowed above about 1e77.
+TEST(Invariance, APowerOfTwoScaleGivesTheScaledCopyBitForBit) {
+  const std::string path = cgal_mesh("fandisk.off");
+  MESHMARK_REQUIRE(path, "fandisk.off");
+  const Mesh m = read_mesh(path);
+  const Payload p = random_payload(64, 7);
+  const EmbedResult reference = embed(m.V, m.F, p);
+  ASSERT_EQ(reference.status, EmbedStatus::Embedded) << reference.message;
+  for (const int k : {-300, -250, -100, 100, 250, 300}) {
+    SCOPED_TRACE(k);
+    const double s = std::ldexp(1.0, k);
+    const EmbedResult r = embed(m.V * s, m.F, p);
+    ASSERT_EQ(r.status, EmbedStatus::Embedded) << r.message;
+    EXPECT_TRUE(r.V == reference.V * s) << "not the scaled copy";
+    EXPECT_EQ(bit_error_rate(extract(r.V, m.F).bits, p), 0.0);
+  }
 }
