@@ -404,8 +404,15 @@ std::optional<FingerprintBasis> fingerprint_reading(
   const int functions = fingerprint_functions(counted);
   if (functions <= 0) return std::nullopt;
   // The bumps alone: the readings evaluate them at the crossings, never at the original's
-  // vertices.
-  FingerprintBasis basis = fingerprint_bumps(original.V, original.F, carrier, h.center, functions);
+  // vertices. An original no basis can stand on (issue then gave its copies none) is read
+  // without one, as one too small.
+  FingerprintBasis basis;
+  try {
+    basis = fingerprint_bumps(original.V, original.F, carrier, h.center, functions);
+  } catch (const InvalidArgumentError& e) {
+    processing = fmt::format("none: no fingerprint can be made on the original ({})", e.what());
+    return std::nullopt;
+  }
   const std::vector<std::uint8_t> leak_carrier = carrier_vertices(VL, FL);
   const Smoother on_original(original.F, original.V.rows()), on_leak(FL, VL.rows());
   std::vector<std::string> taken;

@@ -158,6 +158,28 @@ TEST(Fingerprint, AnUnprocessedCopyScoresAtFullStrength) {
   EXPECT_LT(normal_upper_tail(fingerprint_score(g, b)), 1e-25);
 }
 
+// A mesh scaled by a power of two (exact in floating point) has the same basis but for its
+// width and points, scaled by the same power, bit for bit: its area underflowed below
+// coordinates of about 1e-77 ("no area to spread a fingerprint on") and overflowed above 1e77.
+TEST(Fingerprint, APowerOfTwoScaleScalesTheBasisAndNothingElse) {
+  const Scene s = setup("elephant.off");
+  const Center c = center_of_mass(s.original.V, s.original.F, s.carrier, CenterKind::Discrete);
+  for (const int k : {-300, -100, 100, 300}) {
+    SCOPED_TRACE(k);
+    const double f = std::ldexp(1.0, k);
+    const Eigen::MatrixX3d V = s.original.V * f;
+    const FingerprintBasis b =
+        fingerprint_basis(V, s.original.F, carrier_vertices(V, s.original.F), c.point * f, 128);
+    EXPECT_EQ(b.width, s.basis.width * f);
+    EXPECT_TRUE(b.points == s.basis.points * f);
+    EXPECT_EQ(b.centers, s.basis.centers);
+    EXPECT_EQ(b.scale, s.basis.scale);
+    EXPECT_EQ(b.row_start, s.basis.row_start);
+    EXPECT_EQ(b.index, s.basis.index);
+    EXPECT_EQ(b.value, s.basis.value);
+  }
+}
+
 // The ridge reading against a dense computation from the bumps' definition: Phi evaluated
 // directly (Gaussians of width w around the basis' points, cut at 3 w, times the scale), then
 // b = (Phi^T Phi + ridge x mean diag I)^-1 Phi^T r with a dense QR solver. Also the basis
