@@ -398,6 +398,8 @@ FingerprintBasis fingerprint_bumps(const Eigen::MatrixX3d& V, const Eigen::Matri
   b.diagonal = bounding_box_diagonal(V, carrier);
   const double area = triangle_area_sum(V, F);
   if (!(area > 0)) throw InvalidArgumentError("the mesh has no area to spread a fingerprint on");
+  if (!std::isfinite(area))
+    throw InvalidArgumentError("the mesh's area overflows double: too large for a fingerprint");
   b.width = std::sqrt(area / functions);
   // Farthest-point sampling: the first center the counted vertex farthest from `center`.
   std::vector<double> nearest(counted.size(), std::numeric_limits<double>::infinity());
@@ -422,6 +424,10 @@ FingerprintBasis fingerprint_bumps(const Eigen::MatrixX3d& V, const Eigen::Matri
   for (int k = 0; k < functions; ++k) b.points.row(k) = V.row(b.centers[k]);
   // Scaled to a mean square of 1 over the counted vertices.
   b.scale = 1 / std::sqrt(bump_mean_square(b, V, counted_mask(carrier), counted.size()));
+  if (!std::isfinite(b.scale) || !(b.scale > 0))  // squared distances overflowed
+    throw InvalidArgumentError(
+        "the mesh's squared distances overflow double: too large for a "
+        "fingerprint");
   return b;
 }
 
