@@ -48,7 +48,7 @@ class Callbacks {
 
 // A dict's model paths made absolute (relative ones: to the current directory), "${...}"
 // paths left to the library.
-void absolute_models(py::dict config) {
+void absolute_models(const py::dict& config) {
   if (!config.contains("models") || !py::isinstance<py::list>(config["models"])) return;
   const py::module_ os = py::module_::import("os");
   auto absolute = [&](py::handle path) -> py::object {
@@ -74,7 +74,7 @@ void absolute_models(py::dict config) {
 // keys sorted, so the same campaign in another key order is the same file) once it reads as a
 // campaign; its errors name "config". \throw InvalidArgumentError when the
 // directory holds another campaign (unless fresh).
-CampaignConfig dict_campaign(py::dict config, const std::string& out_dir, bool fresh) {
+CampaignConfig dict_campaign(const py::dict& config, const std::string& out_dir, bool fresh) {
   py::dict copy = py::module_::import("copy").attr("deepcopy")(config);
   absolute_models(copy);
   const std::string text =
