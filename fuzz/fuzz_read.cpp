@@ -31,8 +31,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const bool faithful = format == FileFormat::Off || format == FileFormat::Obj ||
                           format == FileFormat::Ply || format == FileFormat::Stl;
     if (faithful && written.size() != size - 1) __builtin_trap();
-    if (faithful && written.compare(0, written.size(), reinterpret_cast<const char*>(data) + 1,
-                                    size - 1) != 0)
+    if (faithful &&
+        written.compare(0, written.size(), reinterpret_cast<const char*>(data) + 1, size - 1) != 0)
       __builtin_trap();
   } catch (const meshmark::Error&) {
   }
