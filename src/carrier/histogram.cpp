@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/exact_scale.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/mesh.h"
 
@@ -23,12 +24,9 @@ std::vector<std::uint8_t> carrier_vertices(const Eigen::MatrixX3d& V, const Eige
     // test's fourth powers neither underflow (coordinates below about 1e-77 made every triangle
     // flat) nor overflow (above about 1e77); elsewhere the answer is the unscaled one, bit for
     // bit.
-    const auto scaled = [](const Eigen::RowVector3d& x) {
-      int e = 0;
-      std::frexp(x.cwiseAbs().maxCoeff(), &e);
-      return Eigen::RowVector3d(x.unaryExpr([e](double xi) { return std::ldexp(xi, -e); }));
-    };
-    const Eigen::RowVector3d u = scaled(pb - pa), v = scaled(pc - pa);
+    int eu = 0, ev = 0;
+    const Eigen::RowVector3d u = detail::power_of_two_scaled<Eigen::RowVector3d>(pb - pa, eu),
+                             v = detail::power_of_two_scaled<Eigen::RowVector3d>(pc - pa, ev);
     if (u.cross(v).squaredNorm() <= 1e-18 * u.squaredNorm() * v.squaredNorm()) continue;
     used[a] = used[b] = used[c] = 1;
   }

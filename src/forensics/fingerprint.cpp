@@ -15,6 +15,7 @@
 #include <cstring>
 #include <limits>
 
+#include "core/exact_scale.h"
 #include "core/parallel.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/mesh.h"
@@ -27,15 +28,12 @@ namespace {
 // underflowed below coordinates of about 1e-77 (no area) and overflowed above about 1e77;
 // elsewhere the same area bit for bit.
 double triangle_area_sum(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
-  const auto scaled = [](const Eigen::Vector3d& x, int& e) {
-    std::frexp(x.cwiseAbs().maxCoeff(), &e);
-    return Eigen::Vector3d(x.unaryExpr([e](double xi) { return std::ldexp(xi, -e); }));
-  };
   double area = 0;
   for (Eigen::Index f = 0; f < F.rows(); ++f) {
     const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
     int eu = 0, ev = 0;
-    const Eigen::Vector3d u = scaled(b - a, eu), v = scaled(c - a, ev);
+    const Eigen::Vector3d u = detail::power_of_two_scaled<Eigen::Vector3d>(b - a, eu),
+                          v = detail::power_of_two_scaled<Eigen::Vector3d>(c - a, ev);
     area += 0.5 * std::ldexp(u.cross(v).norm(), eu + ev);
   }
   return area;
