@@ -83,6 +83,10 @@ void register_calibrate(CLI::App& app, int& exit_code) {
                   "stop when the strength is known to this ratio, or the distortion is this "
                   "close to a limit (default 0.01)")
       ->check(CLI::Range(1e-4, 0.49));
+  sub->add_flag(
+      "--no-steer", [args](std::int64_t) { args->options.steer = false; },
+      "measure every trial's MSDM in full (by default, on meshes of 16,384 vertices "
+      "or more, the search steers on estimates and measures in full where it ends)");
   sub->add_option("--bin-offset", args->bin_offset,
                   "G in [0, 1/2): vertices stay in [G, 1-G] of their bin (default 0.05)")
       ->check(CLI::Range(0.0, 0.4999));

@@ -185,6 +185,8 @@ int run(const EmbedArgs& a) {
                                       {"msdm", calibration->msdm},
                                       {"bin_offset_rule", bin_offset_rule_name(limits->bin_offset)},
                                       {"evaluations", calibration->evaluations},
+                                      {"measurements", calibration->measurements},
+                                      {"estimates", calibration->estimates},
                                       {"diagnostics", calibration->diagnostics}}
                      : nlohmann::json(nullptr)},
         {"carrier",
@@ -213,9 +215,10 @@ int run(const EmbedArgs& a) {
     if (calibration)
       fmt::print(
           "  fidelity         {}: RMS {:.5f} % (limit {}), MSDM {:.4f} (limit {}); {} "
-          "embeddings\n",
+          "embeddings, MSDM measured {} times and estimated {}\n",
           calibrate_status_name(calibration->status), calibration->rms_percent,
-          limits->max_rms_percent, calibration->msdm, limits->max_msdm, calibration->evaluations);
+          limits->max_rms_percent, calibration->msdm, limits->max_msdm, calibration->evaluations,
+          calibration->measurements, calibration->estimates);
     fmt::print("  center drift     {:.3g} bin widths\n", r.center_drift);
     fmt::print("  time             {:.2f} ms (without file I/O{})\n",
                1e3 * (calibration ? calibration->seconds : r.seconds),

@@ -5,7 +5,8 @@
 // the limits, "beyond" them after all: a bug, or "refused" with the cause the calibration
 // named), strength, distortions and times. Meshes run in parallel (--jobs), payloads in order.
 //
-// Options: --payloads N (10), --variant V (DRS), --jobs N (hardware threads), --seed S (2026).
+// Options: --payloads N (10), --variant V (DRS), --jobs N (hardware threads), --seed S (2026),
+// --no-steer (every trial's MSDM measured in full: CalibrateOptions::steer = false).
 
 #include <fmt/format.h>
 
@@ -34,7 +35,7 @@ double since(std::chrono::steady_clock::time_point t) {
 }
 
 std::vector<nlohmann::json> sweep_mesh(const std::string& path, const Variant& variant,
-                                       int payloads, std::uint64_t seed) {
+                                       int payloads, std::uint64_t seed, bool steer) {
   std::vector<nlohmann::json> rows;
   nlohmann::json base = {{"mesh", path}, {"variant", variant.name()}};
   Mesh mesh;
@@ -55,6 +56,7 @@ std::vector<nlohmann::json> sweep_mesh(const std::string& path, const Variant& v
   CalibrateOptions co;
   co.max_rms_percent = kPaperMaxRmsPercent;
   co.max_msdm = kPaperMaxMsdm;
+  co.steer = steer;
   std::uint64_t name_hash = 1469598103934665603ull;  // FNV-1a of the file name: same payloads
   for (const char c : path.substr(path.find_last_of('/') + 1))  // wherever the file lies
     name_hash = (name_hash ^ static_cast<unsigned char>(c)) * 1099511628211ull;
@@ -69,6 +71,8 @@ std::vector<nlohmann::json> sweep_mesh(const std::string& path, const Variant& v
     const CalibrateResult r = calibrate_strength(prepared, payload, eo, co);
     row["calibrate_seconds"] = r.seconds;
     row["evaluations"] = r.evaluations;
+    row["measurements"] = r.measurements;
+    row["estimates"] = r.estimates;
     row["status"] = calibrate_status_name(r.status);
     if (r.status == CalibrateStatus::BelowMinimum) {
       row["outcome"] = "refused";
@@ -95,6 +99,7 @@ int main(int argc, char** argv) {
   std::string out;
   int payloads = 10, jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   std::uint64_t seed = 2026;
+  bool steer = true;
   Variant variant = parse_variant("DRS");
   for (int k = 1; k < argc; ++k) {
     const std::string a = argv[k];
@@ -110,13 +115,16 @@ int main(int argc, char** argv) {
       seed = std::stoull(value());
     else if (a == "--variant")
       variant = parse_variant(value());
+    else if (a == "--no-steer")
+      steer = false;
     else if (out.empty())
       out = a;
     else
       meshes.push_back(a);
   }
   if (out.empty() || meshes.empty()) {
-    fmt::print(stderr, "usage: {} OUT.jsonl MESH... [--payloads N] [--variant V] [--jobs N]\n",
+    fmt::print(stderr,
+               "usage: {} OUT.jsonl MESH... [--payloads N] [--variant V] [--jobs N] [--no-steer]\n",
                argv[0]);
     return 1;
   }
@@ -125,7 +133,7 @@ int main(int argc, char** argv) {
   std::atomic<std::size_t> next{0};
   auto worker = [&] {
     for (std::size_t k = next++; k < meshes.size(); k = next++) {
-      const auto rows = sweep_mesh(meshes[k], variant, payloads, seed);
+      const auto rows = sweep_mesh(meshes[k], variant, payloads, seed, steer);
       const std::lock_guard<std::mutex> guard(lock);
       for (const auto& row : rows) file << row.dump() << "\n";
       file.flush();

@@ -49,6 +49,10 @@ void bind_types(py::module_& m) {
       .rw("precision", &CalibrateOptions::precision,
           "stop when alpha is known to this ratio, or the distortion is this close to a limit")
       .rw("iterations", &CalibrateOptions::iterations, "embeddings at most after the first two")
+      .rw("steer", &CalibrateOptions::steer,
+          "on meshes of 16,384 vertices or more, search on MSDM estimated from every k-th "
+          "vertex's window and measure in full only where that search ends (False: every "
+          "trial measured in full)")
       .rw_property(
           "bin_offset", [](CalibrateOptions& x) { return x.bin_offset; },
           [](CalibrateOptions& x, py::handle v) {
@@ -78,6 +82,8 @@ void bind_types(py::module_& m) {
           "MSDM at that strength (below minimum: 0 when the "
           "RMS already failed)")
       .ro("evaluations", &CalibrateResult::evaluations, "embeddings tried")
+      .ro("measurements", &CalibrateResult::measurements, "full MSDM measurements")
+      .ro("estimates", &CalibrateResult::estimates, "MSDM estimates (steer)")
       .ro("seconds", &CalibrateResult::seconds, "wall time")
       .ro("message", &CalibrateResult::message, "one line for a person")
       .ro("diagnostics", &CalibrateResult::diagnostics,

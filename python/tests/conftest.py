@@ -39,6 +39,11 @@ def elephant():
 
 
 @pytest.fixture
+def refined_elephant():
+    return mesh_path(CGAL_DATA, "refined_elephant.off")  # 44,460 vertices
+
+
+@pytest.fixture
 def spot():
     return mesh_path(DATA_MESHES, "spot.obj")
 

@@ -15,7 +15,7 @@ RMS_REL = 1e-9
 PRECISION = 0.01
 
 FIELDS = ("status", "cause", "strength", "bin_offset", "rms_percent", "msdm", "evaluations",
-          "key", "bin_offset_rule", "variant", "method", "bits", "diagnostics")
+          "measurements", "estimates", "key", "bin_offset_rule", "variant", "method", "bits", "diagnostics")
 
 
 def assert_same_calibration(a, b):
@@ -35,6 +35,8 @@ def assert_same_calibration(a, b):
       "0.02"),
      dict(variant="VRS", bits=32, max_rms_percent=0.03, max_msdm=0.3, bin_offset=0.02,
           limits=meshmark.CalibrateOptions(bin_offset="fixed"), iterations=8, precision=0.02)),
+    ("refined_elephant", ("--no-steer",),
+     dict(limits=meshmark.CalibrateOptions(steer=False))),
     ("elephant", ("--variant", "SRS", "--method", "cho-mean", "--max-rms", "0.06"),
      dict(variant=meshmark.Variant("SRS"), method=meshmark.Method.ChoMean,
           max_rms_percent=0.06)),
@@ -71,6 +73,22 @@ def test_calibrate_on_arrays_keeps_the_limits_and_matches_the_file(request, mesh
             or rms >= (1 - PRECISION) * meshmark.PAPER_MAX_RMS_PERCENT
             or meshmark.calibrate(V, F, min_strength=r.strength * (1 + PRECISION),
                                   ).strength == 0)
+
+
+def test_steering_estimates_only_on_large_meshes_and_stops_on_a_full_measurement(
+        fandisk, refined_elephant):
+    # fandisk (6,475 vertices) is below the 16,384 vertices from which the search steers:
+    # the same search either way. refined_elephant (44,460) steers unless told not to.
+    V, F = meshmark.read_mesh(fandisk)
+    on, off = meshmark.calibrate(V, F), meshmark.calibrate(V, F, steer=False)
+    assert on.estimates == off.estimates == 0
+    assert (on.strength, on.msdm, on.measurements) == (off.strength, off.msdm, off.measurements)
+    V, F = meshmark.read_mesh(refined_elephant)
+    on, off = meshmark.calibrate(V, F), meshmark.calibrate(V, F, steer=False)
+    assert on.estimates > 0 and off.estimates == 0 and on.measurements >= 1
+    # What it stopped on was measured in full: the metrics module gives the same MSDM.
+    assert meshmark.msdm(V, on.embedding.V, F).global_ == pytest.approx(on.msdm, rel=SAME)
+    assert on.msdm <= meshmark.PAPER_MAX_MSDM
 
 
 def test_a_given_payload_is_embedded_at_the_calibrated_strength(elephant):

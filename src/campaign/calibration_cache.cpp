@@ -18,7 +18,7 @@ namespace meshmark {
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(FileCalibration, key, input, method, variant, bits,
                                                 status, strength, bin_offset, bin_offset_rule,
                                                 cause, diagnostics, rms_percent, msdm, evaluations,
-                                                seconds, message)
+                                                measurements, estimates, seconds, message)
 
 namespace fs = std::filesystem;
 
@@ -37,11 +37,12 @@ std::string file_calibration_to_json(const FileCalibration& calibration) {
 FileCalibration calibrate_file(const std::string& path, const FileCalibrationOptions& options) {
   const CalibrateOptions& limits = options.limits;
   const std::string hash = content_hash(read_file(path)).substr(0, 32);
-  const std::string key = fmt::format(
-      "{}|{}|{}|rms {}|msdm {}|range {} {}|steps {}|precision {}|G {} {}|{}|v3", hash,
-      options.variant.name(), options.bits, limits.max_rms_percent, limits.max_msdm,
-      limits.min_strength, limits.max_strength, limits.iterations, limits.precision,
-      options.bin_offset, bin_offset_rule_name(limits.bin_offset), method_name(options.method));
+  const std::string key =
+      fmt::format("{}|{}|{}|rms {}|msdm {}|range {} {}|steps {}|precision {}|G {} {}|{}|{}v4", hash,
+                  options.variant.name(), options.bits, limits.max_rms_percent, limits.max_msdm,
+                  limits.min_strength, limits.max_strength, limits.iterations, limits.precision,
+                  options.bin_offset, bin_offset_rule_name(limits.bin_offset),
+                  method_name(options.method), limits.steer ? "" : "full|");
   FileCalibration found;
   bool cached = false;
   if (!options.cache.empty() && fs::exists(options.cache)) {
@@ -80,6 +81,8 @@ FileCalibration calibrate_file(const std::string& path, const FileCalibrationOpt
   found.rms_percent = r.rms_percent;
   found.msdm = r.msdm;
   found.evaluations = r.evaluations;
+  found.measurements = r.measurements;
+  found.estimates = r.estimates;
   found.seconds = r.seconds;
   found.message = r.message;
   if (!options.cache.empty()) {

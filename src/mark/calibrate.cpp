@@ -8,6 +8,8 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <utility>
+#include <vector>
 
 #include "mark/embed_problem.h"
 #include "meshmark/carrier/carrier_check.h"
@@ -26,6 +28,7 @@ struct Trial {
   double alpha = 0, bin_offset = 0;
   double rms = 0, msdm = 0, ratio = kInf;
   bool ok = false;
+  bool estimated = false;  // msdm is an estimate (steering), not a measurement
   EmbedResult result;
   std::vector<double> strengths;
 };
@@ -35,7 +38,12 @@ struct Trial {
 // the last two trials, and interpolating inside the bracket.
 class Search {
  public:
-  Search(const CalibrateOptions& o) : o_(o) {}
+  // min_step: the smallest factor a step outside a bracket takes (1.25 from scratch, where
+  // the power law is a guess; less after a steering search, whose law is fitted).
+  Search(const CalibrateOptions& o, double exponent = 1, double min_step = 1.25)
+      : o_(o), exponent_(exponent), min_step_(min_step) {}
+
+  double exponent() const { return exponent_; }
 
   void add(const Trial& t) {
     if (std::isfinite(t.ratio) && t.ratio > 0) {
@@ -47,6 +55,11 @@ class Search {
     }
     if (t.ok && (!lo_ || t.alpha > lo_->alpha)) lo_ = Point{t.alpha, t.ratio};
     if (!t.ok && (!hi_ || t.alpha < hi_->alpha)) hi_ = Point{t.alpha, t.ratio};
+  }
+
+  // An exact failure seen before this search (while steering): the weakest so far beyond.
+  void bound_above(double alpha, double ratio) {
+    if (!hi_ || alpha < hi_->alpha) hi_ = Point{alpha, ratio};
   }
 
   bool at_maximum() const { return lo_ && lo_->alpha >= o_.max_strength; }
@@ -70,13 +83,13 @@ class Search {
     }
     if (lo_) {  // everything so far within the limits: stronger
       const double r = std::max(lo_->ratio, 1e-9);
-      const double step = std::clamp(std::pow(target / r, 1 / exponent_), 1.25, 8.0);
+      const double step = std::clamp(std::pow(target / r, 1 / exponent_), min_step_, 8.0);
       return std::min(o_.max_strength, lo_->alpha * step);
     }
     // Everything so far beyond the limits (or not embedded): weaker.
     const double r = hi_->ratio;
     const double step =
-        std::isfinite(r) ? std::clamp(std::pow(r / target, 1 / exponent_), 1.25, 8.0) : 4.0;
+        std::isfinite(r) ? std::clamp(std::pow(r / target, 1 / exponent_), min_step_, 8.0) : 4.0;
     return std::max(o_.min_strength, hi_->alpha / step);
   }
 
@@ -87,6 +100,7 @@ class Search {
   const CalibrateOptions& o_;
   std::optional<Point> lo_, hi_, last_;
   double exponent_ = 1;  // distortion ~ alpha^p; 1 until two trials say otherwise
+  double min_step_ = 1.25;
 };
 
 // Per-bit strengths for alpha: the caller's rule, or the given ones scaled.
@@ -221,7 +235,28 @@ CalibrateResult calibrate_strength(const PreparedEmbedder& embedder, const Paylo
   const Eigen::MatrixX3i& F = embedder.F();
   std::optional<MsdmReference> reference;
   std::vector<std::uint8_t> counted;  // the carrier, for options.finish's displacement
-  auto evaluate = [&](double alpha) {
+  // MSDM of an embedding whose RMS passed: measured in full (stride 1), or estimated from
+  // every stride-th vertex's window.
+  auto measure = [&](Trial& t, int stride) {
+    ProgressCallback progress;
+    if (o.progress)
+      progress = [&o, alpha = t.alpha](const std::string& phase, long done, long total,
+                                       const std::string& what) {
+        o.progress(fmt::format("strength {:.5f}: {}", alpha, phase), done, total, what);
+      };
+    if (!reference) reference.emplace(V, F, MsdmOptions{}, progress);  // the original's, once
+    t.estimated = stride > 1;
+    if (t.estimated) {
+      t.msdm = reference->estimate(t.result.V, stride, progress);
+      ++result.estimates;
+    } else {
+      t.msdm = reference->compare(t.result.V, progress).global;
+      ++result.measurements;
+    }
+    t.ratio = std::max(t.rms / o.max_rms_percent, t.msdm / o.max_msdm);
+    t.ok = t.ratio <= 1;
+  };
+  auto evaluate = [&](double alpha, int stride) {
     Trial t;
     t.alpha = alpha;
     EmbedOptions eo = embed_options;
@@ -243,46 +278,83 @@ CalibrateResult calibrate_strength(const PreparedEmbedder& embedder, const Paylo
     t.rms = t.result.rms_percent;
     t.ratio = t.rms / o.max_rms_percent;
     // MSDM only when RMS passes: it is the expensive one.
-    if (t.rms <= o.max_rms_percent) {
-      ProgressCallback progress;
-      if (o.progress)
-        progress = [&o, alpha](const std::string& phase, long done, long total,
-                               const std::string& what) {
-          o.progress(fmt::format("strength {:.5f}: {}", alpha, phase), done, total, what);
-        };
-      if (!reference) reference.emplace(V, F, MsdmOptions{}, progress);  // the original's, once
-      t.msdm = reference->compare(t.result.V, progress).global;
-      t.ratio = std::max(t.ratio, t.msdm / o.max_msdm);
-    }
+    if (t.rms <= o.max_rms_percent) measure(t, stride);
     t.ok = t.ratio <= 1;
     return t;
   };
+  // Trials whose outcome is exact: every one measured in full, and those that failed on RMS
+  // or did not embed (no MSDM needed).
   std::optional<Trial> best, weakest_failure;
-  Search search(o);
-  double alpha = std::clamp(o.initial_strength, o.min_strength, o.max_strength);
-  CalibrateStatus status = CalibrateStatus::Calibrated;
-  for (;;) {
-    Trial t = evaluate(alpha);
-    search.add(t);
+  auto keep = [&](Trial& t) {
     if (t.ok && (!best || t.alpha > best->alpha))
       best = std::move(t);
     else if (!t.ok && (!weakest_failure || t.alpha < weakest_failure->alpha))
       weakest_failure = std::move(t);
-    if (weakest_failure && weakest_failure->result.status == EmbedStatus::InvalidMesh) {
-      status = CalibrateStatus::BelowMinimum;  // no strength helps: the carrier is the cause
-      break;
+  };
+  const auto refused = [&] {  // no strength helps: the carrier is the cause
+    return weakest_failure && weakest_failure->result.status == EmbedStatus::InvalidMesh;
+  };
+  CalibrateStatus status = CalibrateStatus::Calibrated;
+  double alpha = std::clamp(o.initial_strength, o.min_strength, o.max_strength);
+  // Steering: the same search on estimates, whose end is where the full measurements start.
+  const int stride = static_cast<int>(V.rows() / kSteeringSample);
+  std::optional<Trial> steered;                   // the strongest trial estimated within the limits
+  std::vector<std::pair<double, double>> beyond;  // exact failures while steering: alpha, ratio
+  double exponent = 1, min_step = 1.25;
+  if (o.steer && stride >= 4) {
+    Search search(o);
+    for (int n = 1;; ++n) {
+      Trial t = evaluate(alpha, stride);
+      search.add(t);
+      if (t.ok) {
+        if (!steered || t.alpha > steered->alpha) steered = std::move(t);
+      } else if (!t.estimated) {
+        beyond.emplace_back(t.alpha, t.ratio);
+        keep(t);
+      }
+      if (refused() || search.at_maximum() || search.converged() || n >= o.iterations + 2 ||
+          (search.below_minimum() && !steered))
+        break;
+      alpha = search.next();
     }
-    if (search.at_maximum()) {
-      status = CalibrateStatus::AtMaximum;
-      break;
+    exponent = search.exponent();
+    alpha = steered ? steered->alpha : o.min_strength;
+    if (steered) min_step = 1 + o.precision;  // the law is fitted: small steps from here
+  }
+  if (refused()) {
+    status = CalibrateStatus::BelowMinimum;
+  } else if (!steered && weakest_failure && weakest_failure->alpha <= o.min_strength) {
+    status = CalibrateStatus::BelowMinimum;  // known exactly while steering
+  } else {
+    Search search(o, exponent, min_step);
+    for (const auto& [a, r] : beyond) search.bound_above(a, r);
+    for (int n = 1;; ++n) {
+      Trial t;
+      if (steered && steered->alpha == alpha) {  // its embedding, measured in full now
+        t = std::move(*steered);
+        steered.reset();
+        measure(t, 1);
+      } else {
+        t = evaluate(alpha, 1);
+      }
+      search.add(t);
+      keep(t);
+      if (refused()) {
+        status = CalibrateStatus::BelowMinimum;
+        break;
+      }
+      if (search.at_maximum()) {
+        status = CalibrateStatus::AtMaximum;
+        break;
+      }
+      if (search.below_minimum() && !best) {
+        status = CalibrateStatus::BelowMinimum;
+        break;
+      }
+      if (search.converged() || (best && n >= o.iterations + 2)) break;
+      // Out of steps without a strength that fits: the smallest one decides.
+      alpha = n >= o.iterations + 2 ? o.min_strength : search.next();
     }
-    if (search.below_minimum() && !best) {
-      status = CalibrateStatus::BelowMinimum;
-      break;
-    }
-    if (search.converged() || (best && result.evaluations >= o.iterations + 2)) break;
-    // Out of steps without a strength that fits: the smallest one decides.
-    alpha = result.evaluations >= o.iterations + 2 ? o.min_strength : search.next();
   }
   result.status = status;
   if (best) {
@@ -293,8 +365,10 @@ CalibrateResult calibrate_strength(const PreparedEmbedder& embedder, const Paylo
     result.strengths = std::move(best->strengths);
     result.embedding = std::move(best->result);
     result.message = fmt::format(
-        "strength {:.5f} (bin offset {:.4f}): RMS {:.5f} %, MSDM {:.4f} ({} embeddings)",
-        result.strength, result.bin_offset, result.rms_percent, result.msdm, result.evaluations);
+        "strength {:.5f} (bin offset {:.4f}): RMS {:.5f} %, MSDM {:.4f} ({} embeddings; MSDM "
+        "measured {} times, estimated {})",
+        result.strength, result.bin_offset, result.rms_percent, result.msdm, result.evaluations,
+        result.measurements, result.estimates);
   } else {
     const Trial& w = *weakest_failure;
     result.rms_percent = w.rms;

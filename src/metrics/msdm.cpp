@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -146,27 +147,29 @@ const Eigen::VectorXd& MsdmReference::curvature() const {
   return state_->curvature;
 }
 
-PerceptualDistance MsdmReference::compare(const Eigen::MatrixX3d& B,
-                                          const ProgressCallback& progress) const {
+Eigen::VectorXd MsdmReference::locals(const Eigen::MatrixX3d& B, int stride, const char* phase,
+                                      const ProgressCallback& progress) const {
   const State& s = *state_;
   if (B.rows() != s.A.rows())
     throw InvalidArgumentError(
         fmt::format("MSDM needs the same vertices ({} and {}); use MSDM2", s.A.rows(), B.rows()));
+  if (stride < 1) throw InvalidArgumentError(fmt::format("MSDM stride {} is below 1", stride));
   const RowPoints PB = B;
   const Eigen::VectorXd cb =
       msdm_curvature(B, s.F, s.adj, s.edges, s.options.curvature_radius * s.D, s.D);
   const double radius = s.options.window_radius * s.D, sigma = s.options.window_sigma * s.D;
   const double inv = sigma > 0 ? 1 / (2 * sigma * sigma) : 0;
-  PerceptualDistance out;
-  out.local = Eigen::VectorXd::Zero(B.rows());
+  Eigen::VectorXd local = Eigen::VectorXd::Zero(B.rows());
+  const std::int64_t valued = (B.rows() + stride - 1) / stride;
   // Each mesh is walked on its own geometry, as MEPP does: B may see other edges than A near
   // the sphere, and the pairing of samples absorbs the difference.
-  detail::ProgressCounter counter(progress, "measuring MSDM", B.rows());
-  detail::parallel_chunks(B.rows(), [&](int, std::int64_t begin, std::int64_t end) {
+  detail::ProgressCounter counter(progress, phase, valued);
+  detail::parallel_chunks(valued, [&](int, std::int64_t begin, std::int64_t end) {
     detail::WalkScratch scratch_a(B.rows()), scratch_b(B.rows());
     std::vector<Sample> a, b;
     detail::ProgressBatch done(counter);
-    for (auto i = begin; i < end; ++i) {
+    for (auto k = begin; k < end; ++k) {
+      const std::int64_t i = k * stride;
       const int v = static_cast<int>(i);
       done.add();
       if (s.adj.degree(v) == 0) continue;
@@ -179,12 +182,24 @@ PerceptualDistance MsdmReference::compare(const Eigen::MatrixX3d& B,
       const double covariance = 0.5 * (one_sided_covariance(a, x.mean, b, y.mean) +
                                        one_sided_covariance(b, y.mean, a, x.mean));
       const detail::MsdmTerms t = detail::msdm_terms(x, y, covariance);
-      out.local(i) = std::cbrt((t.L * t.L * t.L + t.C * t.C * t.C + 0.5 * t.S * t.S * t.S) / 2.5);
+      local(i) = std::cbrt((t.L * t.L * t.L + t.C * t.C * t.C + 0.5 * t.S * t.S * t.S) / 2.5);
     }
     done.flush();
   });
-  out.global = detail::pool3(out.local, s.F);
+  return local;
+}
+
+PerceptualDistance MsdmReference::compare(const Eigen::MatrixX3d& B,
+                                          const ProgressCallback& progress) const {
+  PerceptualDistance out;
+  out.local = locals(B, 1, "measuring MSDM", progress);
+  out.global = detail::pool3(out.local, state_->F);
   return out;
+}
+
+double MsdmReference::estimate(const Eigen::MatrixX3d& B, int stride,
+                               const ProgressCallback& progress) const {
+  return detail::pool3(locals(B, stride, "estimating MSDM", progress), state_->F, stride);
 }
 
 PerceptualDistance msdm(const Eigen::MatrixX3d& A, const Eigen::MatrixX3d& B,

@@ -41,11 +41,13 @@ inline MsdmTerms msdm_terms(const WindowStats& x, const WindowStats& y, double c
   return t;
 }
 
-/// (mean of local^3)^(1/3) over the vertices F references.
-inline double pool3(const Eigen::VectorXd& local, const Eigen::MatrixX3i& F) {
+/// (mean of local^3)^(1/3) over the vertices F references, or over those of every
+/// `stride`-th vertex (0, stride, 2 stride, ...).
+inline double pool3(const Eigen::VectorXd& local, const Eigen::MatrixX3i& F,
+                    Eigen::Index stride = 1) {
   const auto used = referenced_vertices(F, local.size());
   double sum = 0, n = 0;
-  for (Eigen::Index i = 0; i < local.size(); ++i)
+  for (Eigen::Index i = 0; i < local.size(); i += stride)
     if (used[i]) sum += local(i) * local(i) * local(i), n += 1;
   return n > 0 ? std::cbrt(sum / n) : 0.0;
 }

@@ -4,6 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
 #include "meshmark/attacks/attack.h"
 #include "meshmark/core/error.h"
 #include "meshmark/io/io.h"
@@ -138,6 +142,43 @@ TEST(Metrics, PreparedMsdmEqualsTheOneCall) {
     EXPECT_EQ((prepared.local - once.local).cwiseAbs().maxCoeff(), 0.0) << amplitude;
   }
   EXPECT_THROW(reference.compare(m.V.topRows(10)), InvalidArgumentError);
+}
+
+// The estimate that steers the strength search is MSDM's pooling over every k-th vertex,
+// each valued as the full comparison values it: computed here from compare's local values at
+// those vertices (only the ones F references count). Stride 1 is the full value; on a real
+// mesh, every 9th vertex (about 4,000 windows, as the search uses on bunny00) lands within
+// kEstimateTolerance of it.
+TEST(Metrics, MsdmEstimateIsThePoolOfEveryKthLocalValue) {
+  constexpr double kSamePool = 1e-14;          // the same sum, in the same order
+  constexpr double kEstimateTolerance = 0.03;  // relative, at 4,000 windows
+  const std::string path = cgal_mesh("bunny00.off");
+  MESHMARK_REQUIRE(path, "libcgal-demo bunny00.off");
+  Mesh m = read_mesh(path);
+  // An unreferenced vertex, which pools as nothing: the last vertex, out of every face.
+  const Eigen::Index spare = m.V.rows();
+  m.V.conservativeResize(spare + 1, 3);
+  m.V.row(spare) = m.V.row(0);
+  const Mesh n = attack_noise(m, 0.0005, NoiseReference::Diagonal, 11);
+  const MsdmReference reference(m.V, m.F);
+  const PerceptualDistance full = reference.compare(n.V);
+  EXPECT_EQ(reference.estimate(n.V, 1), full.global);
+  const std::vector<std::uint8_t> used = referenced_vertices(m.F, m.V.rows());
+  ASSERT_FALSE(used[spare]);
+  ASSERT_EQ(spare % 2, 0) << "stride 2 should meet the unreferenced vertex";
+  for (const int stride : {2, 9, 50}) {
+    double sum = 0;
+    int count = 0;
+    for (Eigen::Index i = 0; i < m.V.rows(); ++i)
+      if (i % stride == 0 && used[i]) sum += std::pow(full.local(i), 3), ++count;
+    const double expected = std::cbrt(sum / count);
+    EXPECT_NEAR(reference.estimate(n.V, stride), expected, kSamePool * expected) << stride;
+    if (stride == 9)
+      EXPECT_NEAR(expected, full.global, kEstimateTolerance * full.global)
+          << "every 9th vertex's windows misjudge the whole";
+  }
+  EXPECT_THROW(reference.estimate(n.V, 0), InvalidArgumentError);
+  EXPECT_THROW(reference.estimate(n.V.topRows(10), 2), InvalidArgumentError);
 }
 
 // Every vertex's window is computed on its own and the pooling runs in vertex order: the

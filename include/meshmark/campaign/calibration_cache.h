@@ -42,6 +42,8 @@ struct FileCalibration {
   double rms_percent = 0;  ///< vertex RMS at that strength, % of the bounding-box diagonal
   double msdm = 0;         ///< MSDM at that strength
   int evaluations = 0;     ///< embeddings tried
+  int measurements = 0;    ///< full MSDM measurements among them
+  int estimates = 0;       ///< MSDM estimates (CalibrateOptions::steer)
   double seconds = 0;      ///< the search's time
   std::string message;     ///< one line for a person
   bool cached = false;     ///< read from the cache instead of computed

@@ -35,6 +35,9 @@ struct EnumTable<BinOffsetRule> {
       {BinOffsetRule::Fixed, "fixed"}, {BinOffsetRule::AtMostStrength, "at-most-strength"}};
 };
 
+/// Vertices whose windows steer the search (CalibrateOptions::steer), about.
+inline constexpr int kSteeringSample = 4096;
+
 /// Limits and search of calibrate_strength.
 struct CalibrateOptions {
   double max_rms_percent = 0.04;  ///< vertex RMS, % of the bounding-box diagonal
@@ -46,6 +49,12 @@ struct CalibrateOptions {
   /// most this ratio minus 1, or when the strongest reaches (1 - precision) of a limit.
   double precision = 0.01;
   int iterations = 12;  ///< embeddings at most after the first two (a bound, seldom reached)
+  /// On meshes of at least 4 x kSteeringSample vertices, search first with MSDM estimated
+  /// from every k-th vertex's window (MsdmReference::estimate, k = #V / kSteeringSample),
+  /// then measure MSDM in full only from where that search ends: the same stopping rule on
+  /// full measurements, usually one or two of them instead of three or four. false: every
+  /// trial measured in full.
+  bool steer = true;
   BinOffsetRule bin_offset = BinOffsetRule::AtMostStrength;
   /// Per-bit strengths (EmbedOptions::strengths) for a strength alpha, for marks whose bits
   /// have their own strengths (watermark.h: mark_strengths). Empty: embed_options.strengths
@@ -115,6 +124,8 @@ struct CalibrateResult {
   EmbedResult embedding;
   std::vector<double> strengths;  ///< per-bit strengths of that embedding (empty: uniform)
   int evaluations = 0;            ///< embeddings tried
+  int measurements = 0;           ///< full MSDM measurements (the expensive step)
+  int estimates = 0;              ///< MSDM estimates (CalibrateOptions::steer)
   double seconds = 0;             ///< wall time
   std::string message;            ///< one line for a person
   /// BelowMinimum: the cause and the ways out, one line each (fewer bits, another center,

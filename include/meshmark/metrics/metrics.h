@@ -96,6 +96,14 @@ class MsdmReference {
   /// differs.
   PerceptualDistance compare(const Eigen::MatrixX3d& B,
                              const ProgressCallback& progress = {}) const;
+  /// compare(B).global estimated from the local values of every `stride`-th vertex (0,
+  /// stride, 2 stride, ...: the same vertices for every B, each valued as compare values it):
+  /// the cube root of the mean of their cubes, over those F references. Costs B's curvature
+  /// and about 1/stride of compare's windows. An estimate, to steer a search; the value a
+  /// limit is held against is compare's. `progress`: phase "estimating MSDM", one unit per
+  /// vertex valued. 	hrow InvalidArgumentError when B's vertex count differs or stride < 1.
+  double estimate(const Eigen::MatrixX3d& B, int stride,
+                  const ProgressCallback& progress = {}) const;
   /// D, the longest side of the original's bounding box (model units).
   double longest_side() const;
   /// The original's curvature per vertex as MSDM compares it, (|kmax| + |kmin|) D / 2.
@@ -104,6 +112,9 @@ class MsdmReference {
  private:
   struct State;
   std::shared_ptr<const State> state_;
+  // The local values of every stride-th vertex (the others 0), for compare and estimate.
+  Eigen::VectorXd locals(const Eigen::MatrixX3d& B, int stride, const char* phase,
+                         const ProgressCallback& progress) const;
 };
 
 /// MSDM between two meshes with the same connectivity F (positions A and B): see
