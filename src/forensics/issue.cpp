@@ -286,6 +286,9 @@ struct Original {
   /// Why the original has no fingerprint though it has enough counted vertices (its geometry
   /// gives the basis nothing to stand on: no area, sizes beyond double's squares); empty if not.
   std::string no_fingerprint;
+  /// MSDM's side of the original, computed by the first copy measured within fidelity limits
+  /// and shared by every later one and every measure of the copies' distortion.
+  std::shared_ptr<SharedMsdmReference> msdm = std::make_shared<SharedMsdmReference>();
 };
 
 // What issue_copies keeps of the originals it has read, and Issuer across its calls.
@@ -342,14 +345,17 @@ struct Distortion {
   }
 };
 
-Distortion distortion(const Mesh& O, const Eigen::MatrixX3d& V, const CalibrateOptions& limits) {
+Distortion distortion(const Original& original, const Eigen::MatrixX3d& V,
+                      const CalibrateOptions& limits) {
+  const Mesh& O = original.mesh;
   const std::vector<std::uint8_t> carrier = carrier_vertices(O.V, O.F);
   double sum = 0, n = 0;
   for (Eigen::Index i = 0; i < O.V.rows(); ++i)
     if (carrier[i] == kCounted) sum += (V.row(i) - O.V.row(i)).squaredNorm(), n += 1;
   Distortion d;
   d.rms_percent = n > 0 ? 100 * std::sqrt(sum / n) / bounding_box_diagonal(O.V, carrier) : 0;
-  if (d.rms_percent <= limits.max_rms_percent) d.msdm = msdm(O.V, V, O.F).global;
+  if (d.rms_percent <= limits.max_rms_percent)
+    d.msdm = original.msdm->get(O.V, O.F).compare(V).global;
   return d;
 }
 
@@ -364,7 +370,7 @@ void issue_fingerprint_alone(const CopyRequest& request, const Original& origina
   const Mesh& O = original.mesh;
   Mesh copy = O;
   copy.V = add(O.V);
-  const Distortion d = distortion(O, copy.V, limits);
+  const Distortion d = distortion(original, copy.V, limits);
   const double rms = d.rms_percent, m = d.msdm;
   if (!d.within(limits)) {
     out.status = CopyStatus::NotWithinFidelity;
@@ -457,6 +463,7 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
       return mark_strengths(settings.key, nb, coded, alpha, settings.strength_spread);
     };
     co.finish = finish;
+    co.msdm_reference = original.msdm;
     return calibrate_strength(original.embedder, out.bins, searched, co);
   };
   if (settings.limits) {
@@ -521,7 +528,7 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   const auto try_instead = [&](Eigen::MatrixX3d V) {
     std::optional<Distortion> d;
     if (out.calibration) {
-      d = distortion(original.mesh, V, *settings.limits);
+      d = distortion(original, V, *settings.limits);
       if (!d->within(*settings.limits)) return std::optional<WrittenCheck>();
     }
     Mesh other = original.mesh;

@@ -137,7 +137,10 @@ void explain(const PreparedEmbedder& embedder, const Payload& payload, const Emb
     if (w.status != EmbedStatus::Embedded)
       return fmt::format("{}, but do not embed either: {}", healthy, w.message);
     const double m = w.rms_percent <= o.max_rms_percent
-                         ? MsdmReference(embedder.V(), embedder.F()).compare(w.V).global
+                         ? (o.msdm_reference ? o.msdm_reference->get(embedder.V(), embedder.F())
+                                             : MsdmReference(embedder.V(), embedder.F()))
+                               .compare(w.V)
+                               .global
                          : -1;
     if (m >= 0 && m <= o.max_msdm)
       return fmt::format("{} and fit the limits at strength {}", healthy, o.min_strength);
@@ -244,7 +247,9 @@ CalibrateResult calibrate_strength(const PreparedEmbedder& embedder, const Paylo
                                        const std::string& what) {
         o.progress(fmt::format("strength {:.5f}: {}", alpha, phase), done, total, what);
       };
-    if (!reference) reference.emplace(V, F, MsdmOptions{}, progress);  // the original's, once
+    if (!reference)  // the original's, once
+      reference = o.msdm_reference ? o.msdm_reference->get(V, F, progress)
+                                   : MsdmReference(V, F, MsdmOptions{}, progress);
     t.estimated = stride > 1;
     if (t.estimated) {
       t.msdm = reference->estimate(t.result.V, stride, progress);
@@ -297,42 +302,53 @@ CalibrateResult calibrate_strength(const PreparedEmbedder& embedder, const Paylo
   CalibrateStatus status = CalibrateStatus::Calibrated;
   double alpha = std::clamp(o.initial_strength, o.min_strength, o.max_strength);
   // Steering: the same search on estimates, whose end is where the full measurements start.
+  // Both searches share one budget of embeddings (o.iterations + 2, and the smallest strength
+  // once more when nothing fitted by then), as one search alone had.
+  const int budget = o.iterations + 2;
   const int stride = static_cast<int>(V.rows() / kSteeringSample);
-  std::optional<Trial> steered;                   // the strongest trial estimated within the limits
+  // Where the full measurements start: the strongest trial estimated within the limits, or
+  // else the smallest strength's if it was tried; its embedding is measured, not made again.
+  std::optional<Trial> restart;
   std::vector<std::pair<double, double>> beyond;  // exact failures while steering: alpha, ratio
   double exponent = 1, min_step = 1.25;
   if (o.steer && stride >= 4) {
     Search search(o);
-    for (int n = 1;; ++n) {
+    std::optional<Trial> weakest_estimated;  // beyond the limits on its estimate
+    for (;;) {
       Trial t = evaluate(alpha, stride);
       search.add(t);
       if (t.ok) {
-        if (!steered || t.alpha > steered->alpha) steered = std::move(t);
-      } else if (!t.estimated) {
+        if (!restart || t.alpha > restart->alpha) restart = std::move(t);
+      } else if (t.estimated) {
+        if (!weakest_estimated || t.alpha < weakest_estimated->alpha)
+          weakest_estimated = std::move(t);
+      } else {
         beyond.emplace_back(t.alpha, t.ratio);
         keep(t);
       }
-      if (refused() || search.at_maximum() || search.converged() || n >= o.iterations + 2 ||
-          (search.below_minimum() && !steered))
+      if (refused() || search.at_maximum() || search.converged() || result.evaluations >= budget ||
+          (search.below_minimum() && !restart))
         break;
       alpha = search.next();
     }
     exponent = search.exponent();
-    alpha = steered ? steered->alpha : o.min_strength;
-    if (steered) min_step = 1 + o.precision;  // the law is fitted: small steps from here
+    min_step = 1 + o.precision;  // the law is fitted: small steps from here
+    if (!restart && weakest_estimated && weakest_estimated->alpha <= o.min_strength)
+      restart = std::move(weakest_estimated);
+    alpha = restart ? restart->alpha : o.min_strength;
   }
   if (refused()) {
     status = CalibrateStatus::BelowMinimum;
-  } else if (!steered && weakest_failure && weakest_failure->alpha <= o.min_strength) {
+  } else if (!restart && weakest_failure && weakest_failure->alpha <= o.min_strength) {
     status = CalibrateStatus::BelowMinimum;  // known exactly while steering
   } else {
     Search search(o, exponent, min_step);
     for (const auto& [a, r] : beyond) search.bound_above(a, r);
-    for (int n = 1;; ++n) {
+    for (;;) {
       Trial t;
-      if (steered && steered->alpha == alpha) {  // its embedding, measured in full now
-        t = std::move(*steered);
-        steered.reset();
+      if (restart && restart->alpha == alpha) {  // its embedding, measured in full now
+        t = std::move(*restart);
+        restart.reset();
         measure(t, 1);
       } else {
         t = evaluate(alpha, 1);
@@ -351,9 +367,9 @@ CalibrateResult calibrate_strength(const PreparedEmbedder& embedder, const Paylo
         status = CalibrateStatus::BelowMinimum;
         break;
       }
-      if (search.converged() || (best && n >= o.iterations + 2)) break;
+      if (search.converged() || (best && result.evaluations >= budget)) break;
       // Out of steps without a strength that fits: the smallest one decides.
-      alpha = n >= o.iterations + 2 ? o.min_strength : search.next();
+      alpha = result.evaluations >= budget ? o.min_strength : search.next();
     }
   }
   result.status = status;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <vector>
 
 #include "carrier/curvature.h"
@@ -200,6 +201,22 @@ PerceptualDistance MsdmReference::compare(const Eigen::MatrixX3d& B,
 double MsdmReference::estimate(const Eigen::MatrixX3d& B, int stride,
                                const ProgressCallback& progress) const {
   return detail::pool3(locals(B, stride, "estimating MSDM", progress), state_->F, stride);
+}
+
+MsdmReference SharedMsdmReference::get(const Eigen::MatrixX3d& A, const Eigen::MatrixX3i& F,
+                                       const ProgressCallback& progress) {
+  const std::lock_guard<std::mutex> guard(lock_);
+  if (!reference_) {
+    reference_.emplace(A, F, MsdmOptions{}, progress);
+  } else if (reference_->curvature().size() != A.rows() ||
+             reference_->longest_side() != detail::longest_side(A, F)) {
+    throw InvalidArgumentError(fmt::format(
+        "the shared MSDM reference is of another mesh ({} vertices, longest side {}; asked for "
+        "{} vertices, longest side {})",
+        reference_->curvature().size(), reference_->longest_side(), A.rows(),
+        detail::longest_side(A, F)));
+  }
+  return *reference_;
 }
 
 PerceptualDistance msdm(const Eigen::MatrixX3d& A, const Eigen::MatrixX3d& B,

@@ -8,8 +8,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <string>
 
+#include "meshmark/attacks/attack.h"
 #include "meshmark/campaign/campaign.h"
 #include "meshmark/core/error.h"
 #include "meshmark/io/io.h"
@@ -154,12 +156,58 @@ TEST(Calibrate, SteeringMeasuresLessAndStopsWhereTheFullSearchStops) {
     measured_steered += s.measurements, measured_full += f.measurements;
   }
   EXPECT_LT(measured_steered, measured_full);
+  // Both parts share one budget: iterations after the first two, and the smallest strength once
+  // more when nothing fitted by then.
+  CalibrateOptions short_budget = steered;
+  short_budget.iterations = 1;
+  const Payload first = id_bins(code, 40, key);
+  EXPECT_LE(calibrate_strength(prepared, first, eo, short_budget).evaluations, 1 + 3);
+  // Nothing fits (an MSDM limit the weakest mark exceeds 4 times over): the smallest strength,
+  // which steering embedded, is measured in full without being embedded again.
+  CalibrateOptions impossible = steered;
+  impossible.max_msdm = 0.02;
+  const CalibrateResult none = calibrate_strength(prepared, first, eo, impossible);
+  EXPECT_EQ(none.status, CalibrateStatus::BelowMinimum) << none.message;
+  EXPECT_EQ(none.measurements, 1);
+  EXPECT_EQ(none.evaluations, none.estimates) << "an embedding made twice";
   const std::string small = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(small, "spot.obj");
   const Mesh spot = read_mesh(small);
   const CalibrateResult r = calibrate_strength(spot.V, spot.F, calibration_payload(64, 3), eo);
   EXPECT_EQ(r.estimates, 0) << spot.V.rows() << " vertices";
   EXPECT_GE(r.measurements, 1);
+}
+
+// An issuer's copies of one original share MSDM's side of it (CalibrateOptions::
+// msdm_reference): the first search that measures MSDM computes it, the later ones walk the
+// original's windows no more, and what each search finds is what it finds alone, bit for bit.
+// A reference of another mesh is refused.
+TEST(Calibrate, ASharedMsdmReferenceIsComputedOnceAndChangesNothing) {
+  const std::string path = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(path, "spot.obj");
+  const Mesh mesh = read_mesh(path);
+  EmbedOptions eo;
+  const PreparedEmbedder prepared(mesh.V, mesh.F, eo);
+  CalibrateOptions shared;
+  shared.msdm_reference = std::make_shared<SharedMsdmReference>();
+  int original_walks = 0;
+  shared.progress = [&](const std::string& phase, long done, long, const std::string&) {
+    if (done == 0 && phase.find("the original's windows") != std::string::npos) ++original_walks;
+  };
+  for (int p = 0; p < 3; ++p) {
+    const Payload payload = calibration_payload(64, 20 + p);
+    const CalibrateResult alone = calibrate_strength(prepared, payload, eo);
+    const CalibrateResult with = calibrate_strength(prepared, payload, eo, shared);
+    ASSERT_EQ(alone.status, CalibrateStatus::Calibrated) << alone.message;
+    EXPECT_EQ(with.strength, alone.strength) << p;
+    EXPECT_EQ(with.msdm, alone.msdm) << p;
+    EXPECT_TRUE(with.embedding.V == alone.embedding.V) << p;
+  }
+  EXPECT_EQ(original_walks, 1) << "the original's windows are walked once for three searches";
+  const Mesh other = attack_subdivide(mesh, Subdivision::Loop, 1);
+  const PreparedEmbedder other_prepared(other.V, other.F, eo);
+  EXPECT_THROW(calibrate_strength(other_prepared, calibration_payload(64, 1), eo, shared),
+               InvalidArgumentError);
 }
 
 TEST(Calibrate, TheReturnedEmbeddingIsTheMeasuredOne) {

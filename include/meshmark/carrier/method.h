@@ -71,7 +71,7 @@ struct MarkScheme {
 };
 
 /// Parses a scheme's name (MarkScheme::name; any case; "cho-mean/DRS" is "cho-mean").
-/// 	hrow InvalidArgumentError naming what is wrong (an unknown method, a bad variant, or a
+/// \throw InvalidArgumentError naming what is wrong (an unknown method, a bad variant, or a
 ///        variant other than ?RS for Cho's methods).
 MarkScheme parse_scheme(std::string_view name);
 

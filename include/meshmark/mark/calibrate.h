@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,7 @@
 #include "meshmark/core/progress.h"
 #include "meshmark/mark/embed.h"
 #include "meshmark/mark/payload.h"
+#include "meshmark/metrics/metrics.h"
 
 namespace meshmark {
 
@@ -68,6 +70,11 @@ struct CalibrateOptions {
   /// strength in their names ("strength 0.03000: measuring MSDM"), one unit per vertex. On a
   /// few 100k vertices each takes minutes. Empty: nothing.
   ProgressCallback progress;
+  /// The original's side of MSDM, shared by searches on one original (an issuer's copies):
+  /// computed by the first search that needs it and reused by the others. Null: each search
+  /// computes its own. \throw InvalidArgumentError (from calibrate_strength) when it holds
+  /// the reference of another mesh.
+  std::shared_ptr<SharedMsdmReference> msdm_reference;
 };
 
 /// Outcome of calibrate_strength.

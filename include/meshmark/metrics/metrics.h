@@ -7,6 +7,8 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
+#include <mutex>
+#include <optional>
 
 #include "meshmark/core/mesh.h"
 #include "meshmark/core/progress.h"
@@ -101,7 +103,7 @@ class MsdmReference {
   /// the cube root of the mean of their cubes, over those F references. Costs B's curvature
   /// and about 1/stride of compare's windows. An estimate, to steer a search; the value a
   /// limit is held against is compare's. `progress`: phase "estimating MSDM", one unit per
-  /// vertex valued. 	hrow InvalidArgumentError when B's vertex count differs or stride < 1.
+  /// vertex valued. \throw InvalidArgumentError when B's vertex count differs or stride < 1.
   double estimate(const Eigen::MatrixX3d& B, int stride,
                   const ProgressCallback& progress = {}) const;
   /// D, the longest side of the original's bounding box (model units).
@@ -115,6 +117,23 @@ class MsdmReference {
   // The local values of every stride-th vertex (the others 0), for compare and estimate.
   Eigen::VectorXd locals(const Eigen::MatrixX3d& B, int stride, const char* phase,
                          const ProgressCallback& progress) const;
+};
+
+/// The original's side of MSDM computed once and shared by everything measured against one
+/// original: the strength searches of its copies (CalibrateOptions::msdm_reference, an
+/// issuer's copies of one original, issue.h). Safe to use from several threads.
+class SharedMsdmReference {
+ public:
+  /// The reference of A (#V x 3) and F (#F x 3) with MsdmOptions{}: computed by the first call
+  /// (reporting to `progress` as MsdmReference's constructor does), the same one afterwards;
+  /// a call while another computes it waits. \throw InvalidArgumentError when A's vertex count
+  /// or its bounding box's longest side differ from the first call's mesh.
+  MsdmReference get(const Eigen::MatrixX3d& A, const Eigen::MatrixX3i& F,
+                    const ProgressCallback& progress = {});
+
+ private:
+  std::mutex lock_;
+  std::optional<MsdmReference> reference_;
 };
 
 /// MSDM between two meshes with the same connectivity F (positions A and B): see

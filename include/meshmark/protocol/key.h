@@ -127,7 +127,7 @@ std::vector<std::uint8_t> keyed_hash_bits(const Key& key, std::string_view domai
 /// 7 - i % 8 of byte i / 8.
 class KeyedHash {
  public:
-  /// 	hrow InvalidArgumentError when nbits is outside 1..512.
+  /// \throw InvalidArgumentError when nbits is outside 1..512.
   KeyedHash(const Key& key, std::string_view domain, int nbits);
   /// The digest of data (size bytes) into out: bytes() bytes.
   void digest(const std::uint8_t* data, std::size_t size, std::uint8_t* out) const;
