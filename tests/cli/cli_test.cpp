@@ -360,7 +360,10 @@ TEST(Cli, PassphraseCopiesIssuedBeforeArgon2idStillTrace) {
 
 // embed --batch killed (SIGKILL) at several moments: every copy on disk has its row (reserved
 // or issued; an issued one with the hash of the file), and the batch run again issues every
-// copy once, completes every row and leaves no temporary file.
+// copy once, completes every row and leaves no temporary file. The key is fixed: under about
+// 1 key in 300, two of 30 consecutive IDs have codewords closer than the registry's spacing
+// and one is refused (docs/issuing.md), which failed this test now and then when each run
+// made a new key with keygen. Under this one, IDs 100 to 129 are spaced.
 TEST(Cli, AKilledBatchLeavesNoCopyWithoutARowAndItsRerunFinishesIt) {
   const std::string mesh = test::cgal_mesh("refined_elephant.off");
   MESHMARK_REQUIRE(mesh, "libcgal-demo's refined_elephant.off");
@@ -372,7 +375,9 @@ TEST(Cli, AKilledBatchLeavesNoCopyWithoutARowAndItsRerunFinishesIt) {
     std::filesystem::remove_all(dir);
     std::filesystem::create_directories(dir);
     const std::string db = dir + "/shop.db", key = dir + "/k.key", manifest = dir + "/m.txt";
-    ASSERT_EQ(test::run_cli("keygen " + key).code, 0);
+    std::ofstream(key, std::ios::binary) << "meshmark test: killed batch\n";
+    std::filesystem::permissions(
+        key, std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
     {
       std::ofstream m(manifest);
       for (int n = 100; n < 100 + kCopies; ++n)
