@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <utility>
@@ -103,6 +104,9 @@ class Search {
   double min_step_ = 1.25;
 };
 
+// The original's side of MSDM, computed at the first call (reporting to its progress).
+using MsdmReferenceOf = std::function<const MsdmReference&(const ProgressCallback&)>;
+
 // Per-bit strengths for alpha: the caller's rule, or the given ones scaled.
 std::vector<double> strengths_for(const CalibrateOptions& o, const EmbedOptions& eo, double alpha) {
   if (o.strengths) return o.strengths(alpha);
@@ -113,7 +117,8 @@ std::vector<double> strengths_for(const CalibrateOptions& o, const EmbedOptions&
 
 // Why not even min_strength fits, and what would: one line each.
 void explain(const PreparedEmbedder& embedder, const Payload& payload, const EmbedOptions& eo,
-             const CalibrateOptions& o, const Trial& weakest, CalibrateResult& result) {
+             const CalibrateOptions& o, const MsdmReferenceOf& reference_of, const Trial& weakest,
+             CalibrateResult& result) {
   const int nb = payload.size();
   auto& d = result.diagnostics;
   const EmbedResult& r = weakest.result;
@@ -136,12 +141,7 @@ void explain(const PreparedEmbedder& embedder, const Payload& payload, const Emb
     const std::string healthy = fmt::format("{} bits give every bin enough positions", k);
     if (w.status != EmbedStatus::Embedded)
       return fmt::format("{}, but do not embed either: {}", healthy, w.message);
-    const double m = w.rms_percent <= o.max_rms_percent
-                         ? (o.msdm_reference ? o.msdm_reference->get(embedder.V(), embedder.F())
-                                             : MsdmReference(embedder.V(), embedder.F()))
-                               .compare(w.V)
-                               .global
-                         : -1;
+    const double m = w.rms_percent <= o.max_rms_percent ? reference_of({}).compare(w.V).global : -1;
     if (m >= 0 && m <= o.max_msdm)
       return fmt::format("{} and fit the limits at strength {}", healthy, o.min_strength);
     return fmt::format(
@@ -236,7 +236,16 @@ CalibrateResult calibrate_strength(const PreparedEmbedder& embedder, const Paylo
   CalibrateResult result;
   const Eigen::MatrixX3d& V = embedder.V();
   const Eigen::MatrixX3i& F = embedder.F();
+  // The original's side of MSDM: computed (or taken from o.msdm_reference) once, when first
+  // needed.
   std::optional<MsdmReference> reference;
+  const MsdmReferenceOf reference_of =
+      [&](const ProgressCallback& progress) -> const MsdmReference& {
+    if (!reference)
+      reference = o.msdm_reference ? o.msdm_reference->get(V, F, progress)
+                                   : MsdmReference(V, F, MsdmOptions{}, progress);
+    return *reference;
+  };
   std::vector<std::uint8_t> counted;  // the carrier, for options.finish's displacement
   // MSDM of an embedding whose RMS passed: measured in full (stride 1), or estimated from
   // every stride-th vertex's window.
@@ -247,15 +256,13 @@ CalibrateResult calibrate_strength(const PreparedEmbedder& embedder, const Paylo
                                        const std::string& what) {
         o.progress(fmt::format("strength {:.5f}: {}", alpha, phase), done, total, what);
       };
-    if (!reference)  // the original's, once
-      reference = o.msdm_reference ? o.msdm_reference->get(V, F, progress)
-                                   : MsdmReference(V, F, MsdmOptions{}, progress);
+    const MsdmReference& r = reference_of(progress);
     t.estimated = stride > 1;
     if (t.estimated) {
-      t.msdm = reference->estimate(t.result.V, stride, progress);
+      t.msdm = r.estimate(t.result.V, stride, progress);
       ++result.estimates;
     } else {
-      t.msdm = reference->compare(t.result.V, progress).global;
+      t.msdm = r.compare(t.result.V, progress).global;
       ++result.measurements;
     }
     t.ratio = std::max(t.rms / o.max_rms_percent, t.msdm / o.max_msdm);
@@ -391,7 +398,7 @@ CalibrateResult calibrate_strength(const PreparedEmbedder& embedder, const Paylo
     result.msdm = w.msdm;
     result.bin_offset = w.bin_offset;
     result.embedding = w.result;
-    explain(embedder, payload, embed_options, o, w, result);
+    explain(embedder, payload, embed_options, o, reference_of, w, result);
     result.message =
         fmt::format("no strength from {} fits RMS {} % and MSDM {}: {}", o.min_strength,
                     o.max_rms_percent, o.max_msdm, result.diagnostics.front());
