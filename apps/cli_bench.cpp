@@ -135,11 +135,11 @@ void print_summary(const CampaignConfig& config, const CampaignRunResult& r, int
   fmt::print("rows     {}\nsummary  {}\nreport   {}\n", r.rows_csv, r.summary_csv, r.report);
   if (config.trace) {
     for (const TraceSummaryRow& s : summarize_trace(config, r.rows))
-      fmt::print("  {:<34} trace right/none/wrong {}/{}/{}, blind {}/{}/{}\n",
-                 fmt::format("{}{}:{:g}", s.colluders == 2 ? "average of 2, " : "", s.attack,
-                             s.attack_strength),
-                 s.trace_right, s.trace_none, s.trace_wrong, s.blind_right, s.blind_none,
-                 s.blind_wrong);
+      fmt::print("  {:<34} trace right/none/wrong {}/{}/{}{}, blind {}/{}/{}\n",
+                 trace_attack_label(s.attack, s.attack_strength, s.coalition), s.trace_right,
+                 s.trace_none, s.trace_wrong,
+                 s.colluders > 1 ? fmt::format(" (every colluder {})", s.trace_all) : "",
+                 s.blind_right, s.blind_none, s.blind_wrong);
     return;
   }
   for (const SummaryRow& s : summarize(config, r.rows))
@@ -168,6 +168,8 @@ void print_summary_json(const CampaignConfig& config, const CampaignRunResult& r
           {{"attack", s.attack},
            {"attack_strength", s.attack_strength},
            {"colluders", s.colluders},
+           {"coalition", s.coalition},
+           {"every_leaker_named", s.trace_all},
            {"trials", s.trials},
            {"trace", {{"right", s.trace_right}, {"none", s.trace_none}, {"wrong", s.trace_wrong}}},
            {"blind", {{"right", s.blind_right}, {"none", s.blind_none}, {"wrong", s.blind_wrong}}},

@@ -149,13 +149,43 @@ void read_trace_settings(const std::string& file, const json& j, CampaignConfig&
     if (!c.trace && j.contains(k)) bad(file, fmt::format("\"{}\" needs \"mode\": \"trace\"", k));
   if (!c.trace) return;
   c.copies = j.value("copies", c.copies);
-  c.collusion = j.value("collusion", c.collusion);
+  if (j.contains("collusion")) {
+    const json& k = j["collusion"];
+    std::vector<std::string> names;
+    if (k.is_boolean()) {
+      if (k.get<bool>()) names.push_back("average:2");
+    } else if (k.is_array()) {
+      for (const json& n : k) {
+        if (!n.is_string())
+          bad(file, fmt::format("\"collusion\" lists {}, not a coalition name", n.dump()));
+        names.push_back(n.get<std::string>());
+      }
+    } else {
+      bad(file,
+          "\"collusion\" must be true, false or a list of coalitions (\"average:3\", "
+          "\"weighted:3\", \"splice:3\")");
+    }
+    std::set<std::string> seen;
+    for (const std::string& name : names) {
+      try {
+        c.coalitions.push_back(parse_coalition(name));
+      } catch (const InvalidArgumentError& e) {
+        bad(file, e.what());
+      }
+      if (!seen.insert(coalition_name(c.coalitions.back())).second)
+        bad(file, fmt::format("\"collusion\" lists the coalition \"{}\" twice", name));
+    }
+  }
   c.fingerprint = j.value("fingerprint", c.fingerprint);
   c.spread = j.value("spread", c.spread);
   if (c.copies < 2 || c.copies > 1000000)
     bad(file, fmt::format("copies {} is out of 2..1000000", c.copies));
   if (!(c.spread >= 0 && c.spread <= 4))
     bad(file, fmt::format("spread {} is out of [0, 4]", c.spread));
+  for (const CampaignCoalition& k : c.coalitions)
+    if (k.size > c.copies)
+      bad(file, fmt::format("the coalition \"{}\" needs more than the {} copies issued",
+                            coalition_name(k), c.copies));
   try {
     (void)IdCode(IdCodeOptions{c.bits});
   } catch (const InvalidArgumentError& e) {

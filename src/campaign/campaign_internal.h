@@ -21,18 +21,19 @@ inline bool outcome_is(const std::string& text, TraceOutcome outcome) {
 /// A seed per text (a trial's key): FNV-1a finished by SplitMix64, salted with the campaign's.
 std::uint64_t seed_of(const std::string& text, std::uint64_t salt);
 
-/// One trial to run: an attack series at one strength, one draw, on one copy or (trace mode,
-/// colluders 2) an average of two.
+/// One trial to run: an attack series at one strength, one draw, on one copy or (trace mode)
+/// the leak a coalition merges.
 struct PlannedTrial {
   const AttackSeries* series = nullptr;
   double strength = 0;
   int draw = 0;
-  int colluders = 0;  ///< 0 in blind mode
+  int colluders = 0;                             ///< 0 in blind mode, else 1 or the coalition's
+  const CampaignCoalition* coalition = nullptr;  ///< trace mode's merged leaks
   std::string key;
 };
 
-/// The unit's trials in canonical order: attacks, strengths, draws, then (trace mode, collusion)
-/// every one again on an average of two copies.
+/// The unit's trials in canonical order: attacks, strengths, draws, then (trace mode) every one
+/// again for each coalition of the config, in its order.
 std::vector<PlannedTrial> plan_trials(const CampaignConfig& config, const CampaignUnit& unit);
 
 /// The trial's attack applied to mesh (a copy of it for "none"), seeded from its key.

@@ -13,13 +13,11 @@
 
 namespace meshmark {
 
-NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(TrialRow, key, model, variant, protocol, payload,
-                                                strength, rms_percent, msdm, attack,
-                                                attack_strength, draw, vertices, ber, erasures,
-                                                status, embed_seconds, attack_seconds,
-                                                extract_seconds, colluders, leakers, trace_outcome,
-                                                trace_status, trace_named, trace_p, blind_outcome,
-                                                blind_id, trace_seconds)
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
+    TrialRow, key, model, variant, protocol, payload, strength, rms_percent, msdm, attack,
+    attack_strength, draw, vertices, ber, erasures, status, embed_seconds, attack_seconds,
+    extract_seconds, colluders, coalition, leakers, trace_outcome, trace_status, trace_named,
+    trace_all_named, trace_p, blind_outcome, blind_id, trace_seconds)
 
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(CalibrationRecord, model, variant, protocol, status,
                                                 strength, rms_percent, msdm, seconds, bin_offset,
@@ -65,8 +63,11 @@ std::string csv_quote(const std::string& s) {
 std::string row_to_json(const TrialRow& r) {
   json j = r;
   if (r.protocol.empty()) j.erase("protocol");
-  if (r.colluders == 0)
+  if (r.colluders == 0) {
     for (const char* f : kTraceFields) j.erase(f);
+    j.erase("trace_all_named");
+  }
+  if (r.coalition.empty()) j.erase("coalition");
   return j.dump();
 }
 
@@ -75,7 +76,17 @@ TrialRow row_from_json(const std::string& line) {
     const json j = json::parse(line);
     require(j, kRowFields, "rows", "campaign row");
     if (j.contains("colluders")) require(j, kTraceFields, "rows", "campaign row");
-    return j.get<TrialRow>();
+    TrialRow r = j.get<TrialRow>();
+    // Rows written before coalitions had names (and before trace_all_named): colluders 2 was
+    // always an average of two; every leaker named is read from the names.
+    if (r.colluders == 2 && r.coalition.empty()) r.coalition = "average:2";
+    if (r.colluders > 0 && !j.contains("trace_all_named") && r.trace_outcome == "right") {
+      std::size_t named = 0;
+      for (std::size_t at = 0; at != std::string::npos; at = r.trace_named.find(' ', at + 1))
+        ++named;
+      r.trace_all_named = named == static_cast<std::size_t>(r.colluders);
+    }
+    return r;
   } catch (const json::exception& e) {
     throw InvalidInputError("rows", 0, fmt::format("not a campaign row: {}", e.what()));
   }
@@ -102,8 +113,8 @@ std::string csv_header(bool trace) {
   return std::string(
              "model,variant,payload,strength,rms_percent,msdm,attack,attack_strength,draw,"
              "vertices,ber,erasures,status,embed_seconds,attack_seconds,extract_seconds,protocol") +
-         (trace ? ",colluders,leakers,trace_outcome,trace_status,trace_named,trace_p,"
-                  "blind_outcome,blind_id,trace_seconds"
+         (trace ? ",colluders,coalition,leakers,trace_outcome,trace_status,trace_named,"
+                  "trace_all_named,trace_p,blind_outcome,blind_id,trace_seconds"
                 : "");
 }
 
@@ -115,9 +126,10 @@ std::string row_to_csv(const TrialRow& r, bool trace) {
                   csv_quote(r.status), r.embed_seconds, r.attack_seconds, r.extract_seconds);
   line += "," + csv_quote(r.protocol);
   if (trace)
-    line += fmt::format(",{},{},{},{},{},{},{},{},{}", r.colluders, csv_quote(r.leakers),
-                        r.trace_outcome, r.trace_status, csv_quote(r.trace_named), r.trace_p,
-                        r.blind_outcome, csv_quote(r.blind_id), r.trace_seconds);
+    line += fmt::format(",{},{},{},{},{},{},{:d},{},{},{},{}", r.colluders, r.coalition,
+                        csv_quote(r.leakers), r.trace_outcome, r.trace_status,
+                        csv_quote(r.trace_named), r.trace_all_named, r.trace_p, r.blind_outcome,
+                        csv_quote(r.blind_id), r.trace_seconds);
   return line;
 }
 

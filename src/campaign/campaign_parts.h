@@ -54,11 +54,11 @@ std::vector<IssuedCopy> campaign_copies(const CampaignConfig& config, const std:
                                         const std::string& variant, double strength,
                                         double bin_offset = 0.05);
 
-/// The key of a trial; colluders 2 (an averaged trial in trace mode) appends "|avg2", a named
-/// protocol "|" and its name.
+/// The key of a trial; a coalition (trace mode, its coalition_name) appends "|avg2" for
+/// "average:2" (as keys always had), else "|" and its name; a named protocol "|" and its name.
 std::string trial_key(const std::string& model, const std::string& variant, int payload,
                       const std::string& attack, double attack_strength, int draw,
-                      int colluders = 0, const std::string& protocol = "");
+                      const std::string& coalition = "", const std::string& protocol = "");
 
 /// The keys of a unit's trials, in canonical order (attacks, strengths, draws).
 std::vector<std::string> unit_trial_keys(const CampaignConfig& config, const CampaignUnit& unit);

@@ -10,6 +10,7 @@
 #include "meshmark/attacks/attack.h"
 #include "meshmark/campaign/campaign.h"
 #include "meshmark/carrier/method.h"
+#include "meshmark/core/error.h"
 #include "meshmark/core/random.h"
 
 namespace meshmark {
@@ -26,6 +27,48 @@ using detail::seed_of;
 
 bool attack_is_deterministic(const std::string& kind) {
   return kind == "none" || attack_chain_is_deterministic(kind);
+}
+
+std::string coalition_name(const CampaignCoalition& k) {
+  const char* kind = k.kind == CollusionKind::Splice ? "splice"
+                     : k.weighted                    ? "weighted"
+                                                     : "average";
+  return fmt::format("{}:{}", kind, k.size);
+}
+
+CampaignCoalition parse_coalition(const std::string& name) {
+  const std::size_t colon = name.find(':');
+  const std::string kind = name.substr(0, colon);
+  CampaignCoalition k;
+  if (kind == "splice")
+    k.kind = CollusionKind::Splice;
+  else if (kind == "weighted")
+    k.weighted = true;
+  else if (kind != "average")
+    throw InvalidArgumentError(
+        fmt::format("coalition \"{}\": the kind is \"average\", \"weighted\" or \"splice\"", name));
+  const std::string size = colon == std::string::npos ? "" : name.substr(colon + 1);
+  if (size.empty() || size.size() > 2 ||
+      !std::all_of(size.begin(), size.end(), [](char c) { return c >= '0' && c <= '9'; }))
+    throw InvalidArgumentError(
+        fmt::format("coalition \"{}\": write KIND:K, K the number of colluders (2 to 64)", name));
+  k.size = std::stoi(size);
+  if (k.size < 2 || k.size > 64)
+    throw InvalidArgumentError(
+        fmt::format("coalition \"{}\": {} colluders is out of 2..64", name, k.size));
+  return k;
+}
+
+std::string coalition_label(const CampaignCoalition& k) {
+  const char* kind = k.kind == CollusionKind::Splice ? "splice"
+                     : k.weighted                    ? "unequal average"
+                                                     : "average";
+  return fmt::format("{} of {}", kind, k.size);
+}
+
+std::string trace_attack_label(const std::string& attack, double x, const std::string& coalition) {
+  const std::string a = attack == "none" ? "none" : fmt::format("{}:{:g}", attack, x);
+  return coalition.empty() ? a : coalition_label(parse_coalition(coalition)) + ", " + a;
 }
 
 std::vector<AttackStep> series_chain(const std::string& kind, double x) {
@@ -69,10 +112,13 @@ Payload calibration_payload(int bits, std::uint64_t seed) {
 }
 
 std::string trial_key(const std::string& model, const std::string& variant, int payload,
-                      const std::string& attack, double attack_strength, int draw, int colluders,
-                      const std::string& protocol) {
+                      const std::string& attack, double attack_strength, int draw,
+                      const std::string& coalition, const std::string& protocol) {
+  const std::string merged = coalition.empty()          ? ""
+                             : coalition == "average:2" ? "|avg2"
+                                                        : "|" + coalition;
   return fmt::format("{}|{}|{}|{}|{}|{}{}{}", model, variant, payload, attack, attack_strength,
-                     draw, colluders == 2 ? "|avg2" : "", protocol.empty() ? "" : "|" + protocol);
+                     draw, merged, protocol.empty() ? "" : "|" + protocol);
 }
 
 EmbedOptions detail::scheme_options(const std::string& scheme) {
@@ -86,16 +132,20 @@ EmbedOptions detail::scheme_options(const std::string& scheme) {
 std::vector<detail::PlannedTrial> detail::plan_trials(const CampaignConfig& c,
                                                       const CampaignUnit& u) {
   std::vector<PlannedTrial> trials;
-  const std::vector<int> colluders = !c.trace      ? std::vector<int>{0}
-                                     : c.collusion ? std::vector<int>{1, 2}
-                                                   : std::vector<int>{1};
-  for (const int n : colluders)
+  // nullptr: single copies (colluders 1 in trace mode, 0 in blind mode).
+  std::vector<const CampaignCoalition*> leaks{nullptr};
+  if (c.trace)
+    for (const CampaignCoalition& k : c.coalitions) leaks.push_back(&k);
+  for (const CampaignCoalition* k : leaks) {
+    const int colluders = k ? k->size : c.trace ? 1 : 0;
+    const std::string name = k ? coalition_name(*k) : "";
     for (const AttackSeries& s : c.attacks)
       for (const double x : s.strengths)
         for (int d = 0; d < draws_of(c, s); ++d)
-          trials.push_back({&s, x, d, n,
+          trials.push_back({&s, x, d, colluders, k,
                             trial_key(c.models[u.model].name, c.variants[u.variant], u.payload,
-                                      series_label(s), x, d, n, c.protocols[u.protocol].name)});
+                                      series_label(s), x, d, name, c.protocols[u.protocol].name)});
+  }
   return trials;
 }
 

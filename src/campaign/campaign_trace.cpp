@@ -91,12 +91,18 @@ namespace detail {
 
 namespace {
 
-// The leakers of a unit: its leaker, and the colluder (the next ID, or the previous one for
-// the last issued).
-std::vector<std::uint64_t> unit_leakers(const CampaignConfig& c, int payload) {
+// The leakers of a unit for coalitions of up to `most`: its leaker first, then the IDs after
+// it up to the last issued, then those before it going down. The first K of them, a coalition
+// of K, are K consecutive IDs.
+std::vector<std::uint64_t> unit_leakers(const CampaignConfig& c, int payload, int most) {
   const std::uint64_t leaker = campaign_leaker(c, payload);
-  const bool last = leaker + 1 == campaign_first_id(c) + c.copies;
-  return {leaker, last ? leaker - 1 : leaker + 1};
+  const std::uint64_t last = campaign_first_id(c) + static_cast<std::uint64_t>(c.copies) - 1;
+  std::vector<std::uint64_t> ids{leaker};
+  for (std::uint64_t id = leaker + 1; id <= last && static_cast<int>(ids.size()) < most; ++id)
+    ids.push_back(id);
+  for (std::uint64_t id = leaker; static_cast<int>(ids.size()) < most; ids.push_back(--id)) {
+  }
+  return ids;
 }
 
 // Traces and decodes blind one attacked mesh, filling the row's outcomes.
@@ -112,6 +118,8 @@ void judge(const Mesh& attacked, const Mesh& original, const std::vector<IssuedC
   row.trace_outcome = trace_outcome_name(trace_outcome(named, leakers));
   row.trace_status = trace_status_name(t.status);
   row.trace_named = joined(named);
+  row.trace_all_named = row.trace_outcome == trace_outcome_name(TraceOutcome::Right) &&
+                        named.size() == leakers.size();
   row.trace_p = t.ranking.empty() ? 1.0 : t.ranking.front().corrected_p;
   t0 = Clock::now();
   const IdReading blind = read_id(
@@ -142,11 +150,11 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
   const Key key = campaign_key(c);
   const std::vector<IssuedCopy> copies =
       campaign_copies(c, model, variant, record.strength, record.bin_offset);
-  const std::vector<std::uint64_t> pair = unit_leakers(c, u.payload);
-  const bool averaged =
-      std::any_of(todo.begin(), todo.end(), [](const PlannedTrial& t) { return t.colluders == 2; });
+  int most = 1;
+  for (const PlannedTrial& t : todo) most = std::max(most, t.colluders);
+  const std::vector<std::uint64_t> pair = unit_leakers(c, u.payload, most);
 
-  // The leaker's copy (and the colluder's, when an averaged trial is to run), keyed and coded
+  // The leaker's copy (and the colluders', when a coalition's trial is to run), keyed and coded
   // as `meshmark embed --id` makes them.
   EmbedOptions eo = scheme_options(variant);
   eo.strength = record.strength;
@@ -165,7 +173,7 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
     frame = fingerprint_frame(mesh.V, mesh.F, eo.variant.center, c.bits);
     if (!frame) base.status = "too few vertices for a fingerprint";
   }
-  for (std::size_t k = 0; k < (averaged ? 2u : 1u) && base.status == "ok"; ++k) {
+  for (std::size_t k = 0; k < pair.size() && base.status == "ok"; ++k) {
     const auto t0 = Clock::now();
     const EmbedResult e = embed(mesh.V, mesh.F, id_bins(code, pair[k], key), eo);
     if (k == 0) base.embed_seconds = since(t0);
@@ -193,11 +201,17 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
       base.msdm = msdm(mesh.V, marked.back().V, mesh.F).global;
     }
   }
-  Mesh average;
-  if (averaged && marked.size() == 2) {
-    average = marked[0];
-    average.V = 0.5 * (marked[0].V + marked[1].V);
-  }
+  // The leak of a trial: the leaker's copy, or its coalition's merge (weights and regions drawn
+  // from the trial's key).
+  const auto leak_of = [&](const PlannedTrial& t) {
+    if (!t.coalition) return marked[0];
+    const std::vector<Mesh> coalition(marked.begin(), marked.begin() + t.colluders);
+    const std::uint64_t seed = seed_of(t.key + "|coalition", c.seed);
+    CollusionOptions o;
+    o.kind = t.coalition->kind;
+    if (t.coalition->weighted) o.weights = random_collusion_weights(t.colluders, seed);
+    return attack_collude(coalition, o, seed);
+  };
 
   for (const PlannedTrial& t : todo) {
     TrialRow row = base;
@@ -206,6 +220,7 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
     row.attack_strength = t.strength;
     row.draw = t.draw;
     row.colluders = t.colluders;
+    row.coalition = t.coalition ? coalition_name(*t.coalition) : "";
     const std::vector<std::uint64_t> leakers(pair.begin(), pair.begin() + t.colluders);
     row.leakers = joined(leakers);
     row.ber = 0.5;
@@ -213,7 +228,7 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
     if (base.status == "ok") {
       try {
         const auto t0 = Clock::now();
-        const Mesh attacked = attack_for_trial(c, t, t.colluders == 2 ? average : marked[0]);
+        const Mesh attacked = attack_for_trial(c, t, leak_of(t));
         row.attack_seconds = since(t0);
         row.vertices = static_cast<int>(attacked.V.rows());
         judge(attacked, mesh, copies, key, c, eo, leakers, row);
@@ -231,23 +246,27 @@ std::vector<TraceSummaryRow> summarize_trace(const CampaignConfig& c,
                                              const std::vector<TrialRow>& rows) {
   std::map<std::string, std::vector<const TrialRow*>> groups;
   for (const TrialRow& r : rows)
-    groups[fmt::format("{}|{}|{}", r.attack, r.attack_strength, r.colluders)].push_back(&r);
+    groups[fmt::format("{}|{}|{}", r.attack, r.attack_strength, r.coalition)].push_back(&r);
   std::vector<TraceSummaryRow> out;
-  for (const int n : {1, 2})
+  std::vector<std::string> leaks{""};
+  for (const CampaignCoalition& k : c.coalitions) leaks.push_back(coalition_name(k));
+  for (const std::string& coalition : leaks)
     for (const AttackSeries& s : c.attacks)
       for (const double x : s.strengths) {
-        const auto it = groups.find(fmt::format("{}|{}|{}", series_label(s), x, n));
+        const auto it = groups.find(fmt::format("{}|{}|{}", series_label(s), x, coalition));
         if (it == groups.end()) continue;
         TraceSummaryRow row;
         row.attack = series_label(s);
         row.attack_strength = x;
-        row.colluders = n;
+        row.coalition = coalition;
+        row.colluders = it->second.front()->colluders;
         std::vector<double> seconds;
         for (const TrialRow* r : it->second) {
           ++row.trials;
           row.trace_right += detail::outcome_is(r->trace_outcome, TraceOutcome::Right);
           row.trace_none += detail::outcome_is(r->trace_outcome, TraceOutcome::None);
           row.trace_wrong += detail::outcome_is(r->trace_outcome, TraceOutcome::Wrong);
+          row.trace_all += r->trace_all_named;
           row.blind_right += detail::outcome_is(r->blind_outcome, TraceOutcome::Right);
           row.blind_none += detail::outcome_is(r->blind_outcome, TraceOutcome::None);
           row.blind_wrong += detail::outcome_is(r->blind_outcome, TraceOutcome::Wrong);

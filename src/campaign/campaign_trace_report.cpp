@@ -22,13 +22,19 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string attack_label(const std::string& attack, double x, int colluders) {
-  const std::string a = attack == "none" ? "none" : fmt::format("{}:{:g}", attack, x);
-  return colluders == 2 ? "average of 2, " + a : a;
-}
-
 std::string percent(int n, int of) {
   return of > 0 ? fmt::format("{:.1f} %", 100.0 * n / of) : "-";
+}
+
+// The coalitions of the campaign, for the report's first paragraph ("" without).
+std::string coalitions_text(const CampaignConfig& c) {
+  std::vector<std::string> names;
+  for (const CampaignCoalition& k : c.coalitions) names.push_back(coalition_label(k));
+  if (names.empty()) return "";
+  return fmt::format(
+      "; every attack also on the leaks merged by coalitions of consecutive IDs' copies ({}; "
+      "unequal weights and splice regions drawn per trial)",
+      fmt::join(names, ", "));
 }
 
 // Two stacked bars per summary row (trace, blind): right green, none grey, wrong red.
@@ -51,7 +57,7 @@ std::string outcome_figure(const std::vector<TraceSummaryRow>& summary) {
     const double y = top + row_h * i;
     s += fmt::format("<text x='{:.0f}' y='{:.1f}' font-size='11' text-anchor='end'>{}</text>\n",
                      label - 8, y + 17,
-                     xml_escape(attack_label(r.attack, r.attack_strength, r.colluders)));
+                     xml_escape(trace_attack_label(r.attack, r.attack_strength, r.coalition)));
     const int counts[2][3] = {{r.trace_right, r.trace_none, r.trace_wrong},
                               {r.blind_right, r.blind_none, r.blind_wrong}};
     for (int b = 0; b < 2; ++b) {
@@ -77,18 +83,18 @@ std::string outcome_figure(const std::vector<TraceSummaryRow>& summary) {
 // The rates table of the summary.
 std::string rates_table(const std::vector<TraceSummaryRow>& summary) {
   std::string md =
-      "| attack | trials | trace right | trace none | trace wrong | blind right | blind none "
-      "| blind wrong | worst corrected p (trace right) | trace s (median) |\n"
-      "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
+      "| attack | trials | trace right | trace none | trace wrong | every leaker named | blind "
+      "right | blind none | blind wrong | worst corrected p (trace right) | trace s (median) |\n"
+      "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
   for (const TraceSummaryRow& r : summary)
-    md += fmt::format("| {} | {} | {} | {} | {}{} | {} | {} | {}{} | {} | {:.2f} |\n",
-                      attack_label(r.attack, r.attack_strength, r.colluders), r.trials,
-                      percent(r.trace_right, r.trials), percent(r.trace_none, r.trials),
-                      r.trace_wrong ? "**" : "", percent(r.trace_wrong, r.trials),
-                      percent(r.blind_right, r.trials), percent(r.blind_none, r.trials),
-                      r.blind_wrong ? "**" : "", percent(r.blind_wrong, r.trials),
-                      r.trace_right ? fmt::format("{:.2g}", r.worst_right_p) : "-",
-                      r.median_trace_seconds);
+    md += fmt::format(
+        "| {} | {} | {} | {} | {}{} | {} | {} | {} | {}{} | {} | {:.2f} |\n",
+        trace_attack_label(r.attack, r.attack_strength, r.coalition), r.trials,
+        percent(r.trace_right, r.trials), percent(r.trace_none, r.trials),
+        r.trace_wrong ? "**" : "", percent(r.trace_wrong, r.trials), percent(r.trace_all, r.trials),
+        percent(r.blind_right, r.trials), percent(r.blind_none, r.trials),
+        r.blind_wrong ? "**" : "", percent(r.blind_wrong, r.trials),
+        r.trace_right ? fmt::format("{:.2g}", r.worst_right_p) : "-", r.median_trace_seconds);
   return md;
 }
 
@@ -127,12 +133,12 @@ std::string right_by_model(const CampaignConfig& c, const std::vector<TraceSumma
   for (std::size_t k = 0; k < c.models.size(); ++k) md += " ---: |";
   md += "\n";
   for (const TraceSummaryRow& s : summary) {
-    md += "| " + attack_label(s.attack, s.attack_strength, s.colluders) + " |";
+    md += "| " + trace_attack_label(s.attack, s.attack_strength, s.coalition) + " |";
     for (const CampaignModel& m : c.models) {
       int right = 0, n = 0;
       for (const TrialRow& r : rows)
         if (r.model == m.name && r.attack == s.attack && r.attack_strength == s.attack_strength &&
-            r.colluders == s.colluders)
+            r.coalition == s.coalition)
           ++n, right += detail::outcome_is(r.trace_outcome, TraceOutcome::Right);
       md += fmt::format(" {}/{} |", right, n);
     }
@@ -165,13 +171,13 @@ std::string write_trace_report(const std::string& out_dir, const CampaignConfig&
   const fs::path dir(out_dir);
   const std::vector<TraceSummaryRow> summary = summarize_trace(c, rows);
   std::string csv =
-      "attack,attack_strength,colluders,trials,trace_right,trace_none,trace_wrong,blind_right,"
-      "blind_none,blind_wrong,worst_right_p,median_trace_seconds\n";
+      "attack,attack_strength,colluders,coalition,trials,trace_right,trace_none,trace_wrong,"
+      "trace_all_named,blind_right,blind_none,blind_wrong,worst_right_p,median_trace_seconds\n";
   for (const TraceSummaryRow& r : summary)
-    csv += fmt::format("\"{}\",{},{},{},{},{},{},{},{},{},{},{}\n", r.attack, r.attack_strength,
-                       r.colluders, r.trials, r.trace_right, r.trace_none, r.trace_wrong,
-                       r.blind_right, r.blind_none, r.blind_wrong, r.worst_right_p,
-                       r.median_trace_seconds);
+    csv += fmt::format("\"{}\",{},{},{},{},{},{},{},{},{},{},{},{},{}\n", r.attack,
+                       r.attack_strength, r.colluders, r.coalition, r.trials, r.trace_right,
+                       r.trace_none, r.trace_wrong, r.trace_all, r.blind_right, r.blind_none,
+                       r.blind_wrong, r.worst_right_p, r.median_trace_seconds);
   write_file_atomically((dir / "summary.csv").string(), csv);
   const bool png = write_figure(out_dir, "figure-trace", outcome_figure(summary));
 
@@ -192,13 +198,13 @@ std::string write_trace_report(const std::string& out_dir, const CampaignConfig&
       "the original against every issued copy (threshold 1e-6 on the Bonferroni-corrected p) "
       "and decoded blind (read_id). {} trials in {:.1f} s of wall time (all runs).\n\n",
       c.source, c.models.size(), fmt::join(c.variants, ", "), c.bits, c.copies,
-      campaign_first_id(c), c.payloads, c.draws,
-      c.collusion ? "; every attack also on the average of two consecutive IDs' copies" : "",
+      campaign_first_id(c), c.payloads, c.draws, coalitions_text(c),
       c.calibrate ? "calibrated strengths" : fmt::format("alpha {}", c.strength), c.spread, c.seed,
       rows.size(), wall_seconds);
   md +=
-      "Right: every buyer named leaked (for an average, at least one colluder named); none: "
-      "nobody named; wrong: an innocent named.\n\n";
+      "Right: every buyer named leaked (for a coalition, at least one colluder named); none: "
+      "nobody named; wrong: an innocent named. Every leaker named: right, and all the "
+      "coalition's colluders named.\n\n";
   if (wrong.empty())
     md += fmt::format(
         "## Wrong outcomes: none\n\nIn {} trials trace never named an innocent, and the blind "

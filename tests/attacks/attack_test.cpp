@@ -120,6 +120,125 @@ TEST(Attack, NoiseStaysWithinItsAmplitudeForBothReferences) {
   }
 }
 
+// Colluders' copies: three copies of spot, each the original with its own noise. An average is
+// the weighted mean of the three at every vertex; a splice takes every vertex whole from one
+// copy, in a few contiguous regions (few edges join two copies), each copy one of them.
+TEST(Attack, ColludersMergeCopiesVertexByVertexOrByRegion) {
+  const std::string path = data_mesh("spot.obj");
+  MESHMARK_REQUIRE(path, "spot.obj");
+  const Mesh m = real(path);
+  std::vector<Mesh> copies;
+  for (std::uint64_t seed = 1; seed <= 3; ++seed)
+    copies.push_back(attack_noise(m, 0.001, NoiseReference::Diagonal, seed));
+  const double scale = m.V.cwiseAbs().maxCoeff();
+  const auto worst_gap = [&](const Mesh& merged, const std::array<double, 3>& w) {
+    double worst = 0;
+    for (Eigen::Index i = 0; i < m.V.rows(); ++i)
+      for (int a = 0; a < 3; ++a) {
+        const double expect =
+            w[0] * copies[0].V(i, a) + w[1] * copies[1].V(i, a) + w[2] * copies[2].V(i, a);
+        worst = std::max(worst, std::abs(merged.V(i, a) - expect));
+      }
+    return worst;
+  };
+  const double tolerance = 4e-16 * scale;  // a few roundings of a sum of three products
+  const Mesh equal = attack_collude(copies, {});
+  EXPECT_LE(worst_gap(equal, {1.0 / 3, 1.0 / 3, 1.0 / 3}), tolerance);
+  EXPECT_EQ(equal.F, m.F);
+  const Mesh weighted = attack_collude(copies, {CollusionKind::Average, {3, 1, 0}});
+  EXPECT_LE(worst_gap(weighted, {0.75, 0.25, 0}), tolerance);
+
+  const Mesh spliced = attack_collude(copies, {CollusionKind::Splice, {}}, 7);
+  std::vector<int> from(static_cast<std::size_t>(m.V.rows()), -1);
+  std::array<int, 3> count{};
+  for (Eigen::Index i = 0; i < m.V.rows(); ++i) {
+    int matches = 0;
+    for (int j = 0; j < 3; ++j)
+      if (spliced.V.row(i) == copies[j].V.row(i)) from[i] = j, ++matches;
+    ASSERT_EQ(matches, 1) << "vertex " << i << " is not one copy's, exactly";
+    ++count[from[i]];
+  }
+  for (int j = 0; j < 3; ++j)
+    EXPECT_GT(count[j], m.V.rows() / 20) << "copy " << j + 1 << " pastes a region";
+  int edges = 0, cut = 0;
+  for (Eigen::Index f = 0; f < m.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      ++edges;
+      cut += from[m.F(f, k)] != from[m.F(f, (k + 1) % 3)];
+    }
+  EXPECT_LT(cut, edges / 10) << "regions, not scattered vertices: " << cut << " of " << edges;
+  EXPECT_EQ(attack_collude(copies, {CollusionKind::Splice, {}}, 7).V, spliced.V);
+  EXPECT_NE(attack_collude(copies, {CollusionKind::Splice, {}}, 8).V, spliced.V);
+
+  // What cannot be merged, or merged that way.
+  Mesh fewer = copies[1];
+  fewer.V.conservativeResize(fewer.V.rows() - 1, 3);
+  Mesh flipped = copies[2];
+  std::swap(flipped.F(0, 0), flipped.F(0, 1));
+  const std::vector<std::pair<std::function<Mesh()>, std::string>> refused = {
+      {[&] { return attack_collude({copies[0]}, {}); }, "at least 2 copies, got 1"},
+      {[&] {
+         return attack_collude({copies[0], fewer}, {});
+       },
+       "copy 2 has 2929 vertices"},
+      {[&] {
+         return attack_collude({copies[0], copies[1], flipped}, {});
+       },
+       "copy 3 has other faces"},
+      {[&] {
+         return attack_collude(copies, {CollusionKind::Average, {1, 1}});
+       },
+       "2 collusion weights for 3 copies"},
+      {[&] {
+         return attack_collude(copies, {CollusionKind::Average, {1, -1, 1}});
+       },
+       "weight -1 of copy 2"},
+      {[&] {
+         return attack_collude(copies, {CollusionKind::Average, {1, NAN, 1}});
+       },
+       "of copy 2 is not a finite number"},
+      {[&] {
+         return attack_collude(copies, {CollusionKind::Average, {0, 0, 0}});
+       },
+       "sum to 0"},
+      {[&] {
+         return attack_collude(copies, {CollusionKind::Splice, {1, 1, 1}});
+       },
+       "not to a splice"}};
+  for (const auto& [merge, expect] : refused) {
+    try {
+      (void)merge();
+      ADD_FAILURE() << "accepted; expected: " << expect;
+    } catch (const InvalidArgumentError& e) {
+      EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
+    }
+  }
+}
+
+// Unequal weights are flat Dirichlet: positive, summing to 1, reproducible for a seed, and each
+// colluder's weight has mean 1/k and variance (k - 1) / (k^2 (k + 1)), checked over 20,000 seeds
+// within 5 standard errors.
+TEST(Attack, UnequalCollusionWeightsAreFlatDirichlet) {
+  for (const int k : {2, 3, 5}) {
+    const int n = 20000;
+    double sum = 0, sum2 = 0;
+    for (int s = 0; s < n; ++s) {
+      const std::vector<double> w = random_collusion_weights(k, static_cast<std::uint64_t>(s));
+      ASSERT_EQ(w.size(), static_cast<std::size_t>(k));
+      EXPECT_NEAR(std::accumulate(w.begin(), w.end(), 0.0), 1.0, 1e-12);
+      for (const double x : w) ASSERT_GT(x, 0);
+      sum += w[0], sum2 += w[0] * w[0];
+    }
+    EXPECT_EQ(random_collusion_weights(k, 9), random_collusion_weights(k, 9));
+    const double mean = sum / n, var = sum2 / n - mean * mean;
+    const double expect_var = (k - 1.0) / (k * k * (k + 1.0));
+    EXPECT_NEAR(mean, 1.0 / k, 5 * std::sqrt(expect_var / n)) << k;
+    // The variance of a sample variance is about (m4 - var^2) / n, and m4 <= 4 var^2 for
+    // w[0] ~ Beta(1, k - 1), k <= 5 (its kurtosis is 3.7 at k = 5).
+    EXPECT_NEAR(var, expect_var, 5 * std::sqrt(3 * expect_var * expect_var / n)) << k;
+  }
+}
+
 TEST(Attack, QuantizedPointsLieOnTheGrid) {
   const std::string path = closed_binary_ply();
   MESHMARK_REQUIRE(path, "bunny00.off");

@@ -77,7 +77,22 @@ TEST(Campaign, RejectsBadFilesNamingFileAndKey) {
       {head + ", \"mode\": \"trace\", \"copies\": 1}", "copies 1 is out of 2..1000000"},
       {head + ", \"mode\": \"trace\", \"spread\": -1}", "spread -1 is out of [0, 4]"},
       {head + ", \"mode\": \"trace\", \"bits\": 16}", "bits 16 cannot carry a 32-bit ID"},
-      {head + ", \"mode\": \"trace\", \"collusion\": 1}", "wrong type"},
+      {head + ", \"mode\": \"trace\", \"collusion\": 1}",
+       "\"collusion\" must be true, false or a list of coalitions"},
+      {head + ", \"mode\": \"trace\", \"collusion\": [3]}",
+       "\"collusion\" lists 3, not a coalition"},
+      {head + ", \"mode\": \"trace\", \"collusion\": [\"mean:3\"]}",
+       "coalition \"mean:3\": the kind is \"average\", \"weighted\" or \"splice\""},
+      {head + ", \"mode\": \"trace\", \"collusion\": [\"splice\"]}",
+       "coalition \"splice\": write KIND:K"},
+      {head + ", \"mode\": \"trace\", \"collusion\": [\"average:-2\"]}",
+       "coalition \"average:-2\": write KIND:K"},
+      {head + ", \"mode\": \"trace\", \"collusion\": [\"average:1\"]}",
+       "coalition \"average:1\": 1 colluders is out of 2..64"},
+      {head + ", \"mode\": \"trace\", \"collusion\": [\"weighted:3\", \"weighted:03\"]}",
+       "\"collusion\" lists the coalition \"weighted:03\" twice"},
+      {head + ", \"mode\": \"trace\", \"copies\": 4, \"collusion\": [\"splice:5\"]}",
+       "the coalition \"splice:5\" needs more than the 4 copies issued"},
       {head + ", \"fingerprint\": true}", "\"fingerprint\" needs \"mode\": \"trace\""},
       {head + ", \"mode\": \"trace\", \"fingerprint\": \"yes\"}", "wrong type"},
       // Attack parameters and protocols.
@@ -132,7 +147,8 @@ TEST(Campaign, TraceModeIssuesConsecutiveIdsAndPlansAveragedTrials) {
   const CampaignConfig c = load_campaign(path);
   EXPECT_TRUE(c.trace);
   EXPECT_EQ(c.copies, 50);
-  EXPECT_TRUE(c.collusion);
+  ASSERT_EQ(c.coalitions.size(), 1u);  // true: an average of two
+  EXPECT_EQ(coalition_name(c.coalitions[0]), "average:2");
   EXPECT_EQ(c.spread, 0.25);
   // none 1 + chain 2 strengths x 2 draws + loop 1 = 6 trials, again on an average of two.
   const std::vector<std::string> keys = unit_trial_keys(c, {0, 0, 1});
@@ -331,7 +347,7 @@ TEST(Campaign, BenchmarkQuickCampaignCalibratesPerProtocolAndPassesAttackParamet
       F.row(t + 1) << a, a + 5, a + 4;
     }
   const Mesh grid = make_mesh(V, F);
-  detail::PlannedTrial trial{smooth, 1, 0, 0, "k"};
+  detail::PlannedTrial trial{smooth, 1, 0, 0, nullptr, "k"};
   const Mesh weak = detail::attack_for_trial(c, trial, grid);
   LaplacianOptions paper;
   paper.fixed_boundary = true;
@@ -502,6 +518,75 @@ TEST(Campaign, TraceQuickCampaignNamesNoInnocentAndBeatsTheBlindDecoder) {
   ASSERT_EQ(again.code, 0) << again.out;
   EXPECT_NE(again.out.find(fmt::format("({} run now", n - n / 2)), std::string::npos) << again.out;
   EXPECT_EQ(rows_without_times(dir), rows);
+}
+
+// Coalitions of consecutive IDs: each trial's leakers are the unit's leaker and the K - 1 IDs
+// next to it, every merged leak (equal, unequal, spliced; spot with the fingerprint) names
+// colluders only, and the summary's counts are those of the rows, recounted here.
+TEST(Campaign, CoalitionsOfConsecutiveIdsNameColludersOnly) {
+  const std::string spot = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir() + "/coalitions";
+  const std::string config = write_text(
+      test::scratch_dir() + "/coalitions.json",
+      "{\"models\": [\"" + spot +
+          "\"], \"variants\": [\"DRS\"], \"mode\": \"trace\", \"copies\": 40, "
+          "\"fingerprint\": true, \"collusion\": [\"average:2\", \"weighted:3\", \"splice:3\", "
+          "\"average:5\"], \"payloads\": 3, \"strength\": 0.05, \"attacks\": [{\"kind\": "
+          "\"noise\", \"strengths\": [0.0005]}], \"draws\": 1}");
+  const CampaignConfig c = load_campaign(config);
+  const test::CliRun run = test::run_cli("bench " + config + " --out " + dir + " --fresh");
+  ASSERT_EQ(run.code, 0) << run.out;
+  const std::map<std::string, std::string> json_rows = rows_without_times(dir);
+  ASSERT_EQ(json_rows.size(), 3u * 2 * 5);  // payloads x (none, noise) x (a copy, 4 coalitions)
+  std::vector<TrialRow> rows;
+  std::map<std::string, int> right, all;
+  for (const auto& [key, json] : json_rows) {
+    const TrialRow r = row_from_json(json);
+    rows.push_back(r);
+    ASSERT_EQ(r.status, "ok") << key;
+    EXPECT_NE(r.trace_outcome, "wrong") << key << ": trace named " << r.trace_named;
+    EXPECT_NE(r.blind_outcome, "wrong") << key << ": blind decoded " << r.blind_id;
+    std::vector<std::uint64_t> leakers, named;
+    std::istringstream l(r.leakers), n(r.trace_named);
+    for (std::uint64_t id; l >> id;) leakers.push_back(id);
+    for (std::uint64_t id; n >> id;) named.push_back(id);
+    const int size =
+        r.coalition.empty() ? 1 : std::stoi(r.coalition.substr(r.coalition.find(':') + 1));
+    ASSERT_EQ(leakers.size(), static_cast<std::size_t>(size)) << key;
+    EXPECT_EQ(r.colluders, size) << key;
+    EXPECT_EQ(leakers.front(), campaign_leaker(c, r.payload)) << key;
+    const auto [lo, hi] = std::minmax_element(leakers.begin(), leakers.end());
+    EXPECT_EQ(*hi - *lo, static_cast<std::uint64_t>(size - 1)) << key << ": not consecutive";
+    EXPECT_GE(*lo, campaign_first_id(c)) << key;
+    EXPECT_LT(*hi, campaign_first_id(c) + 40) << key;
+    EXPECT_EQ(std::set<std::uint64_t>(leakers.begin(), leakers.end()).size(), leakers.size());
+    if (!r.coalition.empty()) {
+      const std::string suffix = r.coalition == "average:2" ? "|avg2" : "|" + r.coalition;
+      EXPECT_EQ(key.substr(key.size() - suffix.size()), suffix) << key;
+    }
+    std::sort(leakers.begin(), leakers.end()), std::sort(named.begin(), named.end());
+    EXPECT_EQ(r.trace_all_named, r.trace_outcome == "right" && named == leakers) << key;
+    const std::string group = r.attack + "|" + r.coalition;
+    right[group] += r.trace_outcome == "right";
+    all[group] += r.trace_all_named;
+  }
+  const std::vector<TraceSummaryRow> summary = summarize_trace(c, rows);
+  ASSERT_EQ(summary.size(), 10u);
+  EXPECT_EQ(summary[0].coalition, "");
+  EXPECT_EQ(summary.back().coalition, "average:5");
+  for (const TraceSummaryRow& s : summary) {
+    const std::string group = s.attack + "|" + s.coalition;
+    EXPECT_EQ(s.trials, 3) << group;
+    EXPECT_EQ(s.trace_wrong, 0) << group;
+    EXPECT_EQ(s.trace_right, right[group]) << group;
+    EXPECT_EQ(s.trace_all, all[group]) << group;
+    RecordProperty("right_" + group, s.trace_right);
+  }
+  EXPECT_EQ(summary[0].trace_right, 3) << "an unprocessed copy names its buyer";
+  const std::string report = read_file(dir + "/report.md");
+  EXPECT_NE(report.find("| unequal average of 3, noise:0.0005 | 3 |"), std::string::npos);
+  EXPECT_NE(report.find("splice of 3, average of 5"), std::string::npos);
 }
 
 TEST(Campaign, SummaryLeavesOutTrialsWithoutAMarkInsteadOfCountingThemAsHalf) {

@@ -958,6 +958,21 @@ TEST(Fingerprint, IssuedCopiesNameTheirBuyerAfterAveragingResamplingAndRemarking
           << k << " copies: an innocent named: " << n.copy.id;
     RecordProperty("colluders_named_of_" + std::to_string(k), std::to_string(avg.named.size()));
   }
+  // Three copies (IDs 1003 to 1005) merged otherwise: unequal weights, and cut into three
+  // regions pasted together. Colluders named, only them.
+  std::vector<Mesh> three;
+  for (int j = 0; j < 3; ++j) three.push_back(read_mesh(requests[2 + j].output));
+  const Mesh spliced = attack_collude(three, {CollusionKind::Splice, {}}, 3);
+  for (const auto& [name, leak] :
+       {std::pair<std::string, Mesh>{
+            "unequal", attack_collude(three, {CollusionKind::Average, {0.6, 0.3, 0.1}})},
+        {"spliced", spliced}}) {
+    const TraceResult merged = trace_of(leak);
+    ASSERT_EQ(merged.status, TraceStatus::Named) << name << ": " << merged.message;
+    for (const CandidateScore& n : merged.named)
+      EXPECT_TRUE(n.copy.id >= 1003 && n.copy.id <= 1005) << name << ": an innocent: " << n.copy.id;
+    RecordProperty("colluders_named_" + name, std::to_string(merged.named.size()));
+  }
   // Resampled: decimated to 30 % (its faces cut corners between vertices on the marked surface),
   // and smoothed 10 times then decimated to 30 %. The buyer named by the fingerprint (read at the
   // leak's vertices) and nobody else.
@@ -997,7 +1012,8 @@ TEST(Fingerprint, IssuedCopiesNameTheirBuyerAfterAveragingResamplingAndRemarking
   for (const auto& [leak, first, count] :
        {std::tuple<const Mesh*, std::uint64_t, std::uint64_t>{&copy, 1007, 1},
         {&laundered, 1007, 1},
-        {&average3, 1003, 3}}) {
+        {&average3, 1003, 3},
+        {&spliced, 1003, 3}}) {
     const TraceResult innocent = trace(*leak, O, without(first, count), *settings.key);
     EXPECT_EQ(innocent.status, TraceStatus::NoBuyer) << first << ": " << innocent.message;
     EXPECT_TRUE(innocent.named.empty()) << first;

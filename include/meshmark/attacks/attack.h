@@ -149,6 +149,44 @@ Mesh attack_triangle_soup(const Mesh& mesh, double ratio, std::uint64_t seed,
 /// (the side of a plane), with the faces that touch them; remaining vertices keep their order.
 Mesh attack_crop(const Mesh& mesh, double fraction, std::uint64_t seed);
 
+/// How colluders merge their copies of one original, vertex by vertex.
+enum class CollusionKind {
+  Average,  ///< every vertex the weighted mean of the copies' positions
+  Splice,   ///< every vertex taken whole from one copy, by region (a cut and paste)
+};
+
+/// The names of CollusionKind's values.
+template <>
+struct EnumTable<CollusionKind> {
+  static constexpr const char* what = "collusion";
+  static constexpr NamedValue<CollusionKind> values[] = {{CollusionKind::Average, "average"},
+                                                         {CollusionKind::Splice, "splice"}};
+};
+
+/// A collusion of buyers who each hold a copy of one original.
+struct CollusionOptions {
+  CollusionKind kind = CollusionKind::Average;
+  /// Average only: one weight per copy, each >= 0 and finite, summing to more than 0
+  /// (normalized to sum 1); empty: equal weights.
+  std::vector<double> weights;
+};
+
+/// Merges copies of one original (the same vertex count and faces, as every copy `embed`
+/// writes): Average gives vertex i the weighted mean of the copies' vertex i; Splice cuts
+/// the surface into as many regions as copies (the Voronoi cells, in space, of vertices picked
+/// by farthest-point sampling from a random first one on the first copy) and region j keeps
+/// copy j's positions. The result has the first copy's faces and file image. Deterministic for
+/// a seed (Splice's first vertex; Average does not use it).
+/// \throw InvalidArgumentError for fewer than 2 copies, copies whose vertex counts or faces
+/// differ (naming the copy), weights not one per copy, negative, not finite or summing to 0,
+/// or weights given to a Splice.
+Mesh attack_collude(const std::vector<Mesh>& copies, const CollusionOptions& options,
+                    std::uint64_t seed = 0);
+
+/// The flat Dirichlet weights of `count` colluders for a seed: independent exponential draws
+/// normalized to sum 1 (every split of the total equally likely), for an unequal average.
+std::vector<double> random_collusion_weights(int count, std::uint64_t seed);
+
 /// Writes the mesh to bytes in another format/encoding and reads it back (float32 storage
 /// rounds the coordinates). single_precision selects float32 for binary PLY.
 Mesh attack_format(const Mesh& mesh, const std::string& format, bool single_precision);

@@ -53,12 +53,16 @@
 /// embedded (keyed, at the strength with "spread", 0.25 by default). Every attack of every
 /// trial is then traced (the original and the issued records) and decoded blind (read_id) on
 /// the same attacked mesh; each gives right (only leakers named), none, or wrong (an innocent
-/// named). "collusion": true repeats every attack on the average of the vertex positions of
-/// the leaker's copy and the next ID's (the previous one's for the last ID): right is then at
-/// least one colluder named and no innocent. Rows carry both outcomes; keys of averaged trials
-/// end in "|avg2". "fingerprint": true issues every copy with the fingerprint (the leakers'
-/// copies get theirs, the records mark format 4). bits and the 32-bit ID must make an IdCode
-/// (coding.h).
+/// named). "collusion" repeats every attack on leaks merged by coalitions of buyers with
+/// consecutive IDs (CampaignCoalition, attack_collude): a list of "average:K" (the vertex-wise
+/// mean of K copies), "weighted:K" (a mean with flat Dirichlet weights drawn per trial) and
+/// "splice:K" (K regions, each pasted from one copy), K in 2..64; true is ["average:2"]. A
+/// coalition of K is the leaker and the K - 1 IDs after it (shifted down at the end of the
+/// range). Right is then at least one colluder named and no innocent; rows and summaries also
+/// count the trials that named every colluder. Rows carry both outcomes; keys of merged trials
+/// end in "|avg2" (an average of 2) or "|" and the coalition's name. "fingerprint": true issues
+/// every copy with the fingerprint (the leakers' copies get theirs, the records mark format 4).
+/// bits and the 32-bit ID must make an IdCode (coding.h).
 ///
 /// This header holds what a user of campaigns calls: the configuration, the rows and
 /// calibrations a run writes (and their JSON lines), the statistics and the report;
@@ -98,6 +102,28 @@ struct CampaignProtocol {
   CalibrateOptions calibration;
 };
 
+/// A coalition of a trace campaign: `size` buyers with consecutive IDs who merge their copies.
+struct CampaignCoalition {
+  CollusionKind kind = CollusionKind::Average;
+  bool weighted = false;  ///< Average: flat Dirichlet weights drawn per trial, else equal
+  int size = 2;           ///< colluders, 2..64
+};
+
+/// Its name in campaign files and trial keys: "average:3", "weighted:3", "splice:3".
+std::string coalition_name(const CampaignCoalition& coalition);
+
+/// Parses coalition_name's form. \throw InvalidArgumentError naming what is wrong.
+CampaignCoalition parse_coalition(const std::string& name);
+
+/// Its label in reports: "average of 3", "unequal average of 3", "splice of 3".
+std::string coalition_label(const CampaignCoalition& coalition);
+
+/// A trace trial's attack as reports print it: "simplify:0.5", or with its coalition first
+/// ("average of 3, simplify:0.5", "unequal average of 3, ...", "splice of 3, ..."). coalition:
+/// a coalition_name, or "" for a single copy.
+std::string trace_attack_label(const std::string& attack, double attack_strength,
+                               const std::string& coalition);
+
 /// A model of a campaign.
 struct CampaignModel {
   std::string name;  ///< short name used in rows (the file's stem by default)
@@ -121,7 +147,8 @@ struct CampaignConfig {
   std::vector<AttackSeries> attacks;        ///< "none" (strength 0) is always added first
   bool trace = false;                       ///< "mode": "trace" (else "blind", the default)
   int copies = 1000;                        ///< trace: IDs issued per model and variant (>= 2)
-  bool collusion = false;  ///< trace: every attack also on an average of two copies
+  /// trace: every attack also on the leaks these coalitions merge (empty: single copies only)
+  std::vector<CampaignCoalition> coalitions;
   /// trace: copies issued with the fingerprint (mark format 4, fingerprint.h), as `embed
   /// --registry DB --fingerprint` issues them
   bool fingerprint = false;
@@ -181,15 +208,17 @@ struct TrialRow {
   double embed_seconds = 0, attack_seconds = 0, extract_seconds = 0;
   // Trace mode only (colluders 0 otherwise). ber is then the blind reading's against the
   // (first) leaker's codeword, and extract_seconds read_id's time.
-  int colluders = 0;          ///< copies averaged into the leak: 1, or 2 (collusion)
-  std::string leakers;        ///< their IDs, space-separated
-  std::string trace_outcome;  ///< trace_outcome_name of trace()'s named buyers
-  std::string trace_status;   ///< trace_status_name
-  std::string trace_named;    ///< the IDs trace named, space-separated, best first
-  double trace_p = 1;         ///< corrected p of trace's best candidate
-  std::string blind_outcome;  ///< trace_outcome_name of read_id's ID (none when no ID)
-  std::string blind_id;       ///< the ID read_id decoded, or why none
-  double trace_seconds = 0;   ///< trace(), registration included
+  int colluders = 0;             ///< copies merged into the leak: 1, or the coalition's size
+  std::string coalition;         ///< coalition_name, "" for a single copy
+  std::string leakers;           ///< their IDs, space-separated
+  std::string trace_outcome;     ///< trace_outcome_name of trace()'s named buyers
+  std::string trace_status;      ///< trace_status_name
+  std::string trace_named;       ///< the IDs trace named, space-separated, best first
+  bool trace_all_named = false;  ///< every leaker named (and no innocent)
+  double trace_p = 1;            ///< corrected p of trace's best candidate
+  std::string blind_outcome;     ///< trace_outcome_name of read_id's ID (none when no ID)
+  std::string blind_id;          ///< the ID read_id decoded, or why none
+  double trace_seconds = 0;      ///< trace(), registration included
 };
 
 /// One JSON line (no newline) and back. from_json throws InvalidInputError on a bad line.
@@ -213,20 +242,23 @@ struct SummaryRow {
 /// BER 0.5. A group with no measured trial has no row.
 std::vector<SummaryRow> summarize(const CampaignConfig& config, const std::vector<TrialRow>& rows);
 
-/// Trace mode: the outcomes of one attack, strength and number of colluders, over models,
+/// Trace mode: the outcomes of one attack, strength and coalition (or single copy), over models,
 /// variants, payloads and draws, for trace and for the blind decoder on the same trials.
 struct TraceSummaryRow {
   std::string attack;
   double attack_strength = 0;
   int colluders = 1;
+  std::string coalition;  ///< coalition_name, "" for single copies
   int trials = 0;
   int trace_right = 0, trace_none = 0, trace_wrong = 0;
+  int trace_all = 0;  ///< trials where trace named every leaker (and no innocent)
   int blind_right = 0, blind_none = 0, blind_wrong = 0;
   double worst_right_p = 0;  ///< largest corrected p among trace's right trials (0: none)
   double median_trace_seconds = 0;
 };
 
-/// The outcome counts, in the config's order of attacks and strengths, single copies first.
+/// The outcome counts, in the config's order of attacks and strengths, single copies first,
+/// then each coalition in the config's order.
 std::vector<TraceSummaryRow> summarize_trace(const CampaignConfig& config,
                                              const std::vector<TrialRow>& rows);
 
