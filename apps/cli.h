@@ -160,6 +160,7 @@ void register_trace(CLI::App& app, int& exit_code, std::vector<std::string> argv
 int run_batch(const std::string& manifest, IssueSettings settings, bool json);
 void register_extract(CLI::App& app, int& exit_code);
 void register_attack(CLI::App& app, int& exit_code);
+void register_collude(CLI::App& app, int& exit_code);  ///< meshmark collude (cli_collude.cpp)
 void register_roughness(CLI::App& app, int& exit_code);
 void register_compare(CLI::App& app, int& exit_code);
 void register_detect(CLI::App& app, int& exit_code);

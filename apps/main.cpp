@@ -145,6 +145,7 @@ int main(int argc, char** argv) {
   cli::register_embed(app, exit_code);
   cli::register_extract(app, exit_code);
   cli::register_attack(app, exit_code);
+  cli::register_collude(app, exit_code);
   cli::register_roughness(app, exit_code);
   cli::register_compare(app, exit_code);
   cli::register_detect(app, exit_code);

@@ -15,24 +15,30 @@ namespace meshmark {
 
 namespace {
 
+// A copy that does not match the first: an InvalidInputError naming its file when it was read
+// from one, else an InvalidArgumentError.
+[[noreturn]] void mismatch(const Mesh& copy, const std::string& what) {
+  const std::string detail = what + ": colluders merge copies of one original, vertex by vertex";
+  if (!copy.source_path.empty()) throw InvalidInputError(copy.source_path, 0, detail);
+  throw InvalidArgumentError(detail);
+}
+
 // Throws unless every copy has the first one's vertex count and faces.
 void check_copies(const std::vector<Mesh>& copies) {
   if (copies.size() < 2)
     throw InvalidArgumentError(
         fmt::format("a collusion needs at least 2 copies, got {}", copies.size()));
   const Mesh& first = copies.front();
+  const std::string one =
+      first.source_path.empty() ? "copy 1" : fmt::format("copy 1 ({})", first.source_path);
   for (std::size_t j = 1; j < copies.size(); ++j) {
     const Mesh& c = copies[j];
     if (c.V.rows() != first.V.rows())
-      throw InvalidArgumentError(
-          fmt::format("copy {} has {} vertices, copy 1 has {}: colluders merge copies of one "
-                      "original, vertex by vertex",
-                      j + 1, c.V.rows(), first.V.rows()));
+      mismatch(c, fmt::format("copy {} has {} vertices, {} has {}", j + 1, c.V.rows(), one,
+                              first.V.rows()));
     if (c.F.rows() != first.F.rows() || c.F != first.F)
-      throw InvalidArgumentError(fmt::format(
-          "copy {} has other faces than copy 1 ({} and {}): colluders merge copies of one "
-          "original, vertex by vertex",
-          j + 1, c.F.rows(), first.F.rows()));
+      mismatch(c, fmt::format("copy {} has other faces than {} ({} and {} faces)", j + 1, one,
+                              c.F.rows(), first.F.rows()));
   }
 }
 

@@ -138,14 +138,15 @@ void read_protocols(const std::string& file, const json& j, CampaignConfig& c) {
   c.calibration = c.protocols.front().calibration;
 }
 
-// The trace mode's settings ("mode", "copies", "collusion", "spread", "fingerprint"), refused
+// The trace mode's settings ("mode", "copies", "collusion", "spread", "fingerprint",
+// "fingerprint_rms"), refused
 // in blind mode.
 void read_trace_settings(const std::string& file, const json& j, CampaignConfig& c) {
   const std::string mode = j.value("mode", "blind");
   if (mode != "blind" && mode != "trace")
     bad(file, fmt::format("mode \"{}\" is neither \"blind\" nor \"trace\"", mode));
   c.trace = mode == "trace";
-  for (const char* k : {"copies", "collusion", "spread", "fingerprint"})
+  for (const char* k : {"copies", "collusion", "spread", "fingerprint", "fingerprint_rms"})
     if (!c.trace && j.contains(k)) bad(file, fmt::format("\"{}\" needs \"mode\": \"trace\"", k));
   if (!c.trace) return;
   c.copies = j.value("copies", c.copies);
@@ -177,6 +178,11 @@ void read_trace_settings(const std::string& file, const json& j, CampaignConfig&
     }
   }
   c.fingerprint = j.value("fingerprint", c.fingerprint);
+  c.fingerprint_rms = j.value("fingerprint_rms", c.fingerprint_rms);
+  if (!(c.fingerprint_rms > 0 && c.fingerprint_rms <= 0.01))
+    bad(file, fmt::format("fingerprint_rms {} is out of (0, 0.01]", c.fingerprint_rms));
+  if (j.contains("fingerprint_rms") && !c.fingerprint)
+    bad(file, "\"fingerprint_rms\" needs \"fingerprint\": true");
   c.spread = j.value("spread", c.spread);
   if (c.copies < 2 || c.copies > 1000000)
     bad(file, fmt::format("copies {} is out of 2..1000000", c.copies));
@@ -209,7 +215,7 @@ CampaignConfig load_campaign(const std::string& path) {
   check_keys(path, j, "campaign",
              {"name", "description", "models", "variants", "bits", "payloads", "draws", "seed",
               "calibration", "protocols", "strength", "attacks", "mode", "copies", "collusion",
-              "spread", "fingerprint"});
+              "spread", "fingerprint", "fingerprint_rms"});
   const fs::path base = fs::absolute(path).parent_path();
   CampaignConfig c;
   c.source = path;

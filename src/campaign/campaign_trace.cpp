@@ -187,7 +187,7 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
     if (frame)  // as issue_copies adds it
       marked.back().V = add_fingerprint(
           e.V, mesh.V, frame->basis, fingerprint_coefficients(key, pair[k], frame->basis.functions),
-          FingerprintOptions().rms, &frame->histogram, &frame->center_motion);
+          c.fingerprint_rms, &frame->histogram, &frame->center_motion);
     if (k == 0) {
       base.rms_percent = e.rms_percent;
       if (frame) {  // both marks, as embed measures one (each position once)

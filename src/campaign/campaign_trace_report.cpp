@@ -194,13 +194,17 @@ std::string write_trace_report(const std::string& out_dir, const CampaignConfig&
       "Configuration `{}`: {} models, variants {}, {} bits with 32-bit coded IDs under one key, "
       "{} copies issued per model and variant to consecutive IDs from {} (registry records; only "
       "the leakers' copies are embedded), {} leakers per model and variant (payloads), {} draws "
-      "for random attacks{}, {}, strength spread {}, seed {}. Each attacked leak is traced with "
+      "for random attacks{}, {}, strength spread {}{}, seed {}. Each attacked leak is traced with "
       "the original against every issued copy (threshold 1e-6 on the Bonferroni-corrected p) "
       "and decoded blind (read_id). {} trials in {:.1f} s of wall time (all runs).\n\n",
       c.source, c.models.size(), fmt::join(c.variants, ", "), c.bits, c.copies,
       campaign_first_id(c), c.payloads, c.draws, coalitions_text(c),
-      c.calibrate ? "calibrated strengths" : fmt::format("alpha {}", c.strength), c.spread, c.seed,
-      rows.size(), wall_seconds);
+      c.calibrate ? "calibrated strengths" : fmt::format("alpha {}", c.strength), c.spread,
+      c.fingerprint ? fmt::format(", every copy with the fingerprint at an RMS of {:g} % of the "
+                                  "diagonal (mark format 4)",
+                                  100 * c.fingerprint_rms)
+                    : "",
+      c.seed, rows.size(), wall_seconds);
   md +=
       "Right: every buyer named leaked (for a coalition, at least one colluder named); none: "
       "nobody named; wrong: an innocent named. Every leaker named: right, and all the "

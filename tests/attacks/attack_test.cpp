@@ -171,20 +171,24 @@ TEST(Attack, ColludersMergeCopiesVertexByVertexOrByRegion) {
   EXPECT_NE(attack_collude(copies, {CollusionKind::Splice, {}}, 8).V, spliced.V);
 
   // What cannot be merged, or merged that way.
+  // A copy read from a file is named (InvalidInputError, the CLI's bad input); one made in
+  // memory is an argument error.
   Mesh fewer = copies[1];
   fewer.V.conservativeResize(fewer.V.rows() - 1, 3);
+  fewer.source_path = "fewer.ply";
   Mesh flipped = copies[2];
+  flipped.source_path.clear();
   std::swap(flipped.F(0, 0), flipped.F(0, 1));
   const std::vector<std::pair<std::function<Mesh()>, std::string>> refused = {
       {[&] { return attack_collude({copies[0]}, {}); }, "at least 2 copies, got 1"},
       {[&] {
          return attack_collude({copies[0], fewer}, {});
        },
-       "copy 2 has 2929 vertices"},
+       "fewer.ply: copy 2 has 2929 vertices, copy 1"},
       {[&] {
          return attack_collude({copies[0], copies[1], flipped}, {});
        },
-       "copy 3 has other faces"},
+       "copy 3 has other faces than copy 1"},
       {[&] {
          return attack_collude(copies, {CollusionKind::Average, {1, 1}});
        },
@@ -209,6 +213,9 @@ TEST(Attack, ColludersMergeCopiesVertexByVertexOrByRegion) {
     try {
       (void)merge();
       ADD_FAILURE() << "accepted; expected: " << expect;
+    } catch (const InvalidInputError& e) {
+      EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
+      EXPECT_EQ(e.file(), "fewer.ply");
     } catch (const InvalidArgumentError& e) {
       EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
     }

@@ -95,6 +95,10 @@ TEST(Campaign, RejectsBadFilesNamingFileAndKey) {
        "the coalition \"splice:5\" needs more than the 4 copies issued"},
       {head + ", \"fingerprint\": true}", "\"fingerprint\" needs \"mode\": \"trace\""},
       {head + ", \"mode\": \"trace\", \"fingerprint\": \"yes\"}", "wrong type"},
+      {head + ", \"mode\": \"trace\", \"fingerprint\": true, \"fingerprint_rms\": 0.02}",
+       "fingerprint_rms 0.02 is out of (0, 0.01]"},
+      {head + ", \"mode\": \"trace\", \"fingerprint_rms\": 0.0002}",
+       "\"fingerprint_rms\" needs \"fingerprint\": true"},
       // Attack parameters and protocols.
       {head + ", \"attacks\": [{\"kind\": \"noise\", \"lambda\": 0.03, \"strengths\": [1]}]}",
        "attacks[0]: no step of the attack reads 'lambda'"},

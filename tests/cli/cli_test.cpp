@@ -545,3 +545,61 @@ TEST(Cli, EmbedAtThePapersFidelityMeetsItsLimitsForEveryCopy) {
   EXPECT_NE(tight.out.find("RMS"), std::string::npos) << tight.out;
   EXPECT_FALSE(std::filesystem::exists(dir + "/t.obj"));
 }
+
+// collude: the average of three noisy copies of bunny.ply (binary PLY, double) is their mean
+// at every vertex, computed here from the files; given weights are normalized; a splice takes
+// every vertex from one copy; a copy of another mesh is bad input naming its file; the output
+// is never one of the inputs.
+TEST(Cli, ColludeMergesCopiesOfOneOriginalAndNamesOneThatIsNot) {
+  const std::string bunny = test::data_mesh("bunny.ply");
+  MESHMARK_REQUIRE(bunny, "bunny.ply");
+  const std::string dir = test::scratch_dir();
+  std::vector<std::string> copies;
+  for (int seed = 1; seed <= 3; ++seed) {
+    copies.push_back(dir + "/copy" + std::to_string(seed) + ".ply");
+    const CliRun made = run("attack noise " + bunny + " " + copies.back() +
+                            " --strength 0.001 --seed " + std::to_string(seed));
+    ASSERT_EQ(made.code, 0) << made.out;
+  }
+  std::vector<Mesh> m;
+  for (const std::string& c : copies) m.push_back(read_mesh(c));
+  const double scale = m[0].V.cwiseAbs().maxCoeff();
+  const std::string list = copies[0] + " " + copies[1] + " " + copies[2];
+  const CliRun avg = run("collude " + list + " --out " + dir + "/avg.ply --json");
+  ASSERT_EQ(avg.code, 0) << avg.out;
+  EXPECT_EQ(nlohmann::json::parse(avg.out)["vertices"], m[0].V.rows());
+  const Mesh a = read_mesh(dir + "/avg.ply");
+  EXPECT_LE((a.V - (m[0].V + m[1].V + m[2].V) / 3).cwiseAbs().maxCoeff(), 1e-15 * scale);
+  const CliRun weighted = run("collude " + list + " -o " + dir + "/w.ply --weights 2,1,1");
+  ASSERT_EQ(weighted.code, 0) << weighted.out;
+  const Mesh w = read_mesh(dir + "/w.ply");
+  EXPECT_LE((w.V - (0.5 * m[0].V + 0.25 * m[1].V + 0.25 * m[2].V)).cwiseAbs().maxCoeff(),
+            1e-15 * scale);
+  const CliRun spliced = run("collude " + list + " -o " + dir + "/s.ply --splice --seed 4");
+  ASSERT_EQ(spliced.code, 0) << spliced.out;
+  const Mesh s = read_mesh(dir + "/s.ply");
+  for (Eigen::Index i = 0; i < s.V.rows(); ++i)
+    ASSERT_TRUE(s.V.row(i) == m[0].V.row(i) || s.V.row(i) == m[1].V.row(i) ||
+                s.V.row(i) == m[2].V.row(i))
+        << "vertex " << i;
+  // Another mesh among the copies: exit 2, naming it.
+  const std::string spot = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const CliRun other = run("collude " + copies[0] + " " + spot + " -o " + dir + "/x.ply");
+  EXPECT_EQ(other.code, 2) << other.out;
+  EXPECT_NE(other.out.find(spot + ": copy 2 has"), std::string::npos) << other.out;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/x.ply"));
+  // Usage errors: one copy, a weight per copy, negative weights, the output an input.
+  const std::string before = read_file(copies[1]);
+  for (const std::string& bad :
+       {"collude " + copies[0] + " -o " + dir + "/x.ply",
+        "collude " + list + " -o " + dir + "/x.ply --weights 1,1",
+        "collude " + list + " -o " + dir + "/x.ply --weights 1,-1,1",
+        "collude " + list + " -o " + dir + "/x.ply --splice --weights 1,1,1",
+        "collude " + list + " -o " + copies[1]}) {
+    const CliRun r = run(bad);
+    EXPECT_EQ(r.code, 1) << bad << "\n" << r.out;
+  }
+  EXPECT_EQ(read_file(copies[1]), before);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/x.ply"));
+}

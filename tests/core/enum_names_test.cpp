@@ -70,6 +70,7 @@ TEST(EnumNames, EveryTableNamesEveryValueOnceAndParsesBack) {
   check_table<AdmmStop>(6);
   check_table<QuantizeConvention>(2);
   check_table<SmoothWeighting>(2);
+  check_table<CollusionKind>(2);
   check_table<BinOffsetRule>(2);
   check_table<CalibrateStatus>(3);
   check_table<CalibrateCause>(6);
@@ -99,6 +100,7 @@ TEST(EnumNames, TheTypedNamesAreTheDocumentedOnes) {
   EXPECT_EQ(enum_names<BinOffsetRule>(), (V{"fixed", "at-most-strength"}));
   EXPECT_EQ(enum_names<SmoothWeighting>(), (V{"uniform", "inverse-distance"}));
   EXPECT_EQ(enum_names<QuantizeConvention>(), (V{"levels", "benchmark"}));
+  EXPECT_EQ(enum_names<CollusionKind>(), (V{"average", "splice"}));
   // PLY's format line keywords (Turk's PLY specification).
   EXPECT_EQ(enum_names<Encoding>(), (V{"ascii", "binary_little_endian", "binary_big_endian"}));
   // Each format's name is its file extension.

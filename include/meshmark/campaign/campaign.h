@@ -152,6 +152,9 @@ struct CampaignConfig {
   /// trace: copies issued with the fingerprint (mark format 4, fingerprint.h), as `embed
   /// --registry DB --fingerprint` issues them
   bool fingerprint = false;
+  /// trace, "fingerprint_rms": the fingerprint's RMS as a fraction of the diagonal
+  /// (FingerprintOptions::rms, what issued copies get), in (0, 0.01]
+  double fingerprint_rms = 1e-4;
   double spread = 0.25;  ///< trace: keyed strength spread (watermark.h)
 };
 
