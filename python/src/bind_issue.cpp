@@ -255,7 +255,7 @@ void init_issue(py::module_& m) {
       "completed in another; coded IDs without a key are refused unless "
       "public_key=True (anyone can read, remove or forge them). fingerprint: None (the "
       "default) gives copies recorded in a registry the buyer's fingerprint, a second mark "
-      "which trace reads with the original (mark format 4), where their original has enough "
+      "which trace reads with the original (mark format 5), where their original has enough "
       "vertices for one; True gives it to every coded copy (refused for an original too "
       "small); False to none. options: an "
       "EmbedOptions "

@@ -11,6 +11,7 @@
 #include "campaign/campaign_internal.h"
 #include "campaign/campaign_parts.h"
 #include "meshmark/campaign/campaign.h"
+#include "meshmark/forensics/fingerprint.h"
 #include "meshmark/io/io.h"
 #include "plot/svg_markup.h"
 #include "plot/svg_plot.h"
@@ -201,8 +202,8 @@ std::string write_trace_report(const std::string& out_dir, const CampaignConfig&
       campaign_first_id(c), c.payloads, c.draws, coalitions_text(c),
       c.calibrate ? "calibrated strengths" : fmt::format("alpha {}", c.strength), c.spread,
       c.fingerprint ? fmt::format(", every copy with the fingerprint at an RMS of {:g} % of the "
-                                  "diagonal (mark format 4)",
-                                  100 * c.fingerprint_rms)
+                                  "diagonal (mark format {})",
+                                  100 * c.fingerprint_rms, kFingerprintMarkFormat)
                     : "",
       c.seed, rows.size(), wall_seconds);
   md +=

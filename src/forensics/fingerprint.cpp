@@ -377,7 +377,8 @@ Eigen::VectorXd fingerprint_field_at(const FingerprintBasis& basis, const Eigen:
 
 FingerprintBasis fingerprint_bumps(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                                    const std::vector<std::uint8_t>& carrier,
-                                   const Eigen::Vector3d& center, int functions) {
+                                   const Eigen::Vector3d& center, int functions, int format) {
+  const double width_factor = fingerprint_width_factor(format);
   if (functions < 1 || functions > kMaxFingerprintFunctions)
     throw InvalidArgumentError(fmt::format("a fingerprint needs 1 to {} functions, not {}",
                                            kMaxFingerprintFunctions, functions));
@@ -398,7 +399,7 @@ FingerprintBasis fingerprint_bumps(const Eigen::MatrixX3d& V, const Eigen::Matri
   if (!(area > 0)) throw InvalidArgumentError("the mesh has no area to spread a fingerprint on");
   if (!std::isfinite(area))
     throw InvalidArgumentError("the mesh's area overflows double: too large for a fingerprint");
-  b.width = std::sqrt(area / functions);
+  b.width = width_factor * std::sqrt(area / functions);
   // Farthest-point sampling: the first center the counted vertex farthest from `center`.
   std::vector<double> nearest(counted.size(), std::numeric_limits<double>::infinity());
   std::size_t pick = 0;
@@ -431,8 +432,8 @@ FingerprintBasis fingerprint_bumps(const Eigen::MatrixX3d& V, const Eigen::Matri
 
 FingerprintBasis fingerprint_basis(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                                    const std::vector<std::uint8_t>& carrier,
-                                   const Eigen::Vector3d& center, int functions) {
-  FingerprintBasis b = fingerprint_bumps(V, F, carrier, center, functions);
+                                   const Eigen::Vector3d& center, int functions, int format) {
+  FingerprintBasis b = fingerprint_bumps(V, F, carrier, center, functions, format);
   evaluate_bumps(b, BumpGrid(b.points, 3 * b.width), V, counted_mask(carrier));
   return b;
 }
@@ -446,7 +447,7 @@ FingerprintBasis fingerprint_basis_at(const FingerprintBasis& basis, const Eigen
 
 std::optional<FingerprintFrame> fingerprint_frame(const Eigen::MatrixX3d& V,
                                                   const Eigen::MatrixX3i& F, CenterKind kind,
-                                                  int nbits, bool rows) {
+                                                  int nbits, bool rows, int format) {
   const std::vector<std::uint8_t> carrier = carrier_vertices(V, F);
   const int functions = fingerprint_functions(
       static_cast<std::size_t>(std::count(carrier.begin(), carrier.end(), kCounted)));
@@ -455,8 +456,8 @@ std::optional<FingerprintFrame> fingerprint_frame(const Eigen::MatrixX3d& V,
   Eigen::MatrixX3d U = V.rowwise() - c.point.transpose();  // the rays the field moves along
   for (Eigen::Index i = 0; i < U.rows(); ++i)
     if (const double n = U.row(i).norm(); n > 0) U.row(i) /= n;
-  return FingerprintFrame{rows ? fingerprint_basis(V, F, carrier, c.point, functions)
-                               : fingerprint_bumps(V, F, carrier, c.point, functions),
+  return FingerprintFrame{rows ? fingerprint_basis(V, F, carrier, c.point, functions, format)
+                               : fingerprint_bumps(V, F, carrier, c.point, functions, format),
                           build_histogram(V, carrier, c.point, nbits),
                           center_jacobian_products(V, F, carrier, kind, U).E,
                           counted_mask(carrier)};
@@ -512,6 +513,11 @@ void check_format(int format) {
 }
 
 }  // namespace
+
+double fingerprint_width_factor(int format) {
+  check_format(format);
+  return format == kFingerprintMarkFormat ? 0.45 : 1.0;
+}
 
 Eigen::VectorXd fingerprint_coefficients(const Key& key, std::uint64_t id, int functions,
                                          int format) {

@@ -390,13 +390,14 @@ LeakResiduals leak_residuals(const Mesh& original, const Smoother& on_original,
 // The fingerprint of a leak (fingerprint.h), read at the leak's own vertices (leak_residuals)
 // against the original and, when the bins were read against a processed original, against that
 // too: one reading or two (score_group takes a candidate's best z, times the number of readings
-// in its p). The original's bumps and bins are evaluated at the crossings' places on it. No
+// in its p), with the bumps of mark `format`. The original's bumps and bins are evaluated at
+// the crossings' places on it. No
 // basis when the original has too few counted vertices for one. Like the bins, the readings use
 // no candidate's coefficients, so an innocent's score in each is exactly standard normal.
 std::optional<FingerprintBasis> fingerprint_reading(
     const Mesh& original, const std::vector<std::uint8_t>& carrier,
     const Eigen::MatrixX3d& reference, bool processed, const Eigen::MatrixX3d& VL,
-    const Eigen::MatrixX3i& FL, const Histogram& h, double erase, double ridge,
+    const Eigen::MatrixX3i& FL, const Histogram& h, int format, double erase, double ridge,
     std::string& processing, std::vector<Eigen::VectorXd>& readings) {
   readings.clear();
   std::size_t counted = 0;
@@ -408,7 +409,7 @@ std::optional<FingerprintBasis> fingerprint_reading(
   // without one, as one too small.
   FingerprintBasis basis;
   try {
-    basis = fingerprint_bumps(original.V, original.F, carrier, h.center, functions);
+    basis = fingerprint_bumps(original.V, original.F, carrier, h.center, functions, format);
   } catch (const InvalidArgumentError& e) {
     processing = fmt::format("none: no fingerprint can be made on the original ({})", e.what());
     return std::nullopt;
@@ -614,7 +615,10 @@ using ReadCandidates = std::function<const std::vector<CandidateRow>&()>;
 using FirstCandidate = std::function<std::optional<CandidateRow>()>;
 
 // What the candidates of one group are scored against (trace_candidates' measure).
-using GroupKey = std::tuple<char, int, int, double, double, std::string>;
+// The center's letter, bits, ID bits, strength, spread, method, and the mark format whose
+// fingerprint bumps the group is read with (fingerprint_width_factor; 4 also for copies
+// without a fingerprint, as before format 5).
+using GroupKey = std::tuple<char, int, int, double, double, std::string, int>;
 struct GroupReading {
   GroupKey group;
   Histogram histogram;
@@ -666,21 +670,23 @@ TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
                     c.id_bits,
                     c.strength,
                     c.strength_spread,
-                    c.method};
+                    c.method,
+                    c.mark_format == kFingerprintMarkFormat ? kFingerprintMarkFormat
+                                                            : kWideBumpFingerprintFormat};
   };
   // The fingerprint's readings of group g's histogram, against `reference` (the original, or
   // as fitted: `processing` says which).
   const auto read_fingerprint_of = [&](GroupReading& g, const Eigen::MatrixX3d& reference,
                                        const std::string& processing) {
     g.basis = fingerprint_reading(original, carrier, reference, processing != "none", VL, leaked.F,
-                                  g.histogram, o.erase_distance * diagonal, o.fingerprint_ridge,
-                                  g.fingerprint_processing, g.readings);
+                                  g.histogram, std::get<6>(g.group), o.erase_distance * diagonal,
+                                  o.fingerprint_ridge, g.fingerprint_processing, g.readings);
     g.fingerprint_read = true;
   };
   // One group's reading of the leak, before any candidate is scored. The first group (in
   // GroupKey order) also fits the reference (processed_reference) that every group reads against.
   const auto measure = [&](const GroupKey& group, const GroupReading* first, bool fingerprinted) {
-    const auto& [letter, bits, id_bits, strength, spread, method] = group;
+    const auto& [letter, bits, id_bits, strength, spread, method, bumps] = group;
     GroupReading g;
     g.group = group;
     const CenterKind kind = parse_variant(std::string(1, letter) + "RS").center;

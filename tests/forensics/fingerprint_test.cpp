@@ -1,6 +1,6 @@
 // The fingerprint (fingerprint.h) on a real mesh: an innocent's score stays within its null
-// (format 4's random signs: mean 0, variance 1 and a tail under the Bentkus-Dzindzalieta bound;
-// format 3's normal coefficients: exactly standard normal, Kolmogorov-Smirnov over 10^5
+// (formats 4 and 5's random signs: mean 0, variance 1 and a tail under the Bentkus-Dzindzalieta
+// bound; format 3's normal coefficients: exactly standard normal, Kolmogorov-Smirnov over 10^5
 // innocent IDs against a real reading), both marks' p-values combine conservatively, an
 // unprocessed copy scores at its full strength, an average of k copies keeps about 1/k of each
 // colluder's raw correlation, and the field is smooth and as strong as asked.
@@ -10,11 +10,13 @@
 
 #include <sodium.h>
 
+#include <Eigen/Geometry>
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <map>
 #include <random>
 #include <string>
 #include <tuple>
@@ -683,7 +685,7 @@ TEST(Fingerprint, TheFieldLeavesTheCenterWhereItWas) {
 }
 
 // The default (IssueSettings::fingerprint unset): a copy recorded in a registry carries the
-// fingerprint (its row says mark format 4, trace reads a z above 5, the copy differs from the
+// fingerprint (its row says mark format 5, trace reads a z above 5, the copy differs from the
 // same copy issued with false by a field whose RMS is within a factor 2 of
 // FingerprintOptions::rms); false records the histogram mark's format and trace reads no
 // fingerprint; a copy issued without a registry carries none (the same positions as false's).
@@ -846,20 +848,22 @@ TEST(Fingerprint, ACopyWhoseHistogramMarkCannotFitIsIssuedWithTheFingerprintAlon
   EXPECT_EQ(nobody.status, TraceStatus::NoBuyer) << nobody.message;
 }
 
-// Within limits (RMS 0.02 %, MSDM 1) under this key, spot's copy for ID 25 calibrated with the
-// default fingerprint would lose 8 histogram bits in its OBJ file (found by issuing IDs 1 to 30
-// through the CLI; the others are issued with the fingerprint alone or with both marks as they
-// are): the center's drift at the weak strength the search found. It is written with the field
-// kept from moving the center, at that strength (kept_center); its row records mark format 4;
-// the file stays within the limits (measured here), and what the outcome reports is the file's;
-// trace names its buyer with both marks read. Asked for (fingerprint true), the same.
-TEST(Fingerprint, ACalibratedCopyThePlainFingerprintWouldUnmarkGetsItKeptFromMovingTheCenter) {
+// Within limits (RMS 0.02 %, MSDM 1) under this key, spot's copy for ID 25 calibrated with
+// format 4's field lost 8 histogram bits in its OBJ file and needed the field kept from moving
+// the center. Format 5's narrower field costs more of the RMS limit on this small mesh (at 0.02 %
+// no histogram mark fits beside it any more: such copies carry the fingerprint alone), so within
+// RMS 0.025 %: the copy is written with the plain field (no second chance: none of spot's IDs 1
+// to 40 needs it, within these limits or at strengths 0.01 to 0.001 without them), its row
+// records mark format 5, the file stays within the limits (measured here), what the outcome
+// reports is the file's, and trace names its buyer with every bit of the file read. Asked for
+// (fingerprint true), the same.
+TEST(Fingerprint, ACalibratedCopyOfASmallOriginalKeepsEveryBitWithThePlainField) {
   const std::string original = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(original, "spot.obj");
   const std::string dir = fresh_dir("fingerprint-calibrated-centered");
   for (const bool asked : {false, true}) {
     SCOPED_TRACE(asked ? "asked for" : "by default");
-    IssueSettings settings = within_limits(key_from_passphrase("fallback shop key"), 0.02,
+    IssueSettings settings = within_limits(key_from_passphrase("fallback shop key"), 0.025,
                                            dir + (asked ? "/asked.db" : "/shop.db"));
     settings.limits->max_msdm = 1;
     if (asked) settings.fingerprint = true;
@@ -869,15 +873,15 @@ TEST(Fingerprint, ACalibratedCopyThePlainFingerprintWouldUnmarkGetsItKeptFromMov
     ASSERT_EQ(c.status, CopyStatus::Written) << c.message;
     ASSERT_TRUE(c.calibration.has_value());
     EXPECT_GT(c.calibration->strength, 0.0);
-    EXPECT_TRUE(c.kept_center) << c.message;
-    EXPECT_NE(c.message.find("kept from moving the center"), std::string::npos) << c.message;
+    EXPECT_FALSE(c.fingerprint_alone) << c.message;
+    EXPECT_FALSE(c.kept_center) << c.message;
     const std::vector<IssuedCopy> rows = read_registry(settings.registry, {});
     ASSERT_EQ(rows.size(), 1u);
     EXPECT_EQ(rows[0].mark_format, kFingerprintMarkFormat);
     EXPECT_EQ(rows[0].strength, c.calibration->strength);
     const Mesh O = read_mesh(original), copy = read_mesh(r.output);
     const double rms = counted_rms_percent(O, copy), m = msdm(O.V, copy.V, O.F).global;
-    EXPECT_LE(rms, 0.02 * (1 + 1e-6));
+    EXPECT_LE(rms, 0.025 * (1 + 1e-6));
     EXPECT_LE(m, 1.0);
     // What the outcome reports is the written copy's (OBJ's decimals: 1e-3 of the value).
     EXPECT_NEAR(c.calibration->rms_percent, rms, 1e-3 * rms);
@@ -889,6 +893,20 @@ TEST(Fingerprint, ACalibratedCopyThePlainFingerprintWouldUnmarkGetsItKeptFromMov
     EXPECT_EQ(found.named[0].compared, 64);
     EXPECT_GT(found.named[0].fingerprint_z, 4);
   }
+}
+
+// Requests for copies of `original` to IDs 1001 to 1020, written as dir/copy-ID.ply.
+std::vector<CopyRequest> twenty_copies(const std::string& original, const std::string& dir) {
+  std::vector<CopyRequest> requests;
+  for (std::uint64_t id = 1001; id <= 1020; ++id) {
+    CopyRequest r;
+    r.input = original;
+    r.output = dir + "/copy-" + std::to_string(id) + ".ply";
+    r.id = id;
+    r.buyer = "buyer " + std::to_string(id);
+    requests.push_back(r);
+  }
+  return requests;
 }
 
 // Issued and traced through the library as the CLI does: 20 consecutive IDs of bunny00 with
@@ -905,15 +923,7 @@ TEST(Fingerprint, IssuedCopiesNameTheirBuyerAfterAveragingResamplingAndRemarking
   settings.key = key_from_passphrase_v1("fingerprint shop key");
   settings.registry = dir + "/shop.db";
   settings.fingerprint = true;
-  std::vector<CopyRequest> requests;
-  for (std::uint64_t id = 1001; id <= 1020; ++id) {
-    CopyRequest r;
-    r.input = original;
-    r.output = dir + "/copy-" + std::to_string(id) + ".ply";
-    r.id = id;
-    r.buyer = "buyer " + std::to_string(id);
-    requests.push_back(r);
-  }
+  const std::vector<CopyRequest> requests = twenty_copies(original, dir);
   const IssueResult issued = issue_copies(requests, settings);
   ASSERT_EQ(issued.count(CopyStatus::Written), requests.size()) << issued.copies[0].message;
   const Mesh O = read_mesh(original);
@@ -1020,6 +1030,73 @@ TEST(Fingerprint, IssuedCopiesNameTheirBuyerAfterAveragingResamplingAndRemarking
     for (const CandidateScore& c : innocent.ranking)
       EXPECT_GT(c.fingerprint_p * 2 * 20, TraceOptions().threshold) << "innocent " << c.copy.id;
   }
+}
+
+// Format 5's bumps are 0.45 times as wide as format 4's, whose width is the spacing
+// sqrt(A / K) (A the triangles' area, summed here); a copy carrying either field is read with its
+// own format's bumps (the rows' mark format says which), and there scores higher than read with
+// the other's; format 5's unprocessed copy scores higher than format 4's (its bumps overlap
+// less: more independent directions for the same RMS).
+TEST(Fingerprint, EachFormatIsReadWithItsOwnBumpsAndFormatFiveScoresHigher) {
+  const std::string original = test::cgal_mesh("camel.off");
+  MESHMARK_REQUIRE(original, "libcgal-demo's camel.off");
+  const Mesh O = read_mesh(original);
+  const std::vector<std::uint8_t> carrier = carrier_vertices(O.V, O.F);
+  const int K = fingerprint_functions(
+      static_cast<std::size_t>(std::count(carrier.begin(), carrier.end(), kCounted)));
+  double area = 0;
+  for (Eigen::Index f = 0; f < O.F.rows(); ++f) {
+    const Eigen::Vector3d a = O.V.row(O.F(f, 0)), b = O.V.row(O.F(f, 1)), c = O.V.row(O.F(f, 2));
+    area += 0.5 * (b - a).cross(c - a).norm();
+  }
+  std::map<int, std::optional<FingerprintFrame>> frames;
+  for (const int format : {kWideBumpFingerprintFormat, kFingerprintMarkFormat}) {
+    frames[format] = fingerprint_frame(O.V, O.F, CenterKind::Discrete, 64, true, format);
+    ASSERT_TRUE(frames[format]);
+    ASSERT_EQ(frames[format]->basis.functions, K);
+  }
+  EXPECT_NEAR(frames[4]->basis.width / std::sqrt(area / K), 1.0, 1e-12);
+  EXPECT_NEAR(frames[5]->basis.width / frames[4]->basis.width, 0.45, 1e-12);
+
+  // Copies of IDs 1001 to 1020 with the histogram mark alone, then buyer 1007's with each field.
+  const std::string dir = fresh_dir("fingerprint-formats");
+  IssueSettings settings;
+  settings.key = key_from_passphrase_v1("fingerprint formats key");
+  settings.registry = dir + "/shop.db";
+  settings.fingerprint = false;
+  const std::vector<CopyRequest> requests = twenty_copies(original, dir);
+  const IssueResult issued = issue_copies(requests, settings);
+  ASSERT_EQ(issued.count(CopyStatus::Written), requests.size()) << issued.copies[0].message;
+  const std::vector<IssuedCopy> rows = read_registry(settings.registry);
+  const Mesh plain = read_mesh(requests[6].output);
+  // The fingerprint z of 1007 when the rows say `as` (its edited rows are never named: the
+  // ranking has every candidate's score).
+  const auto z_of = [&](const Mesh& leak, int as) {
+    std::vector<IssuedCopy> edited = rows;
+    for (IssuedCopy& c : edited) c.mark_format = as;
+    const TraceResult r = trace(leak, O, edited, *settings.key);
+    for (const CandidateScore& c : r.ranking)
+      if (c.copy.id == 1007) return c.fingerprint_z;
+    ADD_FAILURE() << "1007 not ranked";
+    return 0.0;
+  };
+  std::map<int, double> z;
+  for (const int format : {kWideBumpFingerprintFormat, kFingerprintMarkFormat}) {
+    const FingerprintFrame& f = *frames[format];
+    Mesh copy = plain;
+    copy.V = add_fingerprint(plain.V, O.V, f.basis,
+                             fingerprint_coefficients(*settings.key, 1007, K, format),
+                             FingerprintOptions().rms, &f.histogram, &f.center_motion);
+    const int other =
+        format == kFingerprintMarkFormat ? kWideBumpFingerprintFormat : kFingerprintMarkFormat;
+    z[format] = z_of(copy, format);
+    const double misread = z_of(copy, other);
+    EXPECT_GT(z[format], 5) << "format " << format;
+    EXPECT_GT(z[format], misread) << "format " << format << " read with format " << other;
+    RecordProperty("z_format_" + std::to_string(format), std::to_string(z[format]));
+    RecordProperty("z_format_" + std::to_string(format) + "_misread", std::to_string(misread));
+  }
+  EXPECT_GT(z[kFingerprintMarkFormat], z[kWideBumpFingerprintFormat]);
 }
 
 TEST(Fingerprint, RefusesWhatItCannotDo) {

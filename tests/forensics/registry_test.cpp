@@ -179,7 +179,7 @@ TEST(Registry, CopiesMarkedWithinFidelityLimitsRecordTheirOwnStrengthAndResume) 
     EXPECT_GT(c.strength, 0.001);
     EXPECT_LE(c.bin_offset, c.strength);  // G = min(0.05, alpha)
     const std::string again = dir + "/again" + std::to_string(c.id) + ".obj";
-    // A registered copy carries the fingerprint (mark format 4) unless it would have cost the
+    // A registered copy carries the fingerprint (mark format 5) unless it would have cost the
     // file its histogram mark: asked for here, as the row says.
     r = test::run_cli(fmt::format("embed {} {} --id {} --key shop --strength {} --bin-offset {}{}",
                                   spot, again, c.id, c.strength, c.bin_offset,

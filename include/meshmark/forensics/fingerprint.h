@@ -29,17 +29,28 @@ namespace meshmark {
 
 /// The mark format of a copy issued with the fingerprint (IssuedCopy::mark_format): format 2's
 /// histogram mark and ID code (the same keys), plus the fingerprint with FingerprintOptions'
-/// defaults, its coefficients random signs (fingerprint_coefficients).
-inline constexpr int kFingerprintMarkFormat = 4;
+/// defaults, its coefficients random signs (fingerprint_coefficients), its bumps of width
+/// 0.45 sqrt(area / K) (fingerprint_width_factor).
+inline constexpr int kFingerprintMarkFormat = 5;
+/// Mark format 4: as format 5 with bumps of width sqrt(area / K), which overlap so much that
+/// the field has about 30 to 50 independent directions instead of a few hundred. Copies were
+/// issued so from 2026-12-05 to 2026-12-07 (before any release); trace still reads them.
+inline constexpr int kWideBumpFingerprintFormat = 4;
 /// Mark format 3: as format 4 with standard normal coefficients. Copies were issued so from
 /// 2026-12-05 to 2026-12-06 (before any release); trace still reads them, at about 30 µs a
-/// candidate where format 4 takes under 1 µs.
+/// candidate where formats 4 and 5 take under 1 µs.
 inline constexpr int kGaussianFingerprintFormat = 3;
 
-/// Whether copies of this mark format carry a fingerprint (formats 3 and 4).
+/// Whether copies of this mark format carry a fingerprint (formats 3, 4 and 5).
 constexpr bool has_fingerprint(int mark_format) {
-  return mark_format == kGaussianFingerprintFormat || mark_format == kFingerprintMarkFormat;
+  return mark_format == kGaussianFingerprintFormat || mark_format == kWideBumpFingerprintFormat ||
+         mark_format == kFingerprintMarkFormat;
 }
+
+/// The bumps' width in a mark format with a fingerprint, as a multiple of the spacing
+/// sqrt(area / K): 1 for formats 3 and 4, 0.45 for format 5.
+/// \throw InvalidArgumentError for a format without a fingerprint.
+double fingerprint_width_factor(int mark_format);
 
 /// Settings of the fingerprint; part of mark format 3 (docs/format.md section 8).
 struct FingerprintOptions {
@@ -86,14 +97,16 @@ struct FingerprintBasis {
   Eigen::VectorXd field(const Eigen::VectorXd& a) const;
 };
 
-/// The basis of (V, F) around center, over the carrier (histogram.h: carrier_vertices); w is
-/// the spacing sqrt(area / K) of K points over the carrier's surface. Deterministic: the first
-/// center is the counted vertex farthest from `center` (the smallest index among equals).
-/// \throw InvalidArgumentError for functions outside [1, kMaxFingerprintFunctions], or fewer
-/// than 16 counted vertices a function.
+/// The basis of (V, F) around center, over the carrier (histogram.h: carrier_vertices), for
+/// copies of mark `format`; w is fingerprint_width_factor(format) times the spacing
+/// sqrt(area / K) of K points over the carrier's surface. Deterministic: the first center is
+/// the counted vertex farthest from `center` (the smallest index among equals).
+/// \throw InvalidArgumentError for functions outside [1, kMaxFingerprintFunctions], fewer
+/// than 16 counted vertices a function, or a format without a fingerprint.
 FingerprintBasis fingerprint_basis(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                                    const std::vector<std::uint8_t>& carrier,
-                                   const Eigen::Vector3d& center, int functions);
+                                   const Eigen::Vector3d& center, int functions,
+                                   int format = kFingerprintMarkFormat);
 
 /// fingerprint_basis' bumps (functions, center, diagonal, width, centers, points, scale)
 /// without its rows (row_start, index and value empty): what read_fingerprint_at needs. trace
@@ -101,7 +114,8 @@ FingerprintBasis fingerprint_basis(const Eigen::MatrixX3d& V, const Eigen::Matri
 /// \throw InvalidArgumentError as fingerprint_basis does.
 FingerprintBasis fingerprint_bumps(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                                    const std::vector<std::uint8_t>& carrier,
-                                   const Eigen::Vector3d& center, int functions);
+                                   const Eigen::Vector3d& center, int functions,
+                                   int format = kFingerprintMarkFormat);
 
 /// The same K bumps (basis' points, width and scale) evaluated at other points: row i holds
 /// phi_k(P_i) for the bumps within 3 w of P_i, for the rows with mask[i] != 0 (none for the
@@ -123,12 +137,14 @@ struct FingerprintFrame {
 };
 
 /// The frame of (V, F) for a histogram mark of nbits bits centered as `kind` says, with
-/// fingerprint_functions' K; none when the original has too few counted carrier vertices.
-/// With `rows` false, the basis is its bumps alone (fingerprint_bumps), for add_fingerprint_at:
-/// a copy made once need not hold the rows (about 216 bytes a vertex).
+/// fingerprint_functions' K and the bumps of mark `format`; none when the original has too few
+/// counted carrier vertices. With `rows` false, the basis is its bumps alone
+/// (fingerprint_bumps), for add_fingerprint_at: a copy made once need not hold the rows (about
+/// 216 bytes a vertex).
 std::optional<FingerprintFrame> fingerprint_frame(const Eigen::MatrixX3d& V,
                                                   const Eigen::MatrixX3i& F, CenterKind kind,
-                                                  int nbits, bool rows = true);
+                                                  int nbits, bool rows = true,
+                                                  int format = kFingerprintMarkFormat);
 
 /// The K coefficients of buyer `id` under key for a copy of mark `format`, the same on every
 /// machine:
