@@ -48,15 +48,18 @@ std::vector<double> normalized_weights(const std::vector<double>& weights, std::
   if (weights.size() != n)
     throw InvalidArgumentError(
         fmt::format("{} collusion weights for {} copies: give one per copy", weights.size(), n));
-  double sum = 0;
+  double largest = 0;
   for (std::size_t j = 0; j < n; ++j) {
     if (!(weights[j] >= 0) || !std::isfinite(weights[j]))
       throw InvalidArgumentError(fmt::format(
           "collusion weight {} of copy {} is not a finite number >= 0", weights[j], j + 1));
-    sum += weights[j];
+    largest = std::max(largest, weights[j]);
   }
-  if (!(sum > 0)) throw InvalidArgumentError("the collusion weights sum to 0");
+  if (!(largest > 0)) throw InvalidArgumentError("the collusion weights sum to 0");
+  // Scaled by the largest first: weights near the largest double must not sum to infinity.
   std::vector<double> w(weights);
+  double sum = 0;
+  for (double& x : w) sum += x /= largest;
   for (double& x : w) x /= sum;
   return w;
 }

@@ -147,6 +147,9 @@ TEST(Attack, ColludersMergeCopiesVertexByVertexOrByRegion) {
   EXPECT_EQ(equal.F, m.F);
   const Mesh weighted = attack_collude(copies, {CollusionKind::Average, {3, 1, 0}});
   EXPECT_LE(worst_gap(weighted, {0.75, 0.25, 0}), tolerance);
+  // Weights whose sum overflows double are the same weights.
+  const Mesh huge = attack_collude(copies, {CollusionKind::Average, {1.5e308, 0.5e308, 0}});
+  EXPECT_LE(worst_gap(huge, {0.75, 0.25, 0}), tolerance);
 
   const Mesh spliced = attack_collude(copies, {CollusionKind::Splice, {}}, 7);
   std::vector<int> from(static_cast<std::size_t>(m.V.rows()), -1);
