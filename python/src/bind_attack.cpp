@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <optional>
+#include <vector>
 
 #include "bindings.h"
 #include "meshmark/attacks/attack.h"
@@ -40,6 +42,27 @@ void init_attack(py::module_& m) {
       "(simplify, qsimplify, remesh, the subdivisions) go, and once at the start and end of "
       "the others; an exception it raises (or Ctrl-C) stops the attack and is raised here. "
       "Attacks that keep the connectivity keep the file image.");
+  m.def(
+      "collude",
+      [](const py::sequence& copies, std::optional<std::vector<double>> weights, bool splice,
+         std::uint64_t seed) {
+        std::vector<Mesh> meshes;
+        for (const py::handle c : copies) meshes.push_back(to_mesh(c));
+        CollusionOptions o;
+        o.kind = splice ? CollusionKind::Splice : CollusionKind::Average;
+        if (weights) o.weights = *weights;
+        py::gil_scoped_release release;
+        return attack_collude(meshes, o, seed);
+      },
+      py::arg("copies"), py::kw_only(), py::arg("weights") = py::none(), py::arg("splice") = false,
+      py::arg("seed") = 1,
+      "Merges copies of one original (Meshes or (V, F) pairs with the same vertex count and "
+      "faces) as colluding buyers would, as the CLI's collude: their vertex-wise average, with "
+      "weights (one per copy, >= 0, normalized to sum 1) or equal ones; or, with splice=True, "
+      "the surface cut into one region per copy (Voronoi cells of far-apart vertices, the first "
+      "drawn from seed) each pasted from its copy. Returns a Mesh with the first copy's faces. "
+      "Raises InvalidArgumentError for fewer than 2 copies, copies that differ in vertices or "
+      "faces, or bad weights.");
   m.def(
       "attack_kinds",
       [] {

@@ -116,3 +116,37 @@ def test_surface_metrics_refuse_a_mesh_without_triangles(fandisk):
         meshmark.msdm2(V, F, V, none)
     with pytest.raises(meshmark.InvalidInputError, match="a: no triangles"):
         meshmark.compare((V, none), (V, F))
+
+
+def test_collude_is_the_weighted_mean_or_a_splice_as_the_cli_makes_it(fandisk, tmp_path):
+    """collude: the average of three noisy copies is their mean at every vertex (computed here),
+    given weights are normalized, a splice with a seed is the CLI's file byte for byte and takes
+    every vertex whole from one copy; fewer than 2 copies, other faces and bad weights raise."""
+    paths = [tmp_path / f"c{s}.off" for s in (1, 2, 3)]
+    for seed, path in enumerate(paths, start=1):
+        run_cli("attack", "noise", fandisk, path, "--strength", "0.001", "--seed", str(seed))
+    meshes = [meshmark.read_mesh(p) for p in paths]
+    V = [tuple(m)[0] for m in meshes]
+    F = tuple(meshes[0])[1]
+    scale = np.abs(V[0]).max()
+    avg_V, avg_F = meshmark.collude(meshes)
+    np.testing.assert_allclose(avg_V, (V[0] + V[1] + V[2]) / 3, rtol=0, atol=1e-15 * scale)
+    np.testing.assert_array_equal(avg_F, F)
+    weighted_V, _ = meshmark.collude(meshes, weights=[2, 1, 1])
+    np.testing.assert_allclose(weighted_V, 0.5 * V[0] + 0.25 * V[1] + 0.25 * V[2], rtol=0,
+                               atol=1e-15 * scale)
+    run_cli("collude", *paths, "--out", tmp_path / "cli.off", "--splice", "--seed", "4")
+    spliced = meshmark.collude(meshes, splice=True, seed=4)
+    meshmark.write_mesh(tmp_path / "py.off", spliced)
+    assert (tmp_path / "py.off").read_bytes() == (tmp_path / "cli.off").read_bytes()
+    spliced_V, _ = spliced
+    from_one = np.zeros(len(V[0]), dtype=int)
+    for v in V:
+        from_one += np.all(spliced_V == v, axis=1)
+    assert np.all(from_one >= 1)
+    with pytest.raises(meshmark.InvalidArgumentError, match="at least 2 copies"):
+        meshmark.collude(meshes[:1])
+    with pytest.raises(meshmark.InvalidArgumentError, match="weight -1 of copy 2"):
+        meshmark.collude(meshes, weights=[1, -1, 1])
+    with pytest.raises(meshmark.InvalidArgumentError, match="other faces"):
+        meshmark.collude([meshes[0], (V[1], F[::-1])])
