@@ -70,8 +70,10 @@ void register_collude(CLI::App& app, int& exit_code) {
                   "when the extension matches)")
       ->required();
   sub->add_option("--weights", args->weights,
-                  "one weight per copy, >= 0, normalized to sum 1 (default: equal)")
-      ->delimiter(',');
+                  "one weight per copy, comma-separated (W1,W2,...), >= 0, normalized to sum 1 "
+                  "(default: equal)")
+      ->delimiter(',')
+      ->allow_extra_args(false);  // one argument, split at the commas: the copies after it stay
   sub->add_flag("--splice", args->splice,
                 "cut the surface into one region per copy (Voronoi cells of far-apart vertices) "
                 "and paste each from its copy, instead of averaging");

@@ -465,7 +465,7 @@ std::optional<FingerprintFrame> fingerprint_frame(const Eigen::MatrixX3d& V,
 
 namespace {
 
-// Buyer id's signs (format 4) into out (bytes bytes): the ChaCha20 keystream of
+// Buyer id's signs (formats 4 and 5) into out (bytes bytes): the ChaCha20 keystream of
 // derive_key(key, "fingerprint-signs") with the ID as its nonce (8 bytes, least significant
 // first); sign i is bit 7 - i % 8 of byte i / 8, 1 giving +1.
 void sign_bytes(const Key& sign_key, std::uint64_t id, std::size_t bytes, std::uint8_t* out) {

@@ -570,7 +570,8 @@ TEST(Cli, ColludeMergesCopiesOfOneOriginalAndNamesOneThatIsNot) {
   EXPECT_EQ(nlohmann::json::parse(avg.out)["vertices"], m[0].V.rows());
   const Mesh a = read_mesh(dir + "/avg.ply");
   EXPECT_LE((a.V - (m[0].V + m[1].V + m[2].V) / 3).cwiseAbs().maxCoeff(), 1e-15 * scale);
-  const CliRun weighted = run("collude " + list + " -o " + dir + "/w.ply --weights 2,1,1");
+  // --weights before the copies takes one argument, not the copies after it.
+  const CliRun weighted = run("collude --weights 2,1,1 " + list + " -o " + dir + "/w.ply");
   ASSERT_EQ(weighted.code, 0) << weighted.out;
   const Mesh w = read_mesh(dir + "/w.ply");
   EXPECT_LE((w.V - (0.5 * m[0].V + 0.25 * m[1].V + 0.25 * m[2].V)).cwiseAbs().maxCoeff(),

@@ -1034,9 +1034,10 @@ TEST(Fingerprint, IssuedCopiesNameTheirBuyerAfterAveragingResamplingAndRemarking
 
 // Format 5's bumps are 0.45 times as wide as format 4's, whose width is the spacing
 // sqrt(A / K) (A the triangles' area, summed here); a copy carrying either field is read with its
-// own format's bumps (the rows' mark format says which), and there scores higher than read with
-// the other's; format 5's unprocessed copy scores higher than format 4's (its bumps overlap
-// less: more independent directions for the same RMS).
+// own format's bumps (the rows' mark format says which), the same beside rows of the other
+// format (a registry holding both), and there scores higher than read with the other's; format 5's
+// unprocessed copy scores higher than format 4's (its bumps overlap less: more independent
+// directions for the same RMS).
 TEST(Fingerprint, EachFormatIsReadWithItsOwnBumpsAndFormatFiveScoresHigher) {
   const std::string original = test::cgal_mesh("camel.off");
   MESHMARK_REQUIRE(original, "libcgal-demo's camel.off");
@@ -1071,9 +1072,11 @@ TEST(Fingerprint, EachFormatIsReadWithItsOwnBumpsAndFormatFiveScoresHigher) {
   const Mesh plain = read_mesh(requests[6].output);
   // The fingerprint z of 1007 when the rows say `as` (its edited rows are never named: the
   // ranking has every candidate's score).
-  const auto z_of = [&](const Mesh& leak, int as) {
+  // `others`: the format of the other rows (0: as 1007's), so that a registry holding both
+  // formats of one original, read as two groups, is tried too.
+  const auto z_of = [&](const Mesh& leak, int as, int others = 0) {
     std::vector<IssuedCopy> edited = rows;
-    for (IssuedCopy& c : edited) c.mark_format = as;
+    for (IssuedCopy& c : edited) c.mark_format = c.id == 1007 || others == 0 ? as : others;
     const TraceResult r = trace(leak, O, edited, *settings.key);
     for (const CandidateScore& c : r.ranking)
       if (c.copy.id == 1007) return c.fingerprint_z;
@@ -1091,6 +1094,8 @@ TEST(Fingerprint, EachFormatIsReadWithItsOwnBumpsAndFormatFiveScoresHigher) {
         format == kFingerprintMarkFormat ? kWideBumpFingerprintFormat : kFingerprintMarkFormat;
     z[format] = z_of(copy, format);
     const double misread = z_of(copy, other);
+    // Beside rows of the other format (two groups), 1007's row is read as alone.
+    EXPECT_NEAR(z_of(copy, format, other), z[format], 1e-9) << "format " << format;
     EXPECT_GT(z[format], 5) << "format " << format;
     EXPECT_GT(z[format], misread) << "format " << format << " read with format " << other;
     RecordProperty("z_format_" + std::to_string(format), std::to_string(z[format]));

@@ -61,7 +61,7 @@
 /// range). Right is then at least one colluder named and no innocent; rows and summaries also
 /// count the trials that named every colluder. Rows carry both outcomes; keys of merged trials
 /// end in "|avg2" (an average of 2) or "|" and the coalition's name. "fingerprint": true issues
-/// every copy with the fingerprint (the leakers' copies get theirs, the records mark format 4).
+/// every copy with the fingerprint (the leakers' copies get theirs, the records mark format 5).
 /// bits and the 32-bit ID must make an IdCode (coding.h).
 ///
 /// This header holds what a user of campaigns calls: the configuration, the rows and
@@ -149,7 +149,7 @@ struct CampaignConfig {
   int copies = 1000;                        ///< trace: IDs issued per model and variant (>= 2)
   /// trace: every attack also on the leaks these coalitions merge (empty: single copies only)
   std::vector<CampaignCoalition> coalitions;
-  /// trace: copies issued with the fingerprint (mark format 4, fingerprint.h), as `embed
+  /// trace: copies issued with the fingerprint (mark format 5, fingerprint.h), as `embed
   /// --registry DB --fingerprint` issues them
   bool fingerprint = false;
   /// trace, "fingerprint_rms": the fingerprint's RMS as a fraction of the diagonal

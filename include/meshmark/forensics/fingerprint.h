@@ -148,7 +148,7 @@ std::optional<FingerprintFrame> fingerprint_frame(const Eigen::MatrixX3d& V,
 
 /// The K coefficients of buyer `id` under key for a copy of mark `format`, the same on every
 /// machine:
-/// - format 4: independent random signs (+1 or -1, each with probability 1/2): bit 7 - i % 8
+/// - formats 4 and 5: independent random signs (+1 or -1, each with probability 1/2): bit 7 - i % 8
 ///   of byte i / 8 of the ChaCha20 keystream of derive_key(key, "fingerprint-signs") with
 ///   nonce id (8 bytes, least significant first), 1 giving +1;
 /// - format 3: independent standard normal values (Box-Muller on 53-bit uniforms from

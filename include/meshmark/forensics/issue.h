@@ -57,7 +57,7 @@ struct IssueSettings {
   /// embedding.strength.
   std::optional<CalibrateOptions> limits;
   /// The buyer's fingerprint (fingerprint.h), a second mark that only trace reads, with the
-  /// original; a copy with one is recorded as mark format 4 (kFingerprintMarkFormat). It moves
+  /// original; a copy with one is recorded as mark format 5 (kFingerprintMarkFormat). It moves
   /// the vertices by a further RMS of FingerprintOptions::rms (0.01 %) of the diagonal; with
   /// fidelity limits both marks together stay within them, and a copy whose histogram mark
   /// cannot fit is issued with the fingerprint alone (CopyOutcome::fingerprint_alone).
@@ -235,7 +235,7 @@ IssuedCopy issued_copy(const std::string& input, const std::string& buyer, std::
                        const IssueSettings& settings);
 
 /// The same for an original in memory named `name` (CopyRequest::mesh): its original_hash is
-/// its geometry_hash, its original_path the name as given. Both record mark format 4
+/// its geometry_hash, its original_path the name as given. Both record mark format 5
 /// (kFingerprintMarkFormat) when settings give such a copy the fingerprint
 /// (IssueSettings::fingerprint), else kMarkFormatVersion.
 IssuedCopy issued_copy(const Mesh& original, const std::string& name, const std::string& buyer,
