@@ -18,6 +18,7 @@
 #include "core/parallel.h"
 #include "core/progress_counter.h"
 #include "meshmark/core/error.h"
+#include "meshmark/forensics/fingerprint.h"
 #include "meshmark/io/io.h"
 
 namespace meshmark {
@@ -33,13 +34,14 @@ using Clock = std::chrono::steady_clock;
 // The files of a results directory.
 struct Paths {
   fs::path dir;
-  std::string rows, calibrations, stamp, wall;
+  std::string rows, calibrations, stamp, wall, format;
   explicit Paths(const fs::path& d)
       : dir(d),
         rows((d / "rows.jsonl").string()),
         calibrations((d / "calibration.jsonl").string()),
         stamp((d / "campaign.json").string()),
-        wall((d / "wall_seconds.txt").string()) {}
+        wall((d / "wall_seconds.txt").string()),
+        format((d / "mark_format.txt").string()) {}
 };
 
 // Models, each read once per process on first use.
@@ -93,6 +95,21 @@ void prepare_directory(const CampaignConfig& config, const CampaignRunOptions& o
         "elsewhere",
         p.dir.string()));
   if (!fs::exists(p.stamp)) write_file_atomically(p.stamp, stamp);
+  // Copies with the fingerprint are issued in this build's mark format: rows of another (a
+  // directory without the file holds rows of format 4, or none) are not resumed beside them.
+  if (config.trace && config.fingerprint) {
+    const std::string format = fmt::format("mark format {}\n", kFingerprintMarkFormat);
+    const bool rows = fs::exists(p.rows) && fs::file_size(p.rows) > 0;
+    const std::string held = fs::exists(p.format) ? read_file(p.format)
+                             : rows               ? "mark format 4\n"
+                                                  : format;
+    if (held != format)
+      throw InvalidArgumentError(fmt::format(
+          "{} holds rows of copies issued in {}, where this build issues {}: use --fresh to "
+          "start over, or --out elsewhere",
+          p.dir.string(), held.substr(0, held.find('\n')), format.substr(0, format.find('\n'))));
+    if (!fs::exists(p.format)) write_file_atomically(p.format, format);
+  }
   for (const std::string& journal : {p.calibrations, p.rows})
     if (const std::size_t cut = detail::repair_journal(journal)) {
       ++result.dropped_lines;
