@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "campaign/campaign_parts.h"
 #include "meshmark/campaign/campaign.h"
@@ -51,6 +52,14 @@ void require(const json& j, const char* const (&fields)[N], const char* file, co
       throw InvalidInputError(file, 0, fmt::format("not a {}: key '{}' not found", what, f));
 }
 
+// The IDs of a row's space-separated list (TrialRow::leakers, ::trace_named).
+std::vector<std::uint64_t> ids_of(const std::string& list) {
+  std::vector<std::uint64_t> ids;
+  std::istringstream in(list);
+  for (std::uint64_t id = 0; in >> id;) ids.push_back(id);
+  return ids;
+}
+
 std::string csv_quote(const std::string& s) {
   if (s.find_first_of(",\"\n") == std::string::npos) return s;
   std::string out = "\"";
@@ -80,12 +89,8 @@ TrialRow row_from_json(const std::string& line) {
     // Rows written before coalitions had names (and before trace_all_named): colluders 2 was
     // always an average of two; every leaker named is read from the names.
     if (r.colluders == 2 && r.coalition.empty()) r.coalition = "average:2";
-    if (r.colluders > 0 && !j.contains("trace_all_named") && r.trace_outcome == "right") {
-      std::size_t named = 0;
-      for (std::size_t at = 0; at != std::string::npos; at = r.trace_named.find(' ', at + 1))
-        ++named;
-      r.trace_all_named = named == static_cast<std::size_t>(r.colluders);
-    }
+    if (r.colluders > 0 && !j.contains("trace_all_named"))
+      r.trace_all_named = every_leaker_named(ids_of(r.trace_named), ids_of(r.leakers));
     return r;
   } catch (const json::exception& e) {
     throw InvalidInputError("rows", 0, fmt::format("not a campaign row: {}", e.what()));

@@ -38,6 +38,10 @@ Payload campaign_payload(const CampaignConfig& config, int p);
 TraceOutcome trace_outcome(const std::vector<std::uint64_t>& named,
                            const std::vector<std::uint64_t>& leakers);
 
+/// Whether naming `named` names every one of `leakers` (distinct IDs) and no innocent.
+bool every_leaker_named(const std::vector<std::uint64_t>& named,
+                        const std::vector<std::uint64_t>& leakers);
+
 /// Trace mode: the key copies are issued under (from the campaign's seed).
 Key campaign_key(const CampaignConfig& config);
 

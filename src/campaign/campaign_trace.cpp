@@ -51,6 +51,11 @@ TraceOutcome trace_outcome(const std::vector<std::uint64_t>& named,
   return TraceOutcome::Right;
 }
 
+bool every_leaker_named(const std::vector<std::uint64_t>& named,
+                        const std::vector<std::uint64_t>& leakers) {
+  return trace_outcome(named, leakers) == TraceOutcome::Right && named.size() == leakers.size();
+}
+
 Key campaign_key(const CampaignConfig& c) {
   return key_from_passphrase_v1(fmt::format("meshmark campaign key, seed {}", c.seed));
 }
@@ -100,8 +105,7 @@ std::vector<std::uint64_t> unit_leakers(const CampaignConfig& c, int payload, in
   std::vector<std::uint64_t> ids{leaker};
   for (std::uint64_t id = leaker + 1; id <= last && static_cast<int>(ids.size()) < most; ++id)
     ids.push_back(id);
-  for (std::uint64_t id = leaker; static_cast<int>(ids.size()) < most; ids.push_back(--id)) {
-  }
+  for (std::uint64_t id = leaker - 1; static_cast<int>(ids.size()) < most; --id) ids.push_back(id);
   return ids;
 }
 
@@ -118,8 +122,7 @@ void judge(const Mesh& attacked, const Mesh& original, const std::vector<IssuedC
   row.trace_outcome = trace_outcome_name(trace_outcome(named, leakers));
   row.trace_status = trace_status_name(t.status);
   row.trace_named = joined(named);
-  row.trace_all_named = row.trace_outcome == trace_outcome_name(TraceOutcome::Right) &&
-                        named.size() == leakers.size();
+  row.trace_all_named = every_leaker_named(named, leakers);
   row.trace_p = t.ranking.empty() ? 1.0 : t.ranking.front().corrected_p;
   t0 = Clock::now();
   const IdReading blind = read_id(
