@@ -13,6 +13,7 @@
 #include "meshmark/campaign/campaign.h"
 #include "meshmark/carrier/method.h"
 #include "meshmark/core/error.h"
+#include "meshmark/forensics/fingerprint.h"
 #include "meshmark/io/io.h"
 #include "meshmark/protocol/coding.h"
 
@@ -139,14 +140,14 @@ void read_protocols(const std::string& file, const json& j, CampaignConfig& c) {
 }
 
 // The trace mode's settings ("mode", "copies", "collusion", "spread", "fingerprint",
-// "fingerprint_rms"), refused
-// in blind mode.
+// "fingerprint_rms", "fingerprint_regions"), refused in blind mode.
 void read_trace_settings(const std::string& file, const json& j, CampaignConfig& c) {
   const std::string mode = j.value("mode", "blind");
   if (mode != "blind" && mode != "trace")
     bad(file, fmt::format("mode \"{}\" is neither \"blind\" nor \"trace\"", mode));
   c.trace = mode == "trace";
-  for (const char* k : {"copies", "collusion", "spread", "fingerprint", "fingerprint_rms"})
+  for (const char* k :
+       {"copies", "collusion", "spread", "fingerprint", "fingerprint_rms", "fingerprint_regions"})
     if (!c.trace && j.contains(k)) bad(file, fmt::format("\"{}\" needs \"mode\": \"trace\"", k));
   if (!c.trace) return;
   c.copies = j.value("copies", c.copies);
@@ -183,6 +184,19 @@ void read_trace_settings(const std::string& file, const json& j, CampaignConfig&
     bad(file, fmt::format("fingerprint_rms {} is out of (0, 0.01]", c.fingerprint_rms));
   if (j.contains("fingerprint_rms") && !c.fingerprint)
     bad(file, "\"fingerprint_rms\" needs \"fingerprint\": true");
+  if (j.contains("fingerprint_regions")) {
+    const json& r = j["fingerprint_regions"];
+    if (!r.is_array()) bad(file, "\"fingerprint_regions\" must be a list of region counts");
+    c.fingerprint_regions.clear();
+    for (const json& n : r) {
+      if (!n.is_number_integer() || n.get<std::int64_t>() < 2 ||
+          n.get<std::int64_t>() > kMaxFingerprintRegions)
+        bad(file, fmt::format("\"fingerprint_regions\" lists {}, not a count of 2 to {} regions",
+                              n.dump(), kMaxFingerprintRegions));
+      c.fingerprint_regions.push_back(n.get<int>());
+    }
+    if (!c.fingerprint) bad(file, "\"fingerprint_regions\" needs \"fingerprint\": true");
+  }
   c.spread = j.value("spread", c.spread);
   if (c.copies < 2 || c.copies > 1000000)
     bad(file, fmt::format("copies {} is out of 2..1000000", c.copies));
@@ -215,7 +229,7 @@ CampaignConfig load_campaign(const std::string& path) {
   check_keys(path, j, "campaign",
              {"name", "description", "models", "variants", "bits", "payloads", "draws", "seed",
               "calibration", "protocols", "strength", "attacks", "mode", "copies", "collusion",
-              "spread", "fingerprint", "fingerprint_rms"});
+              "spread", "fingerprint", "fingerprint_rms", "fingerprint_regions"});
   const fs::path base = fs::absolute(path).parent_path();
   CampaignConfig c;
   c.source = path;

@@ -18,7 +18,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     TrialRow, key, model, variant, protocol, payload, strength, rms_percent, msdm, attack,
     attack_strength, draw, vertices, ber, erasures, status, embed_seconds, attack_seconds,
     extract_seconds, colluders, coalition, leakers, trace_outcome, trace_status, trace_named,
-    trace_all_named, trace_p, blind_outcome, blind_id, trace_seconds)
+    trace_all_named, trace_p, blind_outcome, blind_id, trace_seconds, innocents, innocent_p)
 
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(CalibrationRecord, model, variant, protocol, status,
                                                 strength, rms_percent, msdm, seconds, bin_offset,
@@ -74,7 +74,7 @@ std::string row_to_json(const TrialRow& r) {
   if (r.protocol.empty()) j.erase("protocol");
   if (r.colluders == 0) {
     for (const char* f : kTraceFields) j.erase(f);
-    j.erase("trace_all_named");
+    for (const char* f : {"trace_all_named", "innocents", "innocent_p"}) j.erase(f);
   }
   if (r.coalition.empty()) j.erase("coalition");
   return j.dump();
@@ -119,7 +119,8 @@ std::string csv_header(bool trace) {
              "model,variant,payload,strength,rms_percent,msdm,attack,attack_strength,draw,"
              "vertices,ber,erasures,status,embed_seconds,attack_seconds,extract_seconds,protocol") +
          (trace ? ",colluders,coalition,leakers,trace_outcome,trace_status,trace_named,"
-                  "trace_all_named,trace_p,blind_outcome,blind_id,trace_seconds"
+                  "trace_all_named,trace_p,blind_outcome,blind_id,trace_seconds,innocents,"
+                  "innocent_p"
                 : "");
 }
 
@@ -131,10 +132,10 @@ std::string row_to_csv(const TrialRow& r, bool trace) {
                   csv_quote(r.status), r.embed_seconds, r.attack_seconds, r.extract_seconds);
   line += "," + csv_quote(r.protocol);
   if (trace)
-    line += fmt::format(",{},{},{},{},{},{},{:d},{},{},{},{}", r.colluders, r.coalition,
+    line += fmt::format(",{},{},{},{},{},{},{:d},{},{},{},{},{},{}", r.colluders, r.coalition,
                         csv_quote(r.leakers), r.trace_outcome, r.trace_status,
                         csv_quote(r.trace_named), r.trace_all_named, r.trace_p, r.blind_outcome,
-                        csv_quote(r.blind_id), r.trace_seconds);
+                        csv_quote(r.blind_id), r.trace_seconds, r.innocents, r.innocent_p);
   return line;
 }
 

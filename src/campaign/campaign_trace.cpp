@@ -115,7 +115,9 @@ void judge(const Mesh& attacked, const Mesh& original, const std::vector<IssuedC
            const std::vector<std::uint64_t>& leakers, TrialRow& row) {
   const IdCode code(IdCodeOptions{c.bits});
   auto t0 = Clock::now();
-  const TraceResult t = trace(attacked, original, copies, key);
+  TraceOptions options;
+  options.fingerprint_regions = c.fingerprint_regions;
+  const TraceResult t = trace(attacked, original, copies, key, options);
   row.trace_seconds = since(t0);
   std::vector<std::uint64_t> named;
   for (const CandidateScore& s : t.named) named.push_back(s.copy.id);
@@ -124,6 +126,19 @@ void judge(const Mesh& attacked, const Mesh& original, const std::vector<IssuedC
   row.trace_named = joined(named);
   row.trace_all_named = every_leaker_named(named, leakers);
   row.trace_p = t.ranking.empty() ? 1.0 : t.ranking.front().corrected_p;
+  // The innocents: every candidate but the leakers (all of them issued, so all candidates), and
+  // the best of them, the first innocent of the ranking (best first).
+  const auto is_leaker = [&](std::uint64_t id) {
+    return std::find(leakers.begin(), leakers.end(), id) != leakers.end();
+  };
+  row.innocents = static_cast<int>(std::count_if(
+      copies.begin(), copies.end(), [&](const IssuedCopy& copy) { return !is_leaker(copy.id); }));
+  row.innocent_p = 1;
+  for (const CandidateScore& s : t.ranking)
+    if (!is_leaker(s.copy.id)) {
+      row.innocent_p = s.corrected_p;
+      break;
+    }
   t0 = Clock::now();
   const IdReading blind = read_id(
       attacked.V, attacked.F,
@@ -270,6 +285,10 @@ std::vector<TraceSummaryRow> summarize_trace(const CampaignConfig& c,
           row.trace_none += detail::outcome_is(r->trace_outcome, TraceOutcome::None);
           row.trace_wrong += detail::outcome_is(r->trace_outcome, TraceOutcome::Wrong);
           row.trace_all += r->trace_all_named;
+          if (r->innocents > 0) {
+            row.innocents += r->innocents;
+            row.innocent_p = std::min(row.innocent_p, r->innocent_p);
+          }
           row.blind_right += detail::outcome_is(r->blind_outcome, TraceOutcome::Right);
           row.blind_none += detail::outcome_is(r->blind_outcome, TraceOutcome::None);
           row.blind_wrong += detail::outcome_is(r->blind_outcome, TraceOutcome::Wrong);

@@ -85,17 +85,20 @@ std::string outcome_figure(const std::vector<TraceSummaryRow>& summary) {
 std::string rates_table(const std::vector<TraceSummaryRow>& summary) {
   std::string md =
       "| attack | trials | trace right | trace none | trace wrong | every leaker named | blind "
-      "right | blind none | blind wrong | worst corrected p (trace right) | trace s (median) |\n"
-      "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
+      "right | blind none | blind wrong | worst corrected p (trace right) | trace s (median) | "
+      "innocents scored | best innocent's corrected p |\n"
+      "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: "
+      "|\n";
   for (const TraceSummaryRow& r : summary)
     md += fmt::format(
-        "| {} | {} | {} | {} | {}{} | {} | {} | {} | {}{} | {} | {:.2f} |\n",
+        "| {} | {} | {} | {} | {}{} | {} | {} | {} | {}{} | {} | {:.2f} | {} | {} |\n",
         trace_attack_label(r.attack, r.attack_strength, r.coalition), r.trials,
         percent(r.trace_right, r.trials), percent(r.trace_none, r.trials),
         r.trace_wrong ? "**" : "", percent(r.trace_wrong, r.trials), percent(r.trace_all, r.trials),
         percent(r.blind_right, r.trials), percent(r.blind_none, r.trials),
         r.blind_wrong ? "**" : "", percent(r.blind_wrong, r.trials),
-        r.trace_right ? fmt::format("{:.2g}", r.worst_right_p) : "-", r.median_trace_seconds);
+        r.trace_right ? fmt::format("{:.2g}", r.worst_right_p) : "-", r.median_trace_seconds,
+        r.innocents, r.innocents > 0 ? fmt::format("{:.2g}", r.innocent_p) : "-");
   return md;
 }
 
@@ -173,12 +176,14 @@ std::string write_trace_report(const std::string& out_dir, const CampaignConfig&
   const std::vector<TraceSummaryRow> summary = summarize_trace(c, rows);
   std::string csv =
       "attack,attack_strength,colluders,coalition,trials,trace_right,trace_none,trace_wrong,"
-      "trace_all_named,blind_right,blind_none,blind_wrong,worst_right_p,median_trace_seconds\n";
+      "trace_all_named,blind_right,blind_none,blind_wrong,worst_right_p,median_trace_seconds,"
+      "innocents,innocent_p\n";
   for (const TraceSummaryRow& r : summary)
-    csv += fmt::format("\"{}\",{},{},{},{},{},{},{},{},{},{},{},{},{}\n", r.attack,
+    csv += fmt::format("\"{}\",{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", r.attack,
                        r.attack_strength, r.colluders, r.coalition, r.trials, r.trace_right,
                        r.trace_none, r.trace_wrong, r.trace_all, r.blind_right, r.blind_none,
-                       r.blind_wrong, r.worst_right_p, r.median_trace_seconds);
+                       r.blind_wrong, r.worst_right_p, r.median_trace_seconds, r.innocents,
+                       r.innocent_p);
   write_file_atomically((dir / "summary.csv").string(), csv);
   const bool png = write_figure(out_dir, "figure-trace", outcome_figure(summary));
 
@@ -201,20 +206,36 @@ std::string write_trace_report(const std::string& out_dir, const CampaignConfig&
       c.source, c.models.size(), fmt::join(c.variants, ", "), c.bits, c.copies,
       campaign_first_id(c), c.payloads, c.draws, coalitions_text(c),
       c.calibrate ? "calibrated strengths" : fmt::format("alpha {}", c.strength), c.spread,
-      c.fingerprint ? fmt::format(", every copy with the fingerprint at an RMS of {:g} % of the "
-                                  "diagonal (mark format {})",
-                                  100 * c.fingerprint_rms, kFingerprintMarkFormat)
-                    : "",
+      c.fingerprint
+          ? fmt::format(", every copy with the fingerprint at an RMS of {:g} % of the diagonal "
+                        "(mark format {}), read over the whole surface{}",
+                        100 * c.fingerprint_rms, kFingerprintMarkFormat,
+                        c.fingerprint_regions.empty()
+                            ? ""
+                            : fmt::format(" and over regions (partitions of {})",
+                                          fmt::join(c.fingerprint_regions, ", ")))
+          : "",
       c.seed, rows.size(), wall_seconds);
   md +=
       "Right: every buyer named leaked (for a coalition, at least one colluder named); none: "
       "nobody named; wrong: an innocent named. Every leaker named: right, and all the "
       "coalition's colluders named.\n\n";
+  std::int64_t innocents = 0;
+  double innocent_p = 1;
+  for (const TrialRow& r : rows)
+    if (r.innocents > 0) innocents += r.innocents, innocent_p = std::min(innocent_p, r.innocent_p);
+  const std::string innocents_text =
+      innocents > 0 ? fmt::format(
+                          "Trace scored {} innocent candidates over the trials (every candidate "
+                          "but the leakers); the smallest corrected p among them was {:.2g}, "
+                          "against the threshold of 1e-6.\n\n",
+                          innocents, innocent_p)
+                    : "";
   if (wrong.empty())
     md += fmt::format(
         "## Wrong outcomes: none\n\nIn {} trials trace never named an innocent, and the blind "
-        "decoder never decoded an innocent's ID.\n\n",
-        rows.size());
+        "decoder never decoded an innocent's ID. {}",
+        rows.size(), innocents_text.empty() ? "\n\n" : innocents_text);
   else
     md += fmt::format("## WRONG OUTCOMES: {} trials named an innocent\n\n{}\n", wrong.size(),
                       trial_lines(wrong, 200));

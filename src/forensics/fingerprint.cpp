@@ -745,6 +745,42 @@ Eigen::VectorXd read_fingerprint_at(const FingerprintBasis& basis, const Eigen::
   return equations.solve(ridge);
 }
 
+std::vector<std::vector<int>> fingerprint_regions(const FingerprintBasis& basis,
+                                                  const std::vector<int>& partitions) {
+  std::vector<std::vector<int>> regions;
+  for (const int r : partitions) {
+    if (r < 2 || r > kMaxFingerprintRegions)
+      throw InvalidArgumentError(
+          fmt::format("a fingerprint is read over 2 to {} regions at a time, not {}",
+                      kMaxFingerprintRegions, r));
+    if (r > basis.functions || basis.points.rows() < r) continue;
+    std::vector<std::vector<int>> cut(static_cast<std::size_t>(r));
+    for (int k = 0; k < basis.functions && k < basis.points.rows(); ++k) {
+      int nearest = 0;
+      double best = std::numeric_limits<double>::infinity();
+      for (int s = 0; s < r; ++s) {
+        const double d = (basis.points.row(k) - basis.points.row(s)).squaredNorm();
+        if (d < best) best = d, nearest = s;
+      }
+      cut[static_cast<std::size_t>(nearest)].push_back(k);
+    }
+    for (std::vector<int>& region : cut)
+      if (!region.empty()) regions.push_back(std::move(region));
+  }
+  return regions;
+}
+
+Eigen::VectorXd regional_reading(const Eigen::VectorXd& b, const std::vector<int>& region) {
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(b.size());
+  for (const int k : region) {
+    if (k < 0 || k >= b.size())
+      throw InvalidArgumentError(
+          fmt::format("a region holds bump {} of a reading of {} coefficients", k, b.size()));
+    out(k) = b(k);
+  }
+  return out;
+}
+
 double fingerprint_score(const Eigen::VectorXd& g, const Eigen::VectorXd& b) {
   if (g.size() != b.size())
     throw InvalidArgumentError("a fingerprint and a reading of different lengths");
@@ -765,6 +801,18 @@ double fingerprint_p_value(double z, int format) {
   check_format(format);
   if (format == kGaussianFingerprintFormat) return normal_upper_tail(z);
   return std::min(1.0, rademacher_tail_factor() * normal_upper_tail(z));
+}
+
+double fingerprint_p_value(double z_whole, std::size_t whole, double z_regional,
+                           std::size_t regional, double share, int format) {
+  if (!(share > 0 && share < 1))
+    throw InvalidArgumentError(
+        fmt::format("the regions' share of the false-alarm budget {} is outside (0, 1)", share));
+  if (whole == 0) throw InvalidArgumentError("a fingerprint's p needs a reading of the whole");
+  const double p_whole = fingerprint_p_value(z_whole, format) * static_cast<double>(whole);
+  if (regional == 0) return std::min(1.0, p_whole);
+  const double p_regional = fingerprint_p_value(z_regional, format) * static_cast<double>(regional);
+  return std::min({1.0, p_whole / (1 - share), p_regional / share});
 }
 
 double combined_p_value(double p_bins, double p_fingerprint) {
@@ -806,11 +854,22 @@ FingerprintScorer::FingerprintScorer(const Key& key, int functions,
 }
 
 double FingerprintScorer::best_z(std::uint64_t id, int format) const {
+  const auto [z, none] = best_z_split(id, format, readings_.size());
+  return z;
+}
+
+std::pair<double, double> FingerprintScorer::best_z_split(std::uint64_t id, int format,
+                                                          std::size_t split) const {
   check_format(format);
-  double best = -std::numeric_limits<double>::infinity();
+  constexpr double kNone = -std::numeric_limits<double>::infinity();
+  std::pair<double, double> best{kNone, kNone};
+  const auto take = [&](std::size_t r, double z) {
+    double& part = r < split ? best.first : best.second;
+    part = std::max(part, z);
+  };
   if (format == kGaussianFingerprintFormat) {
     const Eigen::VectorXd g = gaussian_coefficients(key_, id, functions_);
-    for (const Eigen::VectorXd& b : readings_) best = std::max(best, fingerprint_score(g, b));
+    for (std::size_t r = 0; r < readings_.size(); ++r) take(r, fingerprint_score(g, readings_[r]));
     return best;
   }
   // The signs' bytes (on the stack for K <= 512, the default), then each reading's table.
@@ -819,10 +878,11 @@ double FingerprintScorer::best_z(std::uint64_t id, int format) const {
   std::vector<std::uint8_t> large(bytes > 64 ? static_cast<std::size_t>(bytes) : 0);
   std::uint8_t* signs = bytes > 64 ? large.data() : small.data();
   sign_bytes(sign_key_, id, static_cast<std::size_t>(bytes), signs);
-  for (const std::vector<double>& table : tables_) {
+  for (std::size_t r = 0; r < tables_.size(); ++r) {
+    const std::vector<double>& table = tables_[r];
     double z = 0;
     for (int c = 0; c < bytes; ++c) z += table[static_cast<std::size_t>(c) * 256 + signs[c]];
-    best = std::max(best, z);
+    take(r, z);
   }
   return best;
 }

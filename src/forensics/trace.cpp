@@ -389,17 +389,21 @@ LeakResiduals leak_residuals(const Mesh& original, const Smoother& on_original,
 
 // The fingerprint of a leak (fingerprint.h), read at the leak's own vertices (leak_residuals)
 // against the original and, when the bins were read against a processed original, against that
-// too: one reading or two (score_group takes a candidate's best z, times the number of readings
-// in its p), with the bumps of mark `format`. The original's bumps and bins are evaluated at
-// the crossings' places on it. No
-// basis when the original has too few counted vertices for one. Like the bins, the readings use
-// no candidate's coefficients, so an innocent's score in each is exactly standard normal.
+// too: one reading or two of the whole surface, then each again over the regions of
+// TraceOptions::fingerprint_regions (`whole`: how many of the readings are of the whole;
+// score_group gives a candidate fingerprint_p_value of its best whole and best regional z),
+// with the bumps of mark `format`. The original's bumps and bins are evaluated at the crossings'
+// places on it. No basis when the original has too few counted vertices for one. Like the bins, the
+// readings use no candidate's coefficients, so an innocent's score in each is exactly standard
+// normal.
 std::optional<FingerprintBasis> fingerprint_reading(
     const Mesh& original, const std::vector<std::uint8_t>& carrier,
     const Eigen::MatrixX3d& reference, bool processed, const Eigen::MatrixX3d& VL,
     const Eigen::MatrixX3i& FL, const Histogram& h, int format, double erase, double ridge,
-    std::string& processing, std::vector<Eigen::VectorXd>& readings) {
+    const std::vector<int>& partitions, std::string& processing,
+    std::vector<Eigen::VectorXd>& readings, std::size_t& whole) {
   readings.clear();
+  whole = 0;
   std::size_t counted = 0;
   for (const std::uint8_t c : carrier) counted += c == kCounted;
   const int functions = fingerprint_functions(counted);
@@ -428,6 +432,16 @@ std::optional<FingerprintBasis> fingerprint_reading(
     readings.push_back(
         read_fingerprint_at(basis, x.on_original, x.residual, x.crossed, &classes, ridge));
   }
+  // Each reading also over the regions of each partition (fingerprint_regions: the bumps
+  // alone decide them), for a splice whose colluders each kept a part of the surface.
+  const std::vector<std::vector<int>> regions = fingerprint_regions(basis, partitions);
+  whole = readings.size();
+  for (std::size_t w = 0; w < whole; ++w)
+    for (const std::vector<int>& region : regions)
+      readings.push_back(regional_reading(readings[w], region));
+  if (!regions.empty())
+    taken.push_back(fmt::format("each also over {} regions (partitions of {})", regions.size(),
+                                fmt::join(partitions, ", ")));
   processing = fmt::format("{}", fmt::join(taken, "; "));
   return basis;
 }
@@ -449,7 +463,8 @@ struct Score {  // a candidate's evidence before the ranking (CandidateScore wit
 std::vector<Score> score_group(const std::vector<const CandidateRow*>& copies,
                                const std::vector<BitEvidence>& evidence, const BitLayout& layout,
                                int id_bits, const Key& key, const FingerprintBasis* basis,
-                               const std::vector<Eigen::VectorXd>& readings) {
+                               const std::vector<Eigen::VectorXd>& readings, std::size_t whole,
+                               double share) {
   const int bits = layout.size();
   IdCodeOptions co;
   co.bits = bits;
@@ -511,10 +526,11 @@ std::vector<Score> score_group(const std::vector<const CandidateRow*>& copies,
               best.compared = r.compared, best.matches = matches, best.p_value = p;
           }
           if (fingerprint && has_fingerprint(copy.mark_format)) {
-            best.fingerprint_z = fingerprint->best_z(copy.id, copy.mark_format);
-            best.fingerprint_p =
-                std::min(1.0, fingerprint_p_value(best.fingerprint_z, copy.mark_format) *
-                                  static_cast<double>(readings.size()));
+            const auto [z_whole, z_regional] =
+                fingerprint->best_z_split(copy.id, copy.mark_format, whole);
+            best.fingerprint_z = std::max(z_whole, z_regional);
+            best.fingerprint_p = fingerprint_p_value(
+                z_whole, whole, z_regional, readings.size() - whole, share, copy.mark_format);
             best.p_value = bands.empty() ? best.fingerprint_p  // the fingerprint alone
                                          : combined_p_value(best.p_value, best.fingerprint_p);
           }
@@ -628,7 +644,8 @@ struct GroupReading {
   std::vector<BitEvidence> evidence;
   bool fingerprint_read = false;
   std::optional<FingerprintBasis> basis;
-  std::vector<Eigen::VectorXd> readings;
+  std::vector<Eigen::VectorXd> readings;  // of the whole surface first, then by region
+  std::size_t whole_readings = 0;
   std::string fingerprint_processing;
   double seconds_resampling = 0, seconds_reference = 0, seconds_reading = 0;
 };
@@ -644,6 +661,14 @@ TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
   if (!(o.fingerprint_ridge >= 0 && o.fingerprint_ridge < 1e6))
     throw InvalidArgumentError(
         fmt::format("the fingerprint ridge {} is outside [0, 1e6)", o.fingerprint_ridge));
+  if (!(o.fingerprint_region_share > 0 && o.fingerprint_region_share < 1))
+    throw InvalidArgumentError(
+        fmt::format("the regions' share {} is outside (0, 1)", o.fingerprint_region_share));
+  for (const int regions : o.fingerprint_regions)
+    if (regions < 2 || regions > kMaxFingerprintRegions)
+      throw InvalidArgumentError(
+          fmt::format("the fingerprint is read over 2 to {} regions at a time, not {}",
+                      kMaxFingerprintRegions, regions));
   TraceResult r;
   using Clock = std::chrono::steady_clock;
   auto since = [](Clock::time_point t) {
@@ -680,7 +705,8 @@ TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
                                        const std::string& processing) {
     g.basis = fingerprint_reading(original, carrier, reference, processing != "none", VL, leaked.F,
                                   g.histogram, std::get<6>(g.group), o.erase_distance * diagonal,
-                                  o.fingerprint_ridge, g.fingerprint_processing, g.readings);
+                                  o.fingerprint_ridge, o.fingerprint_regions,
+                                  g.fingerprint_processing, g.readings, g.whole_readings);
     g.fingerprint_read = true;
   };
   // One group's reading of the leak, before any candidate is scored. The first group (in
@@ -760,7 +786,8 @@ TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
     GroupReading& g = is_first ? *first : other;
     if (fingerprinted && !g.fingerprint_read)  // a guess measured without
       read_fingerprint_of(g, first->reference, first->processing);
-    if (!fingerprinted) g.basis.reset(), g.readings.clear();  // a guess measured with
+    if (!fingerprinted)  // a guess measured with
+      g.basis.reset(), g.readings.clear(), g.whole_readings = 0;
     if (g.basis && r.fingerprint_processing.empty())
       r.fingerprint_processing = g.fingerprint_processing;
     r.seconds.resampling += g.seconds_resampling;
@@ -771,8 +798,9 @@ TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
     std::vector<const CandidateRow*> group_copies;
     group_copies.reserve(members.size());
     for (const std::size_t k : members) group_copies.push_back(&mine[k]);
-    std::vector<Score> scored = score_group(group_copies, g.evidence, layout, id_bits, key,
-                                            g.basis ? &*g.basis : nullptr, g.readings);
+    std::vector<Score> scored =
+        score_group(group_copies, g.evidence, layout, id_bits, key, g.basis ? &*g.basis : nullptr,
+                    g.readings, g.whole_readings, o.fingerprint_region_share);
     for (std::size_t i = 0; i < scored.size(); ++i) {
       scored[i].order = members[i];
       scored[i].corrected_p = std::min(1.0, scored[i].p_value * static_cast<double>(mine.size()));

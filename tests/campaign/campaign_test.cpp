@@ -544,7 +544,8 @@ TEST(Campaign, CoalitionsOfConsecutiveIdsNameColludersOnly) {
   const std::map<std::string, std::string> json_rows = rows_without_times(dir);
   ASSERT_EQ(json_rows.size(), 3u * 2 * 5);  // payloads x (none, noise) x (a copy, 4 coalitions)
   std::vector<TrialRow> rows;
-  std::map<std::string, int> right, all;
+  std::map<std::string, int> right, all, innocents;
+  std::map<std::string, double> innocent_p;
   for (const auto& [key, json] : json_rows) {
     const TrialRow r = row_from_json(json);
     rows.push_back(r);
@@ -571,9 +572,15 @@ TEST(Campaign, CoalitionsOfConsecutiveIdsNameColludersOnly) {
     }
     std::sort(leakers.begin(), leakers.end()), std::sort(named.begin(), named.end());
     EXPECT_EQ(r.trace_all_named, r.trace_outcome == "right" && named == leakers) << key;
+    // Every candidate but the leakers is an innocent's test, none below the threshold.
+    EXPECT_EQ(r.innocents, 40 - size) << key;
+    EXPECT_GE(r.innocent_p, 1e-6) << key;
+    EXPECT_LE(r.innocent_p, 1.0) << key;
     const std::string group = r.attack + "|" + r.coalition;
     right[group] += r.trace_outcome == "right";
     all[group] += r.trace_all_named;
+    innocents[group] += r.innocents;
+    innocent_p[group] = std::min(innocent_p.count(group) ? innocent_p[group] : 1.0, r.innocent_p);
   }
   const std::vector<TraceSummaryRow> summary = summarize_trace(c, rows);
   ASSERT_EQ(summary.size(), 10u);
@@ -585,6 +592,8 @@ TEST(Campaign, CoalitionsOfConsecutiveIdsNameColludersOnly) {
     EXPECT_EQ(s.trace_wrong, 0) << group;
     EXPECT_EQ(s.trace_right, right[group]) << group;
     EXPECT_EQ(s.trace_all, all[group]) << group;
+    EXPECT_EQ(s.innocents, innocents[group]) << group;
+    EXPECT_EQ(s.innocent_p, innocent_p[group]) << group;
     RecordProperty("right_" + group, s.trace_right);
   }
   EXPECT_EQ(summary[0].trace_right, 3) << "an unprocessed copy names its buyer";

@@ -481,6 +481,134 @@ TEST(Fingerprint, AnAverageOfKCopiesKeepsAboutOneKthOfEachColluder) {
   }
 }
 
+// fingerprint_regions cuts the bumps into Voronoi cells of far-apart centers, each partition
+// a cover of every bump once; a splice of 3 copies, each colluder's field whole over its part,
+// scores each colluder higher over some region than over the whole surface (where the other
+// two parts dilute it), while an innocent's best score over all the readings stays within the
+// Bonferroni bound of their number.
+TEST(Fingerprint, ReadingByRegionsFindsSplicedColludersWholeAndKeepsInnocentsWithinTheNull) {
+  const Scene s = setup("elephant.off");
+  const int K = s.basis.functions;
+  const std::vector<int> partitions{2, 3, 4};
+  const std::vector<std::vector<int>> regions = fingerprint_regions(s.basis, partitions);
+  ASSERT_EQ(regions.size(), 9U);
+  std::size_t at = 0;
+  for (const int R : partitions) {
+    std::vector<int> owner(K, -1);
+    for (int r = 0; r < R; ++r) {
+      const std::vector<int>& region = regions[at + r];
+      ASSERT_TRUE(std::is_sorted(region.begin(), region.end()));
+      EXPECT_TRUE(std::binary_search(region.begin(), region.end(), r)) << "seed " << r;
+      for (const int k : region) {
+        ASSERT_EQ(owner[k], -1) << "bump " << k << " in two regions of " << R;
+        owner[k] = r;
+        // Voronoi: no other seed is nearer to bump k than its own.
+        const double own = (s.basis.points.row(k) - s.basis.points.row(r)).squaredNorm();
+        for (int o = 0; o < R; ++o)
+          EXPECT_LE(own, (s.basis.points.row(k) - s.basis.points.row(o)).squaredNorm())
+              << "bump " << k << ", partition of " << R;
+      }
+    }
+    EXPECT_EQ(std::count(owner.begin(), owner.end(), -1), 0) << "partition of " << R;
+    at += R;
+  }
+  EXPECT_THROW((void)fingerprint_regions(s.basis, {1}), InvalidArgumentError);
+  EXPECT_THROW((void)fingerprint_regions(s.basis, {kMaxFingerprintRegions + 1}),
+               InvalidArgumentError);
+  // A basis of 8 bumps has no partition of 16: skipped.
+  const Center c = center_of_mass(s.original.V, s.original.F, s.carrier, CenterKind::Discrete);
+  EXPECT_TRUE(fingerprint_regions(
+                  fingerprint_bumps(s.original.V, s.original.F, s.carrier, c.point, 8), {16})
+                  .empty());
+  const Eigen::VectorXd ramp = Eigen::VectorXd::LinSpaced(K, 1, K);
+  const Eigen::VectorXd part = regional_reading(ramp, regions[0]);
+  for (int k = 0; k < K; ++k)
+    EXPECT_EQ(part(k), std::binary_search(regions[0].begin(), regions[0].end(), k) ? k + 1 : 0);
+  EXPECT_THROW((void)regional_reading(ramp, {K}), InvalidArgumentError);
+
+  // Three colluders' copies spliced along the partition of 3: each vertex from the copy of
+  // the nearest of the first 3 bump centers. A lone copy reads exactly (no ridge, no attack):
+  // b = c g, z = sqrt(K). Colluder j's field is then whole over its region's n_j bumps and
+  // absent elsewhere, where the others' signs are independent of its own: over the whole
+  // surface it scores (n_j + N(0, K - n_j)) / sqrt(K), about f z1 with f = n_j / K; over its
+  // region sqrt(n_j), 1 / sqrt(f) times more (1.7 for f = 1/3), within 10 % (bumps astride the
+  // border read a mix).
+  std::vector<Mesh> copies;
+  std::vector<Eigen::VectorXd> g;
+  for (int j = 0; j < 3; ++j) {
+    g.push_back(fingerprint_coefficients(s.key, 300 + j, K));
+    copies.push_back(s.original);
+    copies.back().V = add_fingerprint(s.original.V, s.original.V, s.basis, g[j], 1e-4);
+  }
+  Eigen::MatrixX3d P = s.original.V;
+  for (Eigen::Index i = 0; i < P.rows(); ++i) {
+    int nearest = 0;
+    for (int j = 1; j < 3; ++j)
+      if ((s.original.V.row(i) - s.basis.points.row(j)).squaredNorm() <
+          (s.original.V.row(i) - s.basis.points.row(nearest)).squaredNorm())
+        nearest = j;
+    P.row(i) = copies[nearest].V.row(i);
+  }
+  const Eigen::VectorXd b = read_fingerprint(s.basis, residual(s, P), counted(s));
+  std::vector<Eigen::VectorXd> readings{b};
+  for (const std::vector<int>& region : regions) readings.push_back(regional_reading(b, region));
+  const FingerprintScorer scorer(s.key, K, readings);
+  for (int j = 0; j < 3; ++j) {
+    const double whole = fingerprint_score(g[j], b);
+    const double best = scorer.best_z(300 + j, kFingerprintMarkFormat);
+    const double n = static_cast<double>(regions[2 + j].size());  // the partition of 3
+    RecordProperty(fmt::format("colluder_{}", j),
+                   fmt::format("{} bumps, whole z {:.2f}, best z {:.2f}", n, whole, best));
+    EXPECT_NEAR(whole, n / std::sqrt(K), 4 * std::sqrt((K - n) / K)) << "colluder " << j;
+    EXPECT_GE(best, 0.9 * std::sqrt(n)) << "colluder " << j;
+    EXPECT_GE(fingerprint_score(g[j], readings[3 + j]), 0.9 * std::sqrt(n)) << "colluder " << j;
+  }
+  // Innocents: their best over the 10 readings beyond z at most 10 times the bound of one,
+  // plus 5 standard deviations.
+  const int innocents = 100000;
+  for (const double level : {2.5, 3.0, 3.5}) {
+    int beyond = 0;
+    for (int id = 0; id < innocents; ++id)
+      beyond +=
+          scorer.best_z(10000 + static_cast<std::uint64_t>(id), kFingerprintMarkFormat) >= level;
+    const double bound =
+        innocents * std::min(1.0, static_cast<double>(readings.size()) *
+                                      fingerprint_p_value(level, kFingerprintMarkFormat));
+    EXPECT_LE(beyond, bound + 5 * std::sqrt(bound) + 1) << "z >= " << level;
+  }
+  // The weighted Bonferroni trace applies (the whole reading 0.8 of the budget, the 9 regional
+  // ones 0.2): its p is at most u for at most a fraction u of the innocents, plus 5 standard
+  // deviations; and it is the formula, computed here from the normal tail.
+  std::vector<double> p;
+  for (int id = 0; id < innocents; ++id) {
+    const auto [whole, regional] =
+        scorer.best_z_split(10000 + static_cast<std::uint64_t>(id), kFingerprintMarkFormat, 1);
+    p.push_back(fingerprint_p_value(whole, 1, regional, 9, 0.2, kFingerprintMarkFormat));
+    if (id < 100) {
+      const double c = rademacher_tail_factor();
+      const double tail_whole = 0.5 * std::erfc(whole / std::sqrt(2.0));
+      const double tail_regional = 0.5 * std::erfc(regional / std::sqrt(2.0));
+      EXPECT_NEAR(p.back(), std::min({1.0, c * tail_whole / 0.8, c * tail_regional * 9 / 0.2}),
+                  1e-12 * p.back())
+          << "ID " << 10000 + id;
+      EXPECT_EQ(std::max(whole, regional),
+                scorer.best_z(10000 + static_cast<std::uint64_t>(id), kFingerprintMarkFormat));
+    }
+  }
+  for (const double u : {0.1, 0.01, 0.001}) {
+    const auto below = std::count_if(p.begin(), p.end(), [&](double x) { return x <= u; });
+    const double bound = innocents * u;
+    EXPECT_LE(static_cast<double>(below), bound + 5 * std::sqrt(bound) + 1) << "p <= " << u;
+  }
+  EXPECT_EQ(fingerprint_p_value(3, 2, -INFINITY, 0, 0.2, kFingerprintMarkFormat),
+            std::min(1.0, 2 * fingerprint_p_value(3, kFingerprintMarkFormat)));
+  for (const double share : {0.0, 1.0, std::nan("")})
+    EXPECT_THROW((void)fingerprint_p_value(3, 1, 3, 9, share, kFingerprintMarkFormat),
+                 InvalidArgumentError);
+  EXPECT_THROW((void)fingerprint_p_value(3, 0, 3, 9, 0.2, kFingerprintMarkFormat),
+               InvalidArgumentError);
+}
+
 TEST(Fingerprint, KeepingAHistogramLeavesItsBinMeansAndRangeAndReadsBackAsThePlainField) {
   const Scene s = setup("elephant.off");
   const Histogram h = build_histogram(s.original.V, s.carrier, s.basis.center, 64);

@@ -79,6 +79,7 @@
 #include "meshmark/core/enum_names.h"
 #include "meshmark/core/mesh.h"
 #include "meshmark/forensics/registry.h"
+#include "meshmark/forensics/trace.h"
 #include "meshmark/mark/calibrate.h"
 #include "meshmark/protocol/key.h"
 
@@ -155,6 +156,9 @@ struct CampaignConfig {
   /// trace, "fingerprint_rms": the fingerprint's RMS as a fraction of the diagonal
   /// (FingerprintOptions::rms, what issued copies get), in (0, 0.01]
   double fingerprint_rms = 1e-4;
+  /// trace, "fingerprint_regions": the partitions trace also reads the fingerprint over
+  /// (TraceOptions::fingerprint_regions; [] reads the whole surface alone)
+  std::vector<int> fingerprint_regions = TraceOptions{}.fingerprint_regions;
   double spread = 0.25;  ///< trace: keyed strength spread (watermark.h)
 };
 
@@ -222,6 +226,10 @@ struct TrialRow {
   std::string blind_outcome;     ///< trace_outcome_name of read_id's ID (none when no ID)
   std::string blind_id;          ///< the ID read_id decoded, or why none
   double trace_seconds = 0;      ///< trace(), registration included
+  /// Candidates trace scored that are not leakers (0: not recorded, rows written before
+  /// 2026-12-07): each an innocent's test, none of which may be named.
+  int innocents = 0;
+  double innocent_p = 1;  ///< the smallest corrected p among them (1 when there are none)
 };
 
 /// One JSON line (no newline) and back. from_json throws InvalidInputError on a bad line.
@@ -258,6 +266,8 @@ struct TraceSummaryRow {
   int blind_right = 0, blind_none = 0, blind_wrong = 0;
   double worst_right_p = 0;  ///< largest corrected p among trace's right trials (0: none)
   double median_trace_seconds = 0;
+  std::int64_t innocents = 0;  ///< innocent candidates scored over the trials (TrialRow)
+  double innocent_p = 1;       ///< the smallest corrected p among them (1: none recorded)
 };
 
 /// The outcome counts, in the config's order of attacks and strengths, single copies first,

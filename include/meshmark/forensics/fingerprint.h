@@ -19,6 +19,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "meshmark/carrier/center.h"
@@ -219,6 +220,24 @@ Eigen::VectorXd read_fingerprint_at(const FingerprintBasis& basis, const Eigen::
                                     const std::vector<std::uint8_t>& measured,
                                     const Histogram* keep = nullptr, double ridge = 0);
 
+/// The most regions a partition of fingerprint_regions may have.
+inline constexpr int kMaxFingerprintRegions = 64;
+
+/// The regions trace also reads a fingerprint over (docs/forensics.md, "Reading by regions"): for
+/// each count R in `partitions`, the K bumps cut into R regions, each bump in the region of the
+/// nearest of the first R bump centers (Euclidean distance between centers, ties to the lower
+/// index; farthest-point sampling put those R far apart). Each region lists its bumps in
+/// increasing order (none is empty); a count above K is skipped (an original too small for
+/// it). Depends on the basis alone, on no leak and no candidate, so a
+/// reading restricted to a region (regional_reading) keeps an innocent's score within its null.
+/// \throw InvalidArgumentError for a count outside [2, kMaxFingerprintRegions].
+std::vector<std::vector<int>> fingerprint_regions(const FingerprintBasis& basis,
+                                                  const std::vector<int>& partitions);
+
+/// b over one region: b's coefficients of the region's bumps, 0 for the others.
+/// \throw InvalidArgumentError for a bump of the region outside [0, b.size()).
+Eigen::VectorXd regional_reading(const Eigen::VectorXd& b, const std::vector<int>& region);
+
 /// A candidate's score: g.b / |b| (0 when b is 0). Exactly standard normal when g is a standard
 /// normal vector independent of b.
 double fingerprint_score(const Eigen::VectorXd& g, const Eigen::VectorXd& b);
@@ -236,6 +255,19 @@ double rademacher_tail_factor();
 /// format 4's signs (a bound that holds whatever the reading).
 /// \throw InvalidArgumentError for a format without a fingerprint.
 double fingerprint_p_value(double z, int format);
+
+/// The p-value of a candidate's fingerprint read over two families of readings: `whole`
+/// readings of the whole surface whose best score is z_whole, and `regional` readings over
+/// regions (fingerprint_regions, regional_reading) whose best is z_regional. A weighted
+/// Bonferroni: the regions get the share `share` of the false-alarm budget and the whole the
+/// rest, min(1, p(z_whole) whole / (1 - share), p(z_regional) regional / share) with p =
+/// fingerprint_p_value. For an innocent each reading's p is conservative, so P(p <= u) <=
+/// (1 - share) u + share u = u. Without regional readings (regional 0), min(1, p(z_whole)
+/// whole): plain Bonferroni.
+/// \throw InvalidArgumentError for share outside (0, 1), no whole reading, or a format without
+/// a fingerprint.
+double fingerprint_p_value(double z_whole, std::size_t whole, double z_regional,
+                           std::size_t regional, double share, int format);
 
 /// One p-value from a candidate's two marks, p_bins (the histogram mark's codeword test) and
 /// p_fingerprint (fingerprint_p_value), both conservative: P(p <= u) <= u for an innocent.
@@ -262,6 +294,10 @@ class FingerprintScorer {
   /// The best z of buyer id's fingerprint over the readings (-infinity without readings).
   /// \throw InvalidArgumentError for a format without a fingerprint.
   double best_z(std::uint64_t id, int format) const;
+  /// The best z over the readings before `split` and over those from `split` on, from one draw
+  /// of the buyer's coefficients (-infinity for a part without readings).
+  /// \throw InvalidArgumentError as best_z.
+  std::pair<double, double> best_z_split(std::uint64_t id, int format, std::size_t split) const;
   /// The number of readings.
   std::size_t readings() const { return readings_.size(); }
 
