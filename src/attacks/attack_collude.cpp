@@ -9,6 +9,7 @@
 
 #include "meshmark/attacks/attack.h"
 #include "meshmark/core/error.h"
+#include "meshmark/core/mesh.h"
 #include "meshmark/core/random.h"
 
 namespace meshmark {
@@ -40,6 +41,8 @@ void check_copies(const std::vector<Mesh>& copies) {
       mismatch(c, fmt::format("copy {} has other faces than {} ({} and {} faces)", j + 1, one,
                               c.F.rows(), first.F.rows()));
   }
+  for (std::size_t j = 0; j < copies.size(); ++j)  // finite positions, faces in range
+    validate_mesh(copies[j], fmt::format("copy {}", j + 1));
 }
 
 // The weights normalized to sum 1 (equal when none are given).

@@ -195,6 +195,11 @@ void read_trace_settings(const std::string& file, const json& j, CampaignConfig&
                               n.dump(), kMaxFingerprintRegions));
       c.fingerprint_regions.push_back(n.get<int>());
     }
+    try {
+      check_fingerprint_partitions(c.fingerprint_regions);
+    } catch (const InvalidArgumentError& e) {
+      bad(file, fmt::format("\"fingerprint_regions\": {}", e.what()));
+    }
     if (!c.fingerprint) bad(file, "\"fingerprint_regions\" needs \"fingerprint\": true");
   }
   c.spread = j.value("spread", c.spread);

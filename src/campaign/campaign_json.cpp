@@ -77,6 +77,7 @@ std::string row_to_json(const TrialRow& r) {
     for (const char* f : {"trace_all_named", "innocents", "innocent_p"}) j.erase(f);
   }
   if (r.coalition.empty()) j.erase("coalition");
+  if (r.innocents == 0) j.erase("innocents"), j.erase("innocent_p");  // as rows of older builds
   return j.dump();
 }
 

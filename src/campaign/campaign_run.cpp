@@ -273,6 +273,14 @@ void write_results(const CampaignConfig& config, const Paths& p, CampaignRunResu
 }  // namespace
 
 CampaignRunResult run_campaign(const CampaignConfig& config, const CampaignRunOptions& o) {
+  // What load_campaign checks in a file, checked again for a config built in code: a coalition
+  // takes its colluders among the copies issued.
+  if (config.trace)
+    for (const CampaignCoalition& k : config.coalitions)
+      if (k.size < 2 || k.size > 64 || k.size > config.copies)
+        throw InvalidArgumentError(
+            fmt::format("the coalition \"{}\" needs 2 to 64 colluders among the {} copies issued",
+                        coalition_name(k), config.copies));
   const auto start = Clock::now();
   const detail::ThreadBudgetScope budget(o.jobs);
   auto barrier = [&] {

@@ -131,8 +131,12 @@ void judge(const Mesh& attacked, const Mesh& original, const std::vector<IssuedC
   const auto is_leaker = [&](std::uint64_t id) {
     return std::find(leakers.begin(), leakers.end(), id) != leakers.end();
   };
-  row.innocents = static_cast<int>(std::count_if(
-      copies.begin(), copies.end(), [&](const IssuedCopy& copy) { return !is_leaker(copy.id); }));
+  // None when trace scored nobody (a failed registration, no candidate).
+  const bool scored = t.status == TraceStatus::Named || t.status == TraceStatus::NoBuyer;
+  row.innocents = !scored ? 0
+                          : static_cast<int>(std::count_if(
+                                copies.begin(), copies.end(),
+                                [&](const IssuedCopy& copy) { return !is_leaker(copy.id); }));
   row.innocent_p = 1;
   for (const CandidateScore& s : t.ranking)
     if (!is_leaker(s.copy.id)) {

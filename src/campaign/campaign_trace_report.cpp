@@ -12,6 +12,7 @@
 #include "campaign/campaign_parts.h"
 #include "meshmark/campaign/campaign.h"
 #include "meshmark/forensics/fingerprint.h"
+#include "meshmark/forensics/trace.h"
 #include "meshmark/io/io.h"
 #include "plot/svg_markup.h"
 #include "plot/svg_plot.h"
@@ -222,14 +223,16 @@ std::string write_trace_report(const std::string& out_dir, const CampaignConfig&
       "coalition's colluders named.\n\n";
   std::int64_t innocents = 0;
   double innocent_p = 1;
+  std::size_t counted = 0;  // trials that recorded their innocents (not rows of older builds)
   for (const TrialRow& r : rows)
-    if (r.innocents > 0) innocents += r.innocents, innocent_p = std::min(innocent_p, r.innocent_p);
+    if (r.innocents > 0)
+      ++counted, innocents += r.innocents, innocent_p = std::min(innocent_p, r.innocent_p);
   const std::string innocents_text =
       innocents > 0 ? fmt::format(
-                          "Trace scored {} innocent candidates over the trials (every candidate "
-                          "but the leakers); the smallest corrected p among them was {:.2g}, "
-                          "against the threshold of 1e-6.\n\n",
-                          innocents, innocent_p)
+                          "In {} of the {} trials, trace scored {} innocent candidates (every "
+                          "candidate but the leakers); the smallest corrected p among them was "
+                          "{:.2g}, against the threshold of {:g}.\n\n",
+                          counted, rows.size(), innocents, innocent_p, TraceOptions{}.threshold)
                     : "";
   if (wrong.empty())
     md += fmt::format(
@@ -237,8 +240,8 @@ std::string write_trace_report(const std::string& out_dir, const CampaignConfig&
         "decoder never decoded an innocent's ID. {}",
         rows.size(), innocents_text.empty() ? "\n\n" : innocents_text);
   else
-    md += fmt::format("## WRONG OUTCOMES: {} trials named an innocent\n\n{}\n", wrong.size(),
-                      trial_lines(wrong, 200));
+    md += fmt::format("## WRONG OUTCOMES: {} trials named an innocent\n\n{}{}\n", wrong.size(),
+                      innocents_text, trial_lines(wrong, 200));
   md += "## Right / none / wrong per attack, trace beside the blind decoder\n\n";
   md += "![outcomes](figure-trace.svg)\n\n" + rates_table(summary) + "\n";
   md += "## Per model and variant\n\nThe leaker's copy of payload 0 as issued.\n\n" +

@@ -745,14 +745,22 @@ Eigen::VectorXd read_fingerprint_at(const FingerprintBasis& basis, const Eigen::
   return equations.solve(ridge);
 }
 
-std::vector<std::vector<int>> fingerprint_regions(const FingerprintBasis& basis,
-                                                  const std::vector<int>& partitions) {
-  std::vector<std::vector<int>> regions;
-  for (const int r : partitions) {
-    if (r < 2 || r > kMaxFingerprintRegions)
+void check_fingerprint_partitions(const std::vector<int>& partitions) {
+  for (auto it = partitions.begin(); it != partitions.end(); ++it) {
+    if (*it < 2 || *it > kMaxFingerprintRegions)
       throw InvalidArgumentError(
           fmt::format("a fingerprint is read over 2 to {} regions at a time, not {}",
-                      kMaxFingerprintRegions, r));
+                      kMaxFingerprintRegions, *it));
+    if (std::find(partitions.begin(), it, *it) != it)
+      throw InvalidArgumentError(fmt::format("the partition of {} regions is listed twice", *it));
+  }
+}
+
+std::vector<std::vector<int>> fingerprint_regions(const FingerprintBasis& basis,
+                                                  const std::vector<int>& partitions) {
+  check_fingerprint_partitions(partitions);
+  std::vector<std::vector<int>> regions;
+  for (const int r : partitions) {
     if (r > basis.functions || basis.points.rows() < r) continue;
     std::vector<std::vector<int>> cut(static_cast<std::size_t>(r));
     for (int k = 0; k < basis.functions && k < basis.points.rows(); ++k) {

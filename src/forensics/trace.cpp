@@ -394,8 +394,8 @@ LeakResiduals leak_residuals(const Mesh& original, const Smoother& on_original,
 // score_group gives a candidate fingerprint_p_value of its best whole and best regional z),
 // with the bumps of mark `format`. The original's bumps and bins are evaluated at the crossings'
 // places on it. No basis when the original has too few counted vertices for one. Like the bins, the
-// readings use no candidate's coefficients, so an innocent's score in each is exactly standard
-// normal.
+// readings use no candidate's coefficients, so an innocent's score in each is within its null
+// (fingerprint_p_value: exactly standard normal for format 3, bounded for signs).
 std::optional<FingerprintBasis> fingerprint_reading(
     const Mesh& original, const std::vector<std::uint8_t>& carrier,
     const Eigen::MatrixX3d& reference, bool processed, const Eigen::MatrixX3d& VL,
@@ -439,9 +439,12 @@ std::optional<FingerprintBasis> fingerprint_reading(
   for (std::size_t w = 0; w < whole; ++w)
     for (const std::vector<int>& region : regions)
       readings.push_back(regional_reading(readings[w], region));
+  std::vector<int> used;  // the partitions the basis has enough bumps for
+  for (const int count : partitions)
+    if (count <= basis.functions) used.push_back(count);
   if (!regions.empty())
     taken.push_back(fmt::format("each also over {} regions (partitions of {})", regions.size(),
-                                fmt::join(partitions, ", ")));
+                                fmt::join(used, ", ")));
   processing = fmt::format("{}", fmt::join(taken, "; "));
   return basis;
 }
@@ -664,11 +667,7 @@ TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
   if (!(o.fingerprint_region_share > 0 && o.fingerprint_region_share < 1))
     throw InvalidArgumentError(
         fmt::format("the regions' share {} is outside (0, 1)", o.fingerprint_region_share));
-  for (const int regions : o.fingerprint_regions)
-    if (regions < 2 || regions > kMaxFingerprintRegions)
-      throw InvalidArgumentError(
-          fmt::format("the fingerprint is read over 2 to {} regions at a time, not {}",
-                      kMaxFingerprintRegions, regions));
+  check_fingerprint_partitions(o.fingerprint_regions);
   TraceResult r;
   using Clock = std::chrono::steady_clock;
   auto since = [](Clock::time_point t) {

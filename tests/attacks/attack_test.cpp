@@ -182,6 +182,8 @@ TEST(Attack, ColludersMergeCopiesVertexByVertexOrByRegion) {
   Mesh flipped = copies[2];
   flipped.source_path.clear();
   std::swap(flipped.F(0, 0), flipped.F(0, 1));
+  Mesh broken = copies[1];
+  broken.V(5, 1) = NAN;
   const std::vector<std::pair<std::function<Mesh()>, std::string>> refused = {
       {[&] { return attack_collude({copies[0]}, {}); }, "at least 2 copies, got 1"},
       {[&] {
@@ -192,6 +194,10 @@ TEST(Attack, ColludersMergeCopiesVertexByVertexOrByRegion) {
          return attack_collude({copies[0], copies[1], flipped}, {});
        },
        "copy 3 has other faces than copy 1"},
+      {[&] {
+         return attack_collude({copies[0], broken}, {});
+       },
+       "copy 2: vertex 5 has a non-finite coordinate"},
       {[&] {
          return attack_collude(copies, {CollusionKind::Average, {1, 1}});
        },

@@ -163,6 +163,28 @@ TEST(CampaignRun, RefusesADirectoryOfAnotherCampaign) {
   EXPECT_FALSE(fs::exists(dir + "/out/rows.jsonl"));
 }
 
+// A config built in code is checked as a campaign file is: a coalition larger than the copies
+// issued (or than 64) is refused before anything is written.
+TEST(CampaignRun, RefusesACoalitionLargerThanTheCopiesIssued) {
+  MESHMARK_REQUIRE(test::data_mesh("spot.obj"), "spot.obj");
+  const std::string dir = test::scratch_dir();
+  CampaignConfig config = small_campaign(dir);
+  config.trace = true;
+  config.copies = 4;
+  for (const int size : {5, 65, 1}) {
+    config.coalitions = {CampaignCoalition{CollusionKind::Average, false, size}};
+    try {
+      run_campaign(config, options_for(dir + "/out"));
+      ADD_FAILURE() << "a coalition of " << size << " among 4 copies was run";
+    } catch (const InvalidArgumentError& e) {
+      EXPECT_NE(std::string(e.what()).find("needs 2 to 64 colluders among the 4 copies issued"),
+                std::string::npos)
+          << e.what();
+    }
+    EXPECT_FALSE(fs::exists(dir + "/out")) << size;
+  }
+}
+
 // Journal lines as earlier versions wrote them, read and written back to the same JSON.
 TEST(CampaignRun, JournalLinesKeepTheirShape) {
   const std::string row =

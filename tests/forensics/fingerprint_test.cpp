@@ -515,6 +515,16 @@ TEST(Fingerprint, ReadingByRegionsFindsSplicedColludersWholeAndKeepsInnocentsWit
   EXPECT_THROW((void)fingerprint_regions(s.basis, {1}), InvalidArgumentError);
   EXPECT_THROW((void)fingerprint_regions(s.basis, {kMaxFingerprintRegions + 1}),
                InvalidArgumentError);
+  EXPECT_THROW((void)fingerprint_regions(s.basis, {3, 2, 3}), InvalidArgumentError);
+  // trace refuses them too, and a share of the budget outside (0, 1), before any work.
+  for (const auto& [partitions, share] : std::vector<std::pair<std::vector<int>, double>>{
+           {{2, 2}, 0.2}, {{1}, 0.2}, {{2, 3, 4}, 0.0}, {{2, 3, 4}, 1.0}}) {
+    TraceOptions bad;
+    bad.fingerprint_regions = partitions;
+    bad.fingerprint_region_share = share;
+    EXPECT_THROW((void)trace(s.original, s.original, {}, s.key, bad), InvalidArgumentError)
+        << share;
+  }
   // A basis of 8 bumps has no partition of 16: skipped.
   const Center c = center_of_mass(s.original.V, s.original.F, s.carrier, CenterKind::Discrete);
   EXPECT_TRUE(fingerprint_regions(
@@ -1110,6 +1120,40 @@ TEST(Fingerprint, IssuedCopiesNameTheirBuyerAfterAveragingResamplingAndRemarking
     for (const CandidateScore& n : merged.named)
       EXPECT_TRUE(n.copy.id >= 1003 && n.copy.id <= 1005) << name << ": an innocent: " << n.copy.id;
     RecordProperty("colluders_named_" + name, std::to_string(merged.named.size()));
+  }
+  // The splice read without regions and with them: each candidate's fingerprint p is, from the
+  // scores of the two traces (the same readings of the whole), min(1, P(z) n) without and the
+  // weighted Bonferroni with (n readings of the whole, 9 n regional ones, a fifth of the budget
+  // to the latter; P the format's p of one reading).
+  TraceOptions whole_only;
+  whole_only.fingerprint_regions = {};
+  whole_only.ranking = 0;
+  TraceOptions by_region;
+  by_region.ranking = 0;
+  const TraceResult plain = trace_issued(spliced, O, content_hash(read_file(original)),
+                                         settings.registry, *settings.key, whole_only);
+  const TraceResult regional = trace_issued(spliced, O, content_hash(read_file(original)),
+                                            settings.registry, *settings.key, by_region);
+  ASSERT_EQ(plain.ranking.size(), requests.size());
+  ASSERT_EQ(regional.ranking.size(), requests.size());
+  const double n =
+      plain.fingerprint_processing.find("processed original") != std::string::npos ? 2 : 1;
+  EXPECT_NE(
+      regional.fingerprint_processing.find("each also over 9 regions (partitions of 2, 3, 4)"),
+      std::string::npos)
+      << regional.fingerprint_processing;
+  const auto P = [](double z) { return fingerprint_p_value(z, kFingerprintMarkFormat); };
+  for (const CandidateScore& w : plain.ranking) {
+    const auto it = std::find_if(regional.ranking.begin(), regional.ranking.end(),
+                                 [&](const CandidateScore& c) { return c.copy.id == w.copy.id; });
+    ASSERT_NE(it, regional.ranking.end()) << w.copy.id;
+    EXPECT_NEAR(w.fingerprint_p, std::min(1.0, P(w.fingerprint_z) * n), 1e-12) << w.copy.id;
+    EXPECT_GE(it->fingerprint_z, w.fingerprint_z) << w.copy.id;
+    const double expected =
+        it->fingerprint_z > w.fingerprint_z
+            ? std::min({1.0, P(w.fingerprint_z) * n / 0.8, P(it->fingerprint_z) * 9 * n / 0.2})
+            : std::min(1.0, P(w.fingerprint_z) * n / 0.8);
+    EXPECT_NEAR(it->fingerprint_p, expected, 1e-12 + 1e-9 * expected) << w.copy.id;
   }
   // Resampled: decimated to 30 % (its faces cut corners between vertices on the marked surface),
   // and smoothed 10 times then decimated to 30 %. The buyer named by the fingerprint (read at the

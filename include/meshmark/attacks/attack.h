@@ -178,7 +178,8 @@ struct CollusionOptions {
 /// copy j's positions. The result has the first copy's faces and file image. Deterministic for
 /// a seed (Splice's first vertex; Average does not use it).
 /// \throw InvalidArgumentError for fewer than 2 copies, copies whose vertex counts or faces
-/// differ (naming the copy), weights not one per copy, negative, not finite or summing to 0,
+/// differ (naming the copy), a copy validate_mesh refuses (a non-finite coordinate, a face
+/// index out of range), weights not one per copy, negative, not finite or summing to 0,
 /// or weights given to a Splice.
 Mesh attack_collude(const std::vector<Mesh>& copies, const CollusionOptions& options,
                     std::uint64_t seed = 0);

@@ -223,6 +223,10 @@ Eigen::VectorXd read_fingerprint_at(const FingerprintBasis& basis, const Eigen::
 /// The most regions a partition of fingerprint_regions may have.
 inline constexpr int kMaxFingerprintRegions = 64;
 
+/// Throws InvalidArgumentError unless every count of `partitions` is in
+/// [2, kMaxFingerprintRegions] and none is listed twice (a second would only cost budget).
+void check_fingerprint_partitions(const std::vector<int>& partitions);
+
 /// The regions trace also reads a fingerprint over (docs/forensics.md, "Reading by regions"): for
 /// each count R in `partitions`, the K bumps cut into R regions, each bump in the region of the
 /// nearest of the first R bump centers (Euclidean distance between centers, ties to the lower
@@ -230,7 +234,7 @@ inline constexpr int kMaxFingerprintRegions = 64;
 /// increasing order (none is empty); a count above K is skipped (an original too small for
 /// it). Depends on the basis alone, on no leak and no candidate, so a
 /// reading restricted to a region (regional_reading) keeps an innocent's score within its null.
-/// \throw InvalidArgumentError for a count outside [2, kMaxFingerprintRegions].
+/// \throw InvalidArgumentError as check_fingerprint_partitions.
 std::vector<std::vector<int>> fingerprint_regions(const FingerprintBasis& basis,
                                                   const std::vector<int>& partitions);
 

@@ -65,16 +65,18 @@ struct TraceOptions {
   /// (docs/forensics.md, "Reading the fingerprint").
   double fingerprint_ridge = 1.0;
   /// Besides the whole surface, the fingerprint is read over the regions of each of these
-  /// partitions (fingerprint_regions: 2, 3 and 4 regions by default, 9 regional readings): a
-  /// splice of copies keeps each colluder's field whole over its part of the surface, where a
-  /// reading of the whole dilutes it. Empty: the whole alone (docs/forensics.md, "Reading by
-  /// regions").
+  /// partitions (fingerprint_regions: 2, 3 and 4 regions by default, 9 regional readings per
+  /// reading of the whole), each count at most once: a splice of copies keeps each colluder's
+  /// field whole over its part of the surface, where a reading of the whole dilutes it. Empty:
+  /// the whole alone (docs/forensics.md, "Reading by regions": measured on splices cut the way
+  /// these regions are, around far-apart points; other cuts are not measured).
   std::vector<int> fingerprint_regions = {2, 3, 4};
   /// The share of the false-alarm budget the regional readings get, in (0, 1): a candidate's
   /// fingerprint p is the smaller of its best whole score's p times the whole readings over
   /// 1 - share and its best regional score's p times the regional readings over share
-  /// (fingerprint_p_value, a weighted Bonferroni). 0.2 costs an average of copies, which the
-  /// whole reads best, a factor 1.25 and a splice a factor 45 (9 regions).
+  /// (fingerprint_p_value, a weighted Bonferroni). With one reading of the whole and 9 regions,
+  /// 0.2 costs an average of copies, which the whole reads best, a factor 1.25 and a splice a
+  /// factor 45 (2.5 and 90 with two readings of the whole: a processed original).
   double fingerprint_region_share = 0.2;
   /// How many of the best candidates TraceResult::ranking keeps (0: every one); it always
   /// keeps every candidate below the threshold and the copy whose output_hash is
@@ -98,10 +100,10 @@ struct CandidateScore {
                            ///< times their number; for a copy with a fingerprint (mark formats
                            ///< 3 and 4), twice the smaller of that and fingerprint_p
   double corrected_p = 1;  ///< min(1, p_value x candidates)
-  /// The fingerprint's best score over the readings (fingerprint.h: about standard normal for
-  /// an innocent) and its p-value (fingerprint_p_value over the readings of the whole and by
-  /// region, TraceOptions::fingerprint_region_share), for a copy issued with one; NaN and 1
-  /// otherwise.
+  /// The fingerprint's best score over the readings (fingerprint.h: each reading's about
+  /// standard normal for an innocent; this is the largest of them) and its p-value
+  /// (fingerprint_p_value over the readings of the whole and by region,
+  /// TraceOptions::fingerprint_region_share), for a copy issued with one; NaN and 1 otherwise.
   double fingerprint_z = std::numeric_limits<double>::quiet_NaN();
   double fingerprint_p = 1;
   /// The row's authentication code under the trace's key (check_row): an Edited row is
