@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numeric>
 #include <optional>
@@ -180,27 +181,67 @@ Similarity icp_plane(const Eigen::MatrixX3d& S, const SurfaceIndex& original,
 
 namespace {
 
+// The area of the faces F over V.
+double area(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
+  double sum = 0;
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    sum += 0.5 * (V.row(F(f, 1)) - V.row(F(f, 0))).cross(V.row(F(f, 2)) - V.row(F(f, 0))).norm();
+  return sum;
+}
+
+// The median length of the edges of the faces F over V (0 without faces).
+double median_edge(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
+  std::vector<double> length;
+  length.reserve(static_cast<std::size_t>(3 * F.rows()));
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k)
+      length.push_back((V.row(F(f, k)) - V.row(F(f, (k + 1) % 3))).norm());
+  if (length.empty()) return 0;
+  std::nth_element(length.begin(), length.begin() + static_cast<std::ptrdiff_t>(length.size() / 2),
+                   length.end());
+  return length[length.size() / 2];
+}
+
 // Registration's starts besides the identity (first): the principal axes of the leak's points
-// matched to the original's in the four proper ways, at the scale of their spreads.
+// matched to the original's in the four proper ways, at the scale of their spreads. With
+// `partial`, the starts for a leak that is part of the original (cropped), whose spread and axes
+// are not the original's: each of the 24 proper ways of matching the axes (a part may order its
+// axes otherwise), at the spreads' scale and at `edge_scale` (the ratio of the meshes' median
+// edge lengths, which cropping keeps), the first four left out.
 std::vector<Similarity> principal_axis_starts(const Eigen::MatrixX3d& leak,
-                                              const Eigen::MatrixX3d& original) {
-  std::vector<Similarity> starts(1);
+                                              const Eigen::MatrixX3d& original, bool partial,
+                                              double edge_scale) {
+  std::vector<Similarity> starts;
+  if (!partial) starts.resize(1);
   Eigen::Vector3d mean_l, mean_o;
   Eigen::Matrix3d cov_l, cov_o;
   moments(leak, mean_l, cov_l);
   moments(original, mean_o, cov_o);
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> el(cov_l), eo(cov_o);
-  const double scale = std::sqrt(cov_o.trace() / std::max(cov_l.trace(), 1e-300));
-  for (const Eigen::Vector3d& signs : {Eigen::Vector3d(1, 1, 1), Eigen::Vector3d(1, -1, -1),
-                                       Eigen::Vector3d(-1, 1, -1), Eigen::Vector3d(-1, -1, 1)}) {
-    Eigen::Matrix3d R = eo.eigenvectors() * signs.asDiagonal() * el.eigenvectors().transpose();
-    if (R.determinant() < 0) R = -R;  // eigenvector bases may be left-handed
-    Similarity s;
-    s.rotation = R;
-    s.scale = scale;
-    s.translation = mean_o - scale * R * mean_l;
-    starts.push_back(s);
-  }
+  const double spread_scale = std::sqrt(cov_o.trace() / std::max(cov_l.trace(), 1e-300));
+  std::vector<double> scales{spread_scale};
+  if (partial && std::isfinite(edge_scale) && edge_scale > 0) scales.push_back(edge_scale);
+  std::array<int, 3> axes{0, 1, 2};
+  int order = 0;
+  do {
+    Eigen::Matrix3d P = Eigen::Matrix3d::Zero();  // leak axis axes[k] to original axis k
+    for (int k = 0; k < 3; ++k) P(k, axes[k]) = 1;
+    for (const Eigen::Vector3d& signs : {Eigen::Vector3d(1, 1, 1), Eigen::Vector3d(1, -1, -1),
+                                         Eigen::Vector3d(-1, 1, -1), Eigen::Vector3d(-1, -1, 1)}) {
+      Eigen::Matrix3d R =
+          eo.eigenvectors() * signs.asDiagonal() * P * el.eigenvectors().transpose();
+      if (R.determinant() < 0) R = -R;  // eigenvector bases may be left-handed
+      for (std::size_t k = 0; k < scales.size(); ++k) {
+        if (partial && order == 0 && k == 0) continue;  // the first four, already tried
+        Similarity s;
+        s.rotation = R;
+        s.scale = scales[k];
+        s.translation = mean_o - scales[k] * R * mean_l;
+        starts.push_back(s);
+      }
+    }
+    ++order;
+  } while (partial && std::next_permutation(axes.begin(), axes.end()));
   return starts;
 }
 
@@ -298,7 +339,7 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
       static_cast<Eigen::Index>(std::count(used_l.begin(), used_l.end(), kCounted)), 3);
   for (Eigen::Index i = 0, k = 0; i < VL.rows(); ++i)
     if (used_l[i] == kCounted) all_l.row(k++) = VL.row(i);
-  std::vector<Similarity> starts = principal_axis_starts(all_l, PO);
+  std::vector<Similarity> starts = principal_axis_starts(all_l, PO, false, 0);
   const SurfaceIndex index(VO, FO);
   RegistrationResult best;
   best.residual = std::numeric_limits<double>::infinity();
@@ -341,37 +382,57 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
   }
   // The starts in order of promise: each is run for a few loose steps on a coarse subset (the
   // first rows of S are a random subset of it) and ranked by its residual there.
-  std::vector<std::pair<double, Similarity>> ranked;
-  const Eigen::Index coarse = std::min<Eigen::Index>(S.rows(), 200);
-  for (const Similarity& start : starts) {
-    double rms = 0;
-    int steps = 0;
-    const Similarity T =
-        near_frame ? start : refine(S.topRows(coarse), start, 12, 1e-4, rms, steps);
-    ranked.emplace_back(rms, T);
-  }
-  std::stable_sort(ranked.begin(), ranked.end(),
-                   [](const auto& a, const auto& b) { return a.first < b.first; });
-  for (std::size_t k = 0; k < ranked.size(); ++k) {
-    const Similarity& from = ranked[k].second;
-    // Point to point until near (on 300 samples), then point to plane with every sample (point
-    // to point creeps along the surface).
-    double rms = 0;
-    int steps = 0, more = 0;
-    const Similarity near =
-        refine(S.topRows(std::min<Eigen::Index>(S.rows(), 300)), from, 60, 1e-5, rms, steps);
-    const Similarity T = icp_plane(S, index, VO, FO, near, o, o.iterations, 1e-6, rms, more);
-    steps += more;
-    if (rms / diagonal < (near_frame ? 0.5 : 1.0) * best.residual) {
-      best.transform = T;
-      best.residual = rms / diagonal;
-      best.iterations = std::max(steps, 1);
+  const auto try_starts = [&](const std::vector<Similarity>& tried, bool part) {
+    std::vector<std::pair<double, Similarity>> ranked;
+    const Eigen::Index coarse = std::min<Eigen::Index>(S.rows(), 200);
+    for (const Similarity& start : tried) {
+      double rms = 0;
+      int steps = 0;
+      const Similarity T =
+          near_frame ? start
+          : part     ? icp(S.topRows(coarse), index, start, o, false, 12, 1e-4, rms, steps)
+                     : refine(S.topRows(coarse), start, 12, 1e-4, rms, steps);
+      ranked.emplace_back(rms, T);
     }
-    // Registered well enough, or the other starts were far worse on the coarse subset (a
-    // noisy leak cannot get below its noise): the other starts cannot matter.
-    if (best.residual <= 1e-3 ||
-        (k + 1 < ranked.size() && ranked[k + 1].first / diagonal > 3 * best.residual))
-      break;
+    std::stable_sort(ranked.begin(), ranked.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    // A part's starts: the 8 best of the coarse ranking refined, each (a free scale can fit a
+    // part onto a patch closely, so no start is ruled out by another's residual).
+    const std::size_t refined = part ? std::min<std::size_t>(8, ranked.size()) : ranked.size();
+    for (std::size_t k = 0; k < refined; ++k) {
+      const Similarity& from = ranked[k].second;
+      // Point to point until near (on 300 samples), then point to plane with every sample (point
+      // to point creeps along the surface).
+      double rms = 0;
+      int steps = 0, more = 0;
+      const Similarity near =
+          refine(S.topRows(std::min<Eigen::Index>(S.rows(), 300)), from, 60, 1e-5, rms, steps);
+      const Similarity T = icp_plane(S, index, VO, FO, near, o, o.iterations, 1e-6, rms, more);
+      steps += more;
+      if (rms / diagonal < (near_frame ? 0.5 : 1.0) * best.residual) {
+        best.transform = T;
+        best.residual = rms / diagonal;
+        best.iterations = std::max(steps, 1);
+      }
+      // Registered well enough, or the other starts were far worse on the coarse subset (a
+      // noisy leak cannot get below its noise): the other starts cannot matter.
+      if (best.residual <= 1e-3 ||
+          (!part && k + 1 < ranked.size() && ranked[k + 1].first / diagonal > 3 * best.residual))
+        break;
+    }
+  };
+  try_starts(starts, false);
+  // No start brought a moved leak within 1e-3 of the diagonal: it may be a part of the
+  // original (cropped), whose axes and spread are not the original's. The other matchings of
+  // the axes, at both scales, then.
+  // Tried when the best registers loosely and either fails or leaves the leak with another area
+  // than the original's (a part; or a pose at a wrong scale), not for every noisy leak.
+  if (!near_frame && !starts.empty() && best.residual > 1e-3) {
+    const double scaled = area(VL, FL) * best.transform.scale * best.transform.scale;
+    const double ratio = scaled / std::max(area(VO, FO), 1e-300);
+    if (best.residual > o.max_residual || !(ratio > 0.9 && ratio < 1.1))
+      try_starts(principal_axis_starts(all_l, PO, true, median_edge(VO, FO) / median_edge(VL, FL)),
+                 true);
   }
   judge(best, index, S, all_l, diagonal, o.max_residual);
   return best;

@@ -2,6 +2,7 @@
 // similarity, resampling gives back an unattacked copy, and trace names the right buyer after
 // real processing or nobody, never an innocent.
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -57,6 +58,36 @@ TEST(Trace, RegistrationRecoversAKnownSimilarityWithAndWithoutCropping) {
                      std::to_string(angle));
     }
   }
+}
+
+// A half of the original (cropping to 50 %) after a similarity: its spread and principal axes
+// are not the original's, so the four matchings of the axes at the spreads' scale may all miss;
+// the other matchings, and the scale of the edges, are tried then. A registration is right when
+// composed with the known transform it is the identity (0.05 degrees, 1e-3 of scale). Not all
+// are yet: 21 of these 24 on 2026-12-07 (15 before the other matchings were tried); at least
+// 20 must be, and no wrong one may pass for a close fit (residual below 1e-3).
+TEST(Trace, RegistrationFindsAHalfOfTheOriginalAfterASimilarity) {
+  const std::string path = test::cgal_mesh("bunny00.off");
+  MESHMARK_REQUIRE(path, "libcgal-demo's bunny00.off");
+  const Mesh original = read_mesh(path);
+  int right = 0, cases = 0;
+  for (const std::uint64_t seed : {1, 2, 3, 4})
+    for (const double degrees : {40.0, 110.0, 200.0})
+      for (const double scale : {0.6, 1.8}) {
+        const Mesh half = apply_attack_chain(original, parse_attack_chain("crop:0.5"), seed);
+        const Mesh leak = transformed(half, degrees, scale, Eigen::Vector3d(0.3, -2.0, 5.0));
+        const RegistrationResult r = register_similarity(leak.V, leak.F, original.V, original.F);
+        const Eigen::Matrix3d R =
+            Eigen::AngleAxisd(degrees * M_PI / 180, Eigen::Vector3d(1, 2, -0.5).normalized())
+                .toRotationMatrix();
+        const double angle = Eigen::AngleAxisd(r.transform.rotation * R).angle() * 180 / M_PI;
+        const bool ok = r.status == RegistrationStatus::Registered && angle < 0.05 &&
+                        std::abs(r.transform.scale * scale - 1) < 1e-3;
+        right += ok, ++cases;
+        if (!ok) EXPECT_GT(r.residual, 1e-3) << r.message;
+      }
+  RecordProperty("registered", fmt::format("{} of {}", right, cases));
+  EXPECT_GE(right, 20) << "of " << cases;
 }
 
 TEST(Trace, ResamplingAnUnattackedCopyGivesBackItsVertices) {

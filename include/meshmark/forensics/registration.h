@@ -4,8 +4,13 @@
 /// uniform scale, translation) that brings the leak back into the original's frame, found by
 /// trimmed iterative closest points (point to surface, on CGAL's AABB tree) from several
 /// starts: the identity (tools that decimate, remesh, smooth or crop keep the frame) and the
-/// four proper alignments of the principal axes. The leak may be decimated, remeshed, noisy or
-/// cropped: only the closest `trim` fraction of its samples drives each step.
+/// four proper alignments of the principal axes. When the best of those fits loosely (trimmed
+/// RMS above 1e-3 of the diagonal) and fails or leaves the leak with another area than the
+/// original's (a part of it, or a pose at a wrong scale), the other 20 matchings of the axes are
+/// tried too, at the spreads' scale and at the ratio of the median edge lengths (which cropping
+/// keeps), ranked by rigid steps and the best 8 refined: a cropped leak after a similarity. The
+/// leak may be decimated, remeshed, noisy or cropped: only the closest `trim` fraction of its
+/// samples drives each step.
 
 #include <Eigen/Core>
 #include <cstdint>
