@@ -1047,6 +1047,27 @@ std::vector<CopyRequest> twenty_copies(const std::string& original, const std::s
   return requests;
 }
 
+// A shop issuing every copy with the fingerprint into `dir`/shop.db.
+IssueSettings fingerprinted_shop(const std::string& dir) {
+  IssueSettings settings;
+  settings.key = key_from_passphrase_v1("fingerprint shop key");
+  settings.registry = dir + "/shop.db";
+  settings.fingerprint = true;
+  return settings;
+}
+
+// twenty_copies of `original`, issued next to the registry; empty (after a failed expectation)
+// unless every copy was written.
+std::vector<CopyRequest> issue_twenty_copies(const std::string& original,
+                                             const IssueSettings& settings) {
+  const std::string dir = settings.registry.substr(0, settings.registry.rfind('/'));
+  const std::vector<CopyRequest> requests = twenty_copies(original, dir);
+  const IssueResult issued = issue_copies(requests, settings);
+  EXPECT_EQ(issued.count(CopyStatus::Written), requests.size()) << issued.copies[0].message;
+  if (issued.count(CopyStatus::Written) != requests.size()) return {};
+  return requests;
+}
+
 // Issued and traced through the library as the CLI does: 20 consecutive IDs of bunny00 with
 // the fingerprint (a real scan, 37,706 vertices). An unprocessed copy names its buyer with the
 // fingerprint at the strength its reading allows; vertex-wise averages of three and five copies,
@@ -1056,14 +1077,9 @@ std::vector<CopyRequest> twenty_copies(const std::string& original, const std::s
 TEST(Fingerprint, IssuedCopiesNameTheirBuyerAfterAveragingResamplingAndRemarking) {
   const std::string original = test::cgal_mesh("bunny00.off");
   MESHMARK_REQUIRE(original, "libcgal-demo's bunny00.off");
-  const std::string dir = fresh_dir("fingerprint-issue");
-  IssueSettings settings;
-  settings.key = key_from_passphrase_v1("fingerprint shop key");
-  settings.registry = dir + "/shop.db";
-  settings.fingerprint = true;
-  const std::vector<CopyRequest> requests = twenty_copies(original, dir);
-  const IssueResult issued = issue_copies(requests, settings);
-  ASSERT_EQ(issued.count(CopyStatus::Written), requests.size()) << issued.copies[0].message;
+  const IssueSettings settings = fingerprinted_shop(fresh_dir("fingerprint-issue"));
+  const std::vector<CopyRequest> requests = issue_twenty_copies(original, settings);
+  ASSERT_FALSE(requests.empty());
   const Mesh O = read_mesh(original);
   const auto trace_of = [&](const Mesh& leak) {
     return trace_issued(leak, O, content_hash(read_file(original)), settings.registry,
@@ -1202,6 +1218,61 @@ TEST(Fingerprint, IssuedCopiesNameTheirBuyerAfterAveragingResamplingAndRemarking
     for (const CandidateScore& c : innocent.ranking)
       EXPECT_GT(c.fingerprint_p * 2 * 20, TraceOptions().threshold) << "innocent " << c.copy.id;
   }
+}
+
+// A copy decimated to 30 % then smoothed 10 times (Laplacian, lambda 0.3: issue 30's resampling
+// then smoothing) has vertices that slid along the surface; read against the place where each
+// one's ray crosses the original, the slide reads as noise several times the fingerprint. Read
+// also against where its vertices were before the smoothing (TraceOptions::
+// fingerprint_unsmoothing, the default), its buyer is named, by the fingerprint alone (the
+// histogram mark does not survive it), where without that reading it scores under half as
+// high. That reading is one more of the whole surface: every candidate's best z is at least
+// the one without it. Against the registry without the buyer nobody is named and every
+// innocent's fingerprint p stays above the threshold over 20 (times 4: combined_p_value with
+// the histogram mark lost).
+TEST(Fingerprint, AResampledThenSmoothedLeakIsReadAgainstItsVerticesBeforeTheSmoothing) {
+  const std::string original = test::cgal_mesh("bunny00.off");
+  MESHMARK_REQUIRE(original, "libcgal-demo's bunny00.off");
+  const IssueSettings settings = fingerprinted_shop(fresh_dir("fingerprint-unsmoothing"));
+  const std::vector<CopyRequest> requests = issue_twenty_copies(original, settings);
+  ASSERT_FALSE(requests.empty());
+  const Mesh O = read_mesh(original);
+  const Mesh leak = apply_attack_chain(read_mesh(requests[6].output),
+                                       parse_attack_chain("simplify:0.3,smooth:10"), 1);
+  TraceOptions with;
+  with.ranking = 0;
+  TraceOptions without = with;
+  without.fingerprint_unsmoothing = false;
+  const std::string hash = content_hash(read_file(original));
+  const TraceResult a = trace_issued(leak, O, hash, settings.registry, *settings.key, with);
+  const TraceResult b = trace_issued(leak, O, hash, settings.registry, *settings.key, without);
+  ASSERT_EQ(a.status, TraceStatus::Named) << a.message << "; " << a.fingerprint_processing;
+  ASSERT_EQ(a.named.size(), 1u);
+  EXPECT_EQ(a.named[0].copy.id, 1007u);
+  EXPECT_LT(a.named[0].fingerprint_p * 4 * 20, TraceOptions().threshold);
+  EXPECT_NE(a.fingerprint_processing.find("before the smoothing"), std::string::npos)
+      << a.fingerprint_processing;
+  EXPECT_EQ(b.fingerprint_processing.find("before the smoothing"), std::string::npos)
+      << b.fingerprint_processing;
+  ASSERT_EQ(a.ranking.size(), requests.size());
+  ASSERT_EQ(b.ranking.size(), requests.size());
+  for (const CandidateScore& c : b.ranking) {
+    const auto it = std::find_if(a.ranking.begin(), a.ranking.end(),
+                                 [&](const CandidateScore& x) { return x.copy.id == c.copy.id; });
+    ASSERT_NE(it, a.ranking.end()) << c.copy.id;
+    EXPECT_GE(it->fingerprint_z, c.fingerprint_z - 1e-12) << c.copy.id;
+    if (c.copy.id == 1007)
+      EXPECT_LT(2 * c.fingerprint_z, it->fingerprint_z)
+          << "without " << c.fingerprint_z << ", with " << it->fingerprint_z;
+  }
+  RecordProperty("z_with", std::to_string(a.named[0].fingerprint_z));
+  std::vector<IssuedCopy> innocents;
+  for (const IssuedCopy& c : read_registry(settings.registry))
+    if (c.id != 1007) innocents.push_back(c);
+  const TraceResult none = trace(leak, O, innocents, *settings.key, with);
+  EXPECT_EQ(none.status, TraceStatus::NoBuyer) << none.message;
+  for (const CandidateScore& c : none.ranking)
+    EXPECT_GT(c.fingerprint_p * 4 * 20, TraceOptions().threshold) << "innocent " << c.copy.id;
 }
 
 // Format 5's bumps are 0.45 times as wide as format 4's, whose width is the spacing

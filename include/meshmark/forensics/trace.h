@@ -78,6 +78,14 @@ struct TraceOptions {
   /// 0.2 costs an average of copies, which the whole reads best, a factor 1.25 and a splice a
   /// factor 45 (2.5 and 90 with two readings of the whole: a processed original).
   double fingerprint_region_share = 0.2;
+  /// When the leak seems smoothed (its residuals fit a smoothing), the fingerprint is also read
+  /// against where its vertices were before that smoothing: points on the reference surface
+  /// that Laplacian smoothing on the leak's own faces carries onto the leak's vertices (found by
+  /// a projected fixed point, docs/forensics.md, "Smoothing after resampling"). A resampled
+  /// then smoothed leak's vertices have slid along the surface; read against the surface
+  /// where each ray crosses it, the slide reads as noise several times the fingerprint. Each
+  /// such reading is one more reading of the whole (the Bonferroni factor grows with them).
+  bool fingerprint_unsmoothing = true;
   /// How many of the best candidates TraceResult::ranking keeps (0: every one); it always
   /// keeps every candidate below the threshold and the copy whose output_hash is
   /// leaked_hash. Only the kept rows' authentication codes are checked (name_buyers).
