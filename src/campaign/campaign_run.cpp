@@ -19,6 +19,7 @@
 #include "core/progress_counter.h"
 #include "meshmark/core/error.h"
 #include "meshmark/forensics/fingerprint.h"
+#include "meshmark/forensics/trace.h"
 #include "meshmark/io/io.h"
 
 namespace meshmark {
@@ -95,18 +96,20 @@ void prepare_directory(const CampaignConfig& config, const CampaignRunOptions& o
         "elsewhere",
         p.dir.string()));
   if (!fs::exists(p.stamp)) write_file_atomically(p.stamp, stamp);
-  // Copies with the fingerprint are issued in this build's mark format: rows of another (a
-  // directory without the file holds rows of format 4, or none) are not resumed beside them.
+  // Copies with the fingerprint are issued in this build's mark format and read by its version
+  // of trace's reading: rows of another (a directory without the file holds rows of format 4,
+  // or none; one naming no reading, rows of reading 1) are not resumed beside them.
   if (config.trace && config.fingerprint) {
-    const std::string format = fmt::format("mark format {}\n", kFingerprintMarkFormat);
+    const std::string format = fmt::format("mark format {}, fingerprint reading {}\n",
+                                           kFingerprintMarkFormat, kFingerprintReading);
     const bool rows = fs::exists(p.rows) && fs::file_size(p.rows) > 0;
     const std::string held = fs::exists(p.format) ? read_file(p.format)
                              : rows               ? "mark format 4\n"
                                                   : format;
     if (held != format)
       throw InvalidArgumentError(fmt::format(
-          "{} holds rows of copies issued in {}, where this build issues {}: use --fresh to "
-          "start over, or --out elsewhere",
+          "{} holds rows of copies issued and traced as {}, where this build has {}: use "
+          "--fresh to start over, or --out elsewhere",
           p.dir.string(), held.substr(0, held.find('\n')), format.substr(0, format.find('\n'))));
     if (!fs::exists(p.format)) write_file_atomically(p.format, format);
   }

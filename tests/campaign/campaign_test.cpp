@@ -604,21 +604,25 @@ TEST(Campaign, CoalitionsOfConsecutiveIdsNameColludersOnly) {
   const std::string report = read_file(dir + "/report.md");
   EXPECT_NE(report.find("| unequal average of 3, noise:0.0005 | 3 |"), std::string::npos);
   EXPECT_NE(report.find("splice of 3, average of 5"), std::string::npos);
-  // Rows of copies issued in another mark format (an older build's) are not resumed: the
-  // directory says which format its rows hold.
-  EXPECT_EQ(read_file(dir + "/mark_format.txt"),
-            "mark format " + std::to_string(kFingerprintMarkFormat) + "\n");
+  // Rows of copies issued in another mark format or traced by another version of the
+  // fingerprint's reading (an older build's) are not resumed: the directory says which format
+  // and reading its rows hold.
+  const std::string held = "mark format " + std::to_string(kFingerprintMarkFormat) +
+                           ", fingerprint reading " + std::to_string(kFingerprintReading);
+  EXPECT_EQ(read_file(dir + "/mark_format.txt"), held + "\n");
   const test::CliRun again = test::run_cli("bench " + config + " --out " + dir);
   ASSERT_EQ(again.code, 0) << again.out;
   EXPECT_NE(again.out.find("(0 run now"), std::string::npos) << again.out;
-  write_text(dir + "/mark_format.txt", "mark format 4\n");
-  const test::CliRun older = test::run_cli("bench " + config + " --out " + dir);
-  EXPECT_EQ(older.code, 1) << older.out;
-  EXPECT_NE(older.out.find("holds rows of copies issued in mark format 4, where this build "
-                           "issues mark format " +
-                           std::to_string(kFingerprintMarkFormat)),
-            std::string::npos)
-      << older.out;
+  for (const std::string older_build :
+       {std::string("mark format 4"), "mark format " + std::to_string(kFingerprintMarkFormat)}) {
+    write_text(dir + "/mark_format.txt", older_build + "\n");
+    const test::CliRun older = test::run_cli("bench " + config + " --out " + dir);
+    EXPECT_EQ(older.code, 1) << older.out;
+    EXPECT_NE(older.out.find("holds rows of copies issued and traced as " + older_build +
+                             ", where this build has " + held),
+              std::string::npos)
+        << older.out;
+  }
   std::filesystem::remove(dir + "/mark_format.txt");  // a directory of an older build
   EXPECT_EQ(test::run_cli("bench " + config + " --out " + dir).code, 1);
 }

@@ -53,6 +53,12 @@ Resampled resample_at_original(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3
                                const Eigen::MatrixX3d& VO, const Eigen::MatrixX3i& FO,
                                const Eigen::Vector3d& center, double erase_distance);
 
+/// The version of trace's reading of a fingerprint, which a trace campaign's directory records
+/// beside the mark format (mark_format.txt) so that rows read otherwise are not resumed beside
+/// new ones: 1, the whole surface and its regions; 2, also against a smoothed leak's vertices
+/// before the smoothing (TraceOptions::fingerprint_unsmoothing, 2026-12-07).
+inline constexpr int kFingerprintReading = 2;
+
 /// Options of trace.
 struct TraceOptions {
   double threshold = 1e-6;        ///< family-wise false-alarm probability for naming a buyer
