@@ -385,7 +385,8 @@ LeakResiduals leak_residuals(const Mesh& original, const Smoother& on_original,
                              const Smoother& on_leak, const Eigen::MatrixX3d& surface,
                              const Eigen::MatrixX3d& VL,
                              const std::vector<std::uint8_t>& leak_carrier,
-                             const Eigen::Vector3d& center, double erase, bool unsmooth) {
+                             const Eigen::Vector3d& center, double erase,
+                             std::size_t unsmooth_limit) {
   const Crossings x = cross_rays(surface, original.F, VL, leak_carrier, center, erase);
   std::vector<Eigen::Index> rows;  // the crossed rows of VL, d's order
   for (Eigen::Index i = 0; i < VL.rows(); ++i)
@@ -434,8 +435,13 @@ LeakResiduals leak_residuals(const Mesh& original, const Smoother& on_original,
       "the reference resampled at the leak's vertices and smoothed", fit);
   out.residual = Eigen::VectorXd::Zero(VL.rows());
   for (Eigen::Index j = 0; j < n; ++j) out.residual(rows[j]) = fit.residual(j);
-  // A leak that fits a smoothing is also read against where its vertices were before it.
-  if (unsmooth && fit.processing != "none")
+  // A leak that fits a smoothing is also read against where its vertices were before it
+  // (unsmooth_limit: the most crossed vertices it is done for; 0 never).
+  std::string skipped;
+  if (fit.processing != "none" && unsmooth_limit > 0 && rows.size() > unsmooth_limit)
+    skipped = fmt::format(" (not read before the smoothing: {} leak vertices, over {})",
+                          rows.size(), unsmooth_limit);
+  else if (fit.processing != "none" && unsmooth_limit > 0)
     if (const std::optional<Eigen::VectorXd> u =
             unsmoothed_residuals(on_leak, VL, rows, x.point, x.normal, center, d)) {
       out.unsmoothed = Eigen::VectorXd::Zero(VL.rows());
@@ -444,18 +450,18 @@ LeakResiduals leak_residuals(const Mesh& original, const Smoother& on_original,
   out.crossed = x.crossed;
   out.count = rows.size();
   out.rms = n > 0 ? fit.residual.norm() / std::sqrt(static_cast<double>(n)) : 0;
-  out.processing = fit.processing;
+  out.processing = fit.processing + skipped;
   return out;
 }
 
 // The fingerprint of a leak (fingerprint.h), read at the leak's own vertices (leak_residuals)
 // against the original and, when the bins were read against a processed original, against that
-// too, each also against the leak's vertices before smoothing when it fits a smoothing and
-// `unsmooth` (unsmoothed_residuals, against the original only: the vertices before the smoothing
-// lay on it): one to three readings of the whole surface, then each again
-// over the regions of TraceOptions::fingerprint_regions (`whole`: how many of the readings are of
-// the whole; score_group gives a candidate fingerprint_p_value of its best whole and best regional
-// z), with the bumps of mark `format`. The original's bumps and bins are evaluated at the
+// too, each also against the leak's vertices before smoothing when it fits a smoothing and has
+// at most `unsmooth_limit` crossed vertices (unsmoothed_residuals, against the original only: the
+// vertices before the smoothing lay on it): one to three readings of the whole surface, then each
+// again over the regions of TraceOptions::fingerprint_regions (`whole`: how many of the readings
+// are of the whole; score_group gives a candidate fingerprint_p_value of its best whole and best
+// regional z), with the bumps of mark `format`. The original's bumps and bins are evaluated at the
 // crossings' places on it. No basis when the original has too few counted vertices for one. Like
 // the bins, the readings use no candidate's coefficients, so an innocent's score in each is within
 // its null (fingerprint_p_value: exactly standard normal for format 3, bounded for signs).
@@ -463,7 +469,7 @@ std::optional<FingerprintBasis> fingerprint_reading(
     const Mesh& original, const std::vector<std::uint8_t>& carrier,
     const Eigen::MatrixX3d& reference, bool processed, const Eigen::MatrixX3d& VL,
     const Eigen::MatrixX3i& FL, const Histogram& h, int format, double erase, double ridge,
-    const std::vector<int>& partitions, bool unsmooth, std::string& processing,
+    const std::vector<int>& partitions, std::size_t unsmooth_limit, std::string& processing,
     std::vector<Eigen::VectorXd>& readings, std::size_t& whole) {
   readings.clear();
   whole = 0;
@@ -488,7 +494,7 @@ std::optional<FingerprintBasis> fingerprint_reading(
     if (against_processed && !processed) continue;
     const LeakResiduals x =
         leak_residuals(original, on_original, on_leak, against_processed ? reference : original.V,
-                       VL, leak_carrier, h.center, erase, unsmooth && !against_processed);
+                       VL, leak_carrier, h.center, erase, against_processed ? 0 : unsmooth_limit);
     taken.push_back(fmt::format(
         "against the {}original, {} ({} leak vertices{})", against_processed ? "processed " : "",
         x.processing, x.count,
@@ -770,11 +776,11 @@ TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
   // as fitted: `processing` says which).
   const auto read_fingerprint_of = [&](GroupReading& g, const Eigen::MatrixX3d& reference,
                                        const std::string& processing) {
-    g.basis =
-        fingerprint_reading(original, carrier, reference, processing != "none", VL, leaked.F,
-                            g.histogram, std::get<6>(g.group), o.erase_distance * diagonal,
-                            o.fingerprint_ridge, o.fingerprint_regions, o.fingerprint_unsmoothing,
-                            g.fingerprint_processing, g.readings, g.whole_readings);
+    g.basis = fingerprint_reading(original, carrier, reference, processing != "none", VL, leaked.F,
+                                  g.histogram, std::get<6>(g.group), o.erase_distance * diagonal,
+                                  o.fingerprint_ridge, o.fingerprint_regions,
+                                  o.fingerprint_unsmoothing ? o.fingerprint_unsmoothing_limit : 0,
+                                  g.fingerprint_processing, g.readings, g.whole_readings);
     g.fingerprint_read = true;
   };
   // One group's reading of the leak, before any candidate is scored. The first group (in

@@ -1266,6 +1266,20 @@ TEST(Fingerprint, AResampledThenSmoothedLeakIsReadAgainstItsVerticesBeforeTheSmo
           << "without " << c.fingerprint_z << ", with " << it->fingerprint_z;
   }
   RecordProperty("z_with", std::to_string(a.named[0].fingerprint_z));
+  // A leak with more crossed vertices than the limit (here 1,000 of about 11,000) is read as
+  // without the reading, and the processing says why.
+  TraceOptions limited = with;
+  limited.fingerprint_unsmoothing_limit = 1000;
+  const TraceResult l = trace_issued(leak, O, hash, settings.registry, *settings.key, limited);
+  EXPECT_NE(l.fingerprint_processing.find("(not read before the smoothing: "), std::string::npos)
+      << l.fingerprint_processing;
+  EXPECT_NE(l.fingerprint_processing.find(" leak vertices, over 1000)"), std::string::npos)
+      << l.fingerprint_processing;
+  ASSERT_EQ(l.ranking.size(), b.ranking.size());
+  for (std::size_t i = 0; i < l.ranking.size(); ++i) {
+    EXPECT_EQ(l.ranking[i].copy.id, b.ranking[i].copy.id);
+    EXPECT_EQ(l.ranking[i].fingerprint_z, b.ranking[i].fingerprint_z);
+  }
   std::vector<IssuedCopy> innocents;
   for (const IssuedCopy& c : read_registry(settings.registry))
     if (c.id != 1007) innocents.push_back(c);

@@ -92,6 +92,10 @@ struct TraceOptions {
   /// where each ray crosses it, the slide reads as noise several times the fingerprint. Each
   /// such reading is one more reading of the whole (the Bonferroni factor grows with them).
   bool fingerprint_unsmoothing = true;
+  /// The most crossed leak vertices that reading is made for: it costs about 10 µs a vertex on
+  /// 2 cores (0.5 s for 49,000), so a leak of millions of vertices is read without it, and
+  /// TraceResult::fingerprint_processing says so (0: never, as fingerprint_unsmoothing false).
+  std::size_t fingerprint_unsmoothing_limit = 1000000;
   /// How many of the best candidates TraceResult::ranking keeps (0: every one); it always
   /// keeps every candidate below the threshold and the copy whose output_hash is
   /// leaked_hash. Only the kept rows' authentication codes are checked (name_buyers).
