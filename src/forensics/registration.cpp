@@ -9,6 +9,7 @@
 #include <cmath>
 #include <numeric>
 #include <optional>
+#include <unordered_map>
 #include <vector>
 
 #include "meshmark/carrier/histogram.h"
@@ -245,6 +246,139 @@ std::vector<Similarity> principal_axis_starts(const Eigen::MatrixX3d& leak,
   return starts;
 }
 
+// A patch of a mesh around face f: its corners in order of the length of the opposite edge
+// (shortest first), those lengths, and the apexes of the faces across its three edges (-1
+// where none), each across the edge opposite the corner of the same rank.
+struct FacePatch {
+  std::array<double, 3> length{};
+  std::array<int, 3> corner{};
+  std::array<int, 3> apex{-1, -1, -1};
+};
+
+// Directed edge (u, v) -> the vertex opposite it in its face.
+using Apexes = std::unordered_map<std::uint64_t, int>;
+
+std::uint64_t edge_key(int u, int v) {
+  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(u)) << 32) |
+         static_cast<std::uint32_t>(v);
+}
+
+Apexes apexes_of(const Eigen::MatrixX3i& F) {
+  Apexes apex;
+  apex.reserve(static_cast<std::size_t>(3 * F.rows()));
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k)
+      apex.emplace(edge_key(F(f, k), F(f, (k + 1) % 3)), F(f, (k + 2) % 3));
+  return apex;
+}
+
+FacePatch face_patch(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const Apexes& apex,
+                     Eigen::Index f) {
+  FacePatch p;
+  std::array<int, 3> order{0, 1, 2};
+  std::array<double, 3> opposite{};
+  for (int k = 0; k < 3; ++k)
+    opposite[k] = (V.row(F(f, (k + 1) % 3)) - V.row(F(f, (k + 2) % 3))).norm();
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return opposite[a] < opposite[b]; });
+  for (int r = 0; r < 3; ++r) {
+    const int k = order[r];
+    p.corner[r] = F(f, k);
+    p.length[r] = opposite[k];
+    // The face across the edge opposite corner k holds that edge reversed.
+    const auto it = apex.find(edge_key(F(f, (k + 2) % 3), F(f, (k + 1) % 3)));
+    if (it != apex.end()) p.apex[r] = it->second;
+  }
+  return p;
+}
+
+// Starts for a leak that kept some of the original's faces as they were, moved by a similarity
+// (a part cut out and moved): leak faces whose shapes (the ratios of their edge lengths) match
+// an original face's within 1.5 %, at a size within 15 % of the leak's times `scale` (the ratio
+// of the median edges, which a part keeps only roughly), are paired with it, each pairing of
+// corners that keeps the ratios. The patches (a face and the apexes across its edges, the
+// faces' winding fixing the side) give a similarity, kept when they agree within a fifth of the
+// face's shortest edge and ranked by the trimmed distance of the samples S to the original.
+// The best `count`, at most.
+std::vector<Similarity> matched_face_starts(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
+                                            const Eigen::MatrixX3d& VO, const Eigen::MatrixX3i& FO,
+                                            const Eigen::MatrixX3d& S, const SurfaceIndex& index,
+                                            double scale, double trim, std::uint64_t seed,
+                                            std::size_t count) {
+  if (!(std::isfinite(scale) && scale > 0) || FL.rows() == 0 || FO.rows() == 0) return {};
+  constexpr double kShape = 0.015;     // tolerance on the ratios of edge lengths
+  constexpr double kSize = 0.15;       // on the size, against the median edges' ratio
+  constexpr int kLeakFaces = 96;       // leak faces tried
+  constexpr std::size_t kPerFace = 4;  // pairings measured per leak face
+  const Apexes apex_o = apexes_of(FO), apex_l = apexes_of(FL);
+  std::vector<FacePatch> patch_o(static_cast<std::size_t>(FO.rows()));
+  std::vector<Eigen::Index> by_shortest(patch_o.size());
+  for (Eigen::Index f = 0; f < FO.rows(); ++f) patch_o[f] = face_patch(VO, FO, apex_o, f);
+  std::iota(by_shortest.begin(), by_shortest.end(), 0);
+  std::sort(by_shortest.begin(), by_shortest.end(), [&](Eigen::Index a, Eigen::Index b) {
+    return patch_o[a].length[0] < patch_o[b].length[0];
+  });
+  const Eigen::MatrixX3d coarse = S.topRows(std::min<Eigen::Index>(S.rows(), 200));
+  std::vector<std::pair<double, Similarity>> ranked, pairings;
+  Random rng(seed);
+  for (int tried = 0; tried < kLeakFaces; ++tried) {
+    const auto f = static_cast<Eigen::Index>(rng.index(static_cast<std::uint64_t>(FL.rows())));
+    const FacePatch pl = face_patch(VL, FL, apex_l, f);
+    if (std::find(pl.apex.begin(), pl.apex.end(), -1) != pl.apex.end()) continue;
+    const double size = scale * pl.length[0];
+    if (!(size > 0)) continue;
+    auto it = std::lower_bound(
+        by_shortest.begin(), by_shortest.end(), size * (1 - kSize),
+        [&](Eigen::Index a, double value) { return patch_o[a].length[0] < value; });
+    for (; it != by_shortest.end() && patch_o[*it].length[0] <= size * (1 + kSize); ++it) {
+      const FacePatch& po = patch_o[*it];
+      if (std::find(po.apex.begin(), po.apex.end(), -1) != po.apex.end()) continue;
+      std::array<int, 3> pair{0, 1, 2};  // leak rank r -> original rank pair[r]
+      do {
+        // The ratios of each edge to the sum of the three, the same on both sides.
+        const double sum_l = pl.length[0] + pl.length[1] + pl.length[2];
+        const double sum_o = po.length[0] + po.length[1] + po.length[2];
+        bool shape = true;
+        for (int r = 0; r < 3; ++r)
+          shape = shape && std::abs(po.length[pair[r]] / sum_o - pl.length[r] / sum_l) <=
+                               kShape * pl.length[r] / sum_l;
+        if (!shape) continue;
+        // The patch's corners and apexes: rank r's apex lies across the edge opposite corner r
+        // on both sides.
+        Eigen::Matrix3Xd src(3, 6), dst(3, 6);
+        for (int r = 0; r < 3; ++r) {
+          src.col(r) = VL.row(pl.corner[r]).transpose();
+          dst.col(r) = VO.row(po.corner[pair[r]]).transpose();
+          src.col(3 + r) = VL.row(pl.apex[r]).transpose();
+          dst.col(3 + r) = VO.row(po.apex[pair[r]]).transpose();
+        }
+        const Eigen::Matrix4d M = Eigen::umeyama(src, dst, true);
+        const Eigen::Matrix3Xd moved = (M.block<3, 3>(0, 0) * src).colwise() + M.block<3, 1>(0, 3);
+        const double disagreement = (moved - dst).colwise().norm().maxCoeff() / po.length[0];
+        if (disagreement > 0.2) continue;
+        Similarity T;
+        T.scale = M.block<3, 3>(0, 0).col(0).norm();
+        T.rotation = M.block<3, 3>(0, 0) / T.scale;
+        T.translation = M.block<3, 1>(0, 3);
+        pairings.emplace_back(disagreement, T);
+      } while (std::next_permutation(pair.begin(), pair.end()));
+    }
+    // A regular mesh has many look-alike patches: the closest few are measured.
+    const std::size_t kept = std::min<std::size_t>(kPerFace, pairings.size());
+    std::partial_sort(pairings.begin(), pairings.begin() + static_cast<std::ptrdiff_t>(kept),
+                      pairings.end(),
+                      [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (std::size_t k = 0; k < kept; ++k)
+      ranked.emplace_back(trimmed_rms(coarse, index, pairings[k].second, trim), pairings[k].second);
+    pairings.clear();
+  }
+  std::sort(ranked.begin(), ranked.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<Similarity> starts;
+  for (std::size_t k = 0; k < std::min(count, ranked.size()); ++k)
+    starts.push_back(ranked[k].second);
+  return starts;
+}
+
 // For a leak with the original's faces (noise, quantization, smoothing, a similarity), where
 // vertex i corresponds to vertex i: the least-squares similarity of the pairs (Umeyama),
 // refitted on the closest `trim` of them; none with fewer than 3 pairs.
@@ -283,29 +417,38 @@ std::optional<Similarity> fit_corresponding_vertices(const Eigen::MatrixX3d& VL,
 }
 
 // The verdict on the best transform: its overlap (the share of samples S near the original),
-// Registered when its residual is at most max_residual and the registered leak (all its points)
-// spans at least 2 % of the original's diagonal (a leak shrunk onto a patch of the original
-// fits it closely and means nothing), and the message.
+// Registered when its residual is at most max_residual, the registered leak (all its points)
+// spans at least 2 % of the original's diagonal and its median edge is within a factor 16 of
+// the original's (`edge_ratio`: the leak's median edge over the original's, before the
+// transform); a leak shrunk onto a patch of the original fits it closely and means nothing,
+// while resampling changes edges by far less (three rounds of subdivision: 8), and the message.
 void judge(RegistrationResult& best, const SurfaceIndex& index, const Eigen::MatrixX3d& S,
-           const Eigen::MatrixX3d& all_l, double diagonal, double max_residual) {
+           const Eigen::MatrixX3d& all_l, double diagonal, double max_residual, double edge_ratio) {
   const ClosestPoints cp = index.query(best.transform.apply(S));
   const double near = std::max(3 * best.residual, 1e-3) * diagonal;
   best.overlap = static_cast<double>((cp.distance.array() <= near).count()) / S.rows();
   const Eigen::MatrixX3d moved = best.transform.apply(all_l);
   const double span = (moved.colwise().maxCoeff() - moved.colwise().minCoeff()).norm() / diagonal;
-  const bool collapsed = !(span >= 0.02);
-  best.status = best.residual <= max_residual && !collapsed ? RegistrationStatus::Registered
-                                                            : RegistrationStatus::Failed;
+  const double edges = best.transform.scale * edge_ratio;  // registered over original
+  std::string why;
+  if (!(span >= 0.02))
+    why = fmt::format(
+        " (the registered leak spans only {:.2g} of the original's diagonal: it is "
+        "not this original)",
+        span);
+  else if (std::isfinite(edges) && edges > 0 && !(edges >= 1.0 / 16 && edges <= 16))
+    why = fmt::format(
+        " (the registered leak's edges are {:.2g} times the original's: it is not "
+        "this original)",
+        edges);
+  best.status = best.residual <= max_residual && why.empty() ? RegistrationStatus::Registered
+                                                             : RegistrationStatus::Failed;
   best.message = fmt::format(
       "{}{}: residual {:.3g} of the diagonal, {:.0f} % of the leak near the "
       "original, scale {:.6f}{}",
       best.status == RegistrationStatus::Registered ? "registered" : "FAILED",
       best.iterations == 0 ? " (in the original's frame)" : "", best.residual, 100 * best.overlap,
-      best.transform.scale,
-      collapsed ? fmt::format(" (the registered leak spans only {:.2g} of the original's diagonal: "
-                              "it is not this original)",
-                              span)
-                : "");
+      best.transform.scale, why);
 }
 
 }  // namespace
@@ -341,6 +484,7 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
     if (used_l[i] == kCounted) all_l.row(k++) = VL.row(i);
   std::vector<Similarity> starts = principal_axis_starts(all_l, PO, false, 0);
   const SurfaceIndex index(VO, FO);
+  const double edge_l = median_edge(VL, FL), edge_o = median_edge(VO, FO);
   RegistrationResult best;
   best.residual = std::numeric_limits<double>::infinity();
   // A leak near the original's frame (what decimation, remeshing, smoothing, noise, cropping
@@ -409,7 +553,12 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
           refine(S.topRows(std::min<Eigen::Index>(S.rows(), 300)), from, 60, 1e-5, rms, steps);
       const Similarity T = icp_plane(S, index, VO, FO, near, o, o.iterations, 1e-6, rms, more);
       steps += more;
-      if (rms / diagonal < (near_frame ? 0.5 : 1.0) * best.residual) {
+      // A transform that leaves the leak's edges over 16 times off the original's has collapsed
+      // it onto a patch (or blown it up): judge() refuses it, so it cannot stand for a start
+      // that registers it.
+      const double edges = T.scale * edge_l / edge_o;
+      const bool plausible = !(edges < 1.0 / 16 || edges > 16);
+      if (plausible && rms / diagonal < (near_frame ? 0.5 : 1.0) * best.residual) {
         best.transform = T;
         best.residual = rms / diagonal;
         best.iterations = std::max(steps, 1);
@@ -427,14 +576,21 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
   // the axes, at both scales, then.
   // Tried when the best registers loosely and either fails or leaves the leak with another area
   // than the original's (a part; or a pose at a wrong scale), not for every noisy leak.
-  if (!near_frame && !starts.empty() && best.residual > 1e-3) {
+  if (!near_frame && !starts.empty()) {
     const double scaled = area(VL, FL) * best.transform.scale * best.transform.scale;
     const double ratio = scaled / std::max(area(VO, FO), 1e-300);
-    if (best.residual > o.max_residual || !(ratio > 0.9 && ratio < 1.1))
-      try_starts(principal_axis_starts(all_l, PO, true, median_edge(VO, FO) / median_edge(VL, FL)),
-                 true);
+    if ((best.residual > 1e-3 &&
+         (best.residual > o.max_residual || !(ratio > 0.9 && ratio < 1.1))) ||
+        ratio < 0.25) {
+      const double edge_scale = edge_o / edge_l;
+      std::vector<Similarity> part =
+          matched_face_starts(VL, FL, VO, FO, S, index, edge_scale, o.trim, o.seed, 4);
+      const std::vector<Similarity> axes = principal_axis_starts(all_l, PO, true, edge_scale);
+      part.insert(part.end(), axes.begin(), axes.end());
+      try_starts(part, true);
+    }
   }
-  judge(best, index, S, all_l, diagonal, o.max_residual);
+  judge(best, index, S, all_l, diagonal, o.max_residual, edge_l / edge_o);
   return best;
 }
 

@@ -6,11 +6,14 @@
 /// starts: the identity (tools that decimate, remesh, smooth or crop keep the frame) and the
 /// four proper alignments of the principal axes. When the best of those fits loosely (trimmed
 /// RMS above 1e-3 of the diagonal) and fails or leaves the leak with another area than the
-/// original's (a part of it, or a pose at a wrong scale), the other 20 matchings of the axes are
-/// tried too, at the spreads' scale and at the ratio of the median edge lengths (which cropping
-/// keeps), ranked by rigid steps and the best 8 refined: a cropped leak after a similarity. The
-/// leak may be decimated, remeshed, noisy or cropped: only the closest `trim` fraction of its
-/// samples drives each step.
+/// original's, or shrinks it below a quarter of that area (a part of it, or a pose at a wrong
+/// scale), more starts are tried: leak faces matched by shape to original faces (a face and the
+/// three across its edges, whose corners give a similarity: cropping keeps the faces it
+/// leaves), and the other 20 matchings of the axes at the spreads' scale and at the ratio of
+/// the median edge lengths, ranked by rigid steps and the best 8 refined: a cropped leak after
+/// a similarity. A registration that leaves the leak's edges over 16 times off the original's
+/// is refused (the leak shrunk onto a patch). The leak may be decimated, remeshed, noisy or
+/// cropped: only the closest `trim` fraction of its samples drives each step.
 
 #include <Eigen/Core>
 #include <cstdint>
