@@ -12,6 +12,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "meshmark/attacks/attack.h"
 #include "meshmark/carrier/histogram.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/mesh.h"
@@ -386,7 +387,7 @@ std::optional<Similarity> fit_corresponding_vertices(const Eigen::MatrixX3d& VL,
                                                      const Eigen::MatrixX3d& VO,
                                                      const std::vector<std::uint8_t>& used_l,
                                                      const std::vector<std::uint8_t>& used_o,
-                                                     double trim) {
+                                                     double trim, double& residual) {
   std::vector<Eigen::Index> pairs;
   for (Eigen::Index i = 0; i < VL.rows(); ++i)
     if (used_l[i] && used_o[i]) pairs.push_back(i);
@@ -412,8 +413,49 @@ std::optional<Similarity> fit_corresponding_vertices(const Eigen::MatrixX3d& VL,
     T.scale = M.block<3, 3>(0, 0).col(0).norm();
     T.rotation = M.block<3, 3>(0, 0) / T.scale;
     T.translation = M.block<3, 1>(0, 3);
+    // The RMS distance of the fitted pairs, moved by the fit.
+    residual = std::sqrt(((T.scale * src.transpose() * T.rotation.transpose()).rowwise() +
+                          T.translation.transpose() - dst.transpose())
+                             .rowwise()
+                             .squaredNorm()
+                             .mean());
   }
   return T;
+}
+
+// The same for a leak that may have been smoothed too (before or after the similarity: uniform
+// Laplacian and Taubin steps commute with one): its vertices match the original's smoothed
+// ones, and a fit to the original's own would take the shrinking for a scale and a shift. The
+// fit is also made to the original after 1 to 40 Laplacian (lambda 0.3) or Taubin steps on its
+// faces F (each series stopped 5 steps past its best), and the one whose pairs fit closest is
+// kept when it lowers their residual by 5 % at least.
+std::optional<Similarity> fit_corresponding_smoothed(
+    const Eigen::MatrixX3d& VL, const Eigen::MatrixX3d& VO, const Eigen::MatrixX3i& F,
+    const std::vector<std::uint8_t>& used_l, const std::vector<std::uint8_t>& used_o, double trim) {
+  double unsmoothed = 0;
+  std::optional<Similarity> best =
+      fit_corresponding_vertices(VL, VO, used_l, used_o, trim, unsmoothed);
+  if (!best) return best;
+  const Smoother smoother(F, VO.rows());
+  double lowest = 0.95 * unsmoothed;
+  for (const bool taubin : {false, true}) {
+    Eigen::MatrixX3d current = VO;
+    double series_best = unsmoothed;
+    int worse = 0;  // steps since the series' best
+    for (int k = 1; k <= 40 && worse < 5; ++k) {
+      if (taubin)
+        smoother.taubin(current, 1);
+      else
+        smoother.laplacian(current, 1);
+      double residual = 0;
+      const std::optional<Similarity> T =
+          fit_corresponding_vertices(VL, current, used_l, used_o, trim, residual);
+      worse = residual < series_best ? 0 : worse + 1;
+      series_best = std::min(series_best, residual);
+      if (T && residual < lowest) lowest = residual, best = T;
+    }
+  }
+  return best;
 }
 
 // The verdict on the best transform: its overlap (the share of samples S near the original),
@@ -513,7 +555,7 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
     // i corresponds to vertex i, and the similarity is the least-squares fit of the pairs
     // (Umeyama), refitted on the closest `trim` of them.
     if (const std::optional<Similarity> fitted =
-            fit_corresponding_vertices(VL, VO, used_l, used_o, o.trim)) {
+            fit_corresponding_smoothed(VL, VO, FO, used_l, used_o, o.trim)) {
       const Similarity& T = *fitted;
       const double rms = trimmed_rms(S, index, T, o.trim) / diagonal;
       if (rms < (near_frame ? 0.5 : 1.0) * best.residual) {

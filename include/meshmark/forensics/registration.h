@@ -13,7 +13,10 @@
 /// the median edge lengths, ranked by rigid steps and the best 8 refined: a cropped leak after
 /// a similarity. A registration that leaves the leak's edges over 16 times off the original's
 /// is refused (the leak shrunk onto a patch). The leak may be decimated, remeshed, noisy or
-/// cropped: only the closest `trim` fraction of its samples drives each step.
+/// cropped: only the closest `trim` fraction of its samples drives each step. A leak with the
+/// original's faces is fitted vertex to vertex instead (Umeyama), to the original's vertices and
+/// to them after 1 to 40 Laplacian or Taubin steps (smoothing commutes with a similarity), the
+/// closest fit kept.
 
 #include <Eigen/Core>
 #include <cstdint>
