@@ -428,14 +428,13 @@ std::optional<Similarity> fit_corresponding_vertices(const Eigen::MatrixX3d& VL,
 // ones, and a fit to the original's own would take the shrinking for a scale and a shift. The
 // fit is also made to the original after 1 to 40 Laplacian (lambda 0.3) or Taubin steps on its
 // faces F (each series stopped 5 steps past its best), and the one whose pairs fit closest is
-// kept when it lowers their residual by 5 % at least.
-std::optional<Similarity> fit_corresponding_smoothed(
-    const Eigen::MatrixX3d& VL, const Eigen::MatrixX3d& VO, const Eigen::MatrixX3i& F,
-    const std::vector<std::uint8_t>& used_l, const std::vector<std::uint8_t>& used_o, double trim) {
-  double unsmoothed = 0;
-  std::optional<Similarity> best =
-      fit_corresponding_vertices(VL, VO, used_l, used_o, trim, unsmoothed);
-  if (!best) return best;
+// kept when it lowers their residual by 5 % at least. `best` and `unsmoothed`: the fit to the
+// original's own vertices and its residual.
+Similarity fit_corresponding_smoothed(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3d& VO,
+                                      const Eigen::MatrixX3i& F,
+                                      const std::vector<std::uint8_t>& used_l,
+                                      const std::vector<std::uint8_t>& used_o, double trim,
+                                      Similarity best, double unsmoothed) {
   const Smoother smoother(F, VO.rows());
   double lowest = 0.95 * unsmoothed;
   for (const bool taubin : {false, true}) {
@@ -452,7 +451,7 @@ std::optional<Similarity> fit_corresponding_smoothed(
           fit_corresponding_vertices(VL, current, used_l, used_o, trim, residual);
       worse = residual < series_best ? 0 : worse + 1;
       series_best = std::min(series_best, residual);
-      if (T && residual < lowest) lowest = residual, best = T;
+      if (T && residual < lowest) lowest = residual, best = *T;
     }
   }
   return best;
@@ -553,11 +552,19 @@ RegistrationResult register_similarity(const Eigen::MatrixX3d& VL, const Eigen::
   if (VL.rows() == VO.rows() && FL.rows() == FO.rows() && FL == FO) {
     // The leak has the original's faces (noise, quantization, smoothing, a similarity): vertex
     // i corresponds to vertex i, and the similarity is the least-squares fit of the pairs
-    // (Umeyama), refitted on the closest `trim` of them.
-    if (const std::optional<Similarity> fitted =
-            fit_corresponding_smoothed(VL, VO, FO, used_l, used_o, o.trim)) {
-      const Similarity& T = *fitted;
-      const double rms = trimmed_rms(S, index, T, o.trim) / diagonal;
+    // (Umeyama), refitted on the closest `trim` of them; to the original's vertices, and to them
+    // smoothed unless the leak is near the original's frame and stays there (the fit to its own
+    // vertices does not halve the residual): smoothing in place is what trace's reference
+    // models then, and the series would cost 0.1 to 0.3 s for nothing.
+    double unsmoothed = 0;
+    if (std::optional<Similarity> fitted =
+            fit_corresponding_vertices(VL, VO, used_l, used_o, o.trim, unsmoothed)) {
+      Similarity T = *fitted;
+      double rms = trimmed_rms(S, index, T, o.trim) / diagonal;
+      if (!near_frame || rms < 0.5 * best.residual) {
+        T = fit_corresponding_smoothed(VL, VO, FO, used_l, used_o, o.trim, T, unsmoothed);
+        rms = trimmed_rms(S, index, T, o.trim) / diagonal;
+      }
       if (rms < (near_frame ? 0.5 : 1.0) * best.residual) {
         best.transform = T;
         best.residual = rms;
