@@ -842,22 +842,26 @@ FingerprintScorer::FingerprintScorer(const Key& key, int functions,
   if (functions < 1)
     throw InvalidArgumentError(
         fmt::format("a fingerprint needs at least 1 function, not {}", functions));
+  // table_[(c 256 + v) R + r]: reading r's partial sum over byte c of the signs when that byte
+  // is v, divided by |b_r| (R readings side by side, so that a candidate's byte fetches every
+  // reading's term from one place).
   const int bytes = (functions + 7) / 8;
-  for (const Eigen::VectorXd& b : readings_) {
+  const std::size_t R = readings_.size();
+  table_.assign(static_cast<std::size_t>(bytes) * 256 * R, 0.0);
+  for (std::size_t r = 0; r < R; ++r) {
+    const Eigen::VectorXd& b = readings_[r];
     if (b.size() != functions)
       throw InvalidArgumentError(
           fmt::format("a reading of {} coefficients for a fingerprint of {}", b.size(), functions));
     const double norm = b.norm();
-    std::vector<double> table(static_cast<std::size_t>(bytes) * 256, 0.0);
     if (norm > 0)
       for (int c = 0; c < bytes; ++c)
         for (int v = 0; v < 256; ++v) {
           double sum = 0;
           for (int bit = 0; bit < 8 && 8 * c + bit < functions; ++bit)
             sum += ((v >> (7 - bit)) & 1 ? 1.0 : -1.0) * b(8 * c + bit);
-          table[static_cast<std::size_t>(c) * 256 + v] = sum / norm;
+          table_[(static_cast<std::size_t>(c) * 256 + v) * R + r] = sum / norm;
         }
-    tables_.push_back(std::move(table));
   }
 }
 
@@ -886,12 +890,15 @@ std::pair<double, double> FingerprintScorer::best_z_split(std::uint64_t id, int 
   std::vector<std::uint8_t> large(bytes > 64 ? static_cast<std::size_t>(bytes) : 0);
   std::uint8_t* signs = bytes > 64 ? large.data() : small.data();
   sign_bytes(sign_key_, id, static_cast<std::size_t>(bytes), signs);
-  for (std::size_t r = 0; r < tables_.size(); ++r) {
-    const std::vector<double>& table = tables_[r];
-    double z = 0;
-    for (int c = 0; c < bytes; ++c) z += table[static_cast<std::size_t>(c) * 256 + signs[c]];
-    take(r, z);
+  const std::size_t R = readings_.size();
+  std::array<double, 64> few{};
+  std::vector<double> many(R > few.size() ? R : 0, 0.0);
+  double* z = R > few.size() ? many.data() : few.data();
+  for (int c = 0; c < bytes; ++c) {
+    const double* terms = table_.data() + (static_cast<std::size_t>(c) * 256 + signs[c]) * R;
+    for (std::size_t r = 0; r < R; ++r) z[r] += terms[r];
   }
+  for (std::size_t r = 0; r < R; ++r) take(r, z[r]);
   return best;
 }
 

@@ -287,9 +287,9 @@ double combined_p_value(double p_bins, double p_fingerprint);
 
 /// The fingerprint scores of many candidates against the same readings (trace's): each
 /// candidate's best z = g.b / |b| over the readings b. A format-4 candidate costs K / 8 bytes
-/// of ChaCha20 and K / 8 table look-ups per reading: each reading's partial sums over every
-/// byte of signs are tabulated once. Format 3 candidates are scored through
-/// fingerprint_coefficients.
+/// of ChaCha20 and K / 8 look-ups of every reading's term at once: each reading's partial sums
+/// over every byte of signs are tabulated once, the readings side by side. Format 3 candidates are
+/// scored through fingerprint_coefficients.
 class FingerprintScorer {
  public:
   /// readings: each of `functions` coefficients (read_fingerprint's b).
@@ -309,7 +309,7 @@ class FingerprintScorer {
   Key key_, sign_key_;
   int functions_ = 0;
   std::vector<Eigen::VectorXd> readings_;
-  std::vector<std::vector<double>> tables_;  // per reading: (K / 8 rounded up) x 256
+  std::vector<double> table_;  // (K / 8 rounded up) x 256 x readings, readings innermost
 };
 
 }  // namespace meshmark
