@@ -93,6 +93,46 @@ Crossings cross_rays(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
   return x;
 }
 
+// For a leak P with the surface's faces F (noise, quantization, smoothing, an average of
+// copies: vertex i is vertex i), each counted row within `erase` of its own vertex V_i is
+// "crossed" there: point V_i, a face of F holding it with its barycentric weight 1, and the
+// ray's direction from the center through P_i as the normal, so that a reading at P's
+// vertices measures |P_i - c| - |V_i - c| (the leak's radial change at the vertex) and a
+// surface motion delta at V_i moves it by delta's radial part. Read through a face's plane,
+// as cross_rays does, the noise's part along the surface came in times the surface's slope.
+Crossings cross_vertices(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
+                         const Eigen::MatrixX3d& P, const std::vector<std::uint8_t>& carrier,
+                         const Eigen::Vector3d& center, double erase) {
+  Crossings x;
+  x.point = P;
+  x.crossed.assign(static_cast<std::size_t>(P.rows()), 0);
+  x.face.assign(static_cast<std::size_t>(P.rows()), -1);
+  x.barycentric = Eigen::MatrixX3d::Zero(P.rows(), 3);
+  x.normal = Eigen::MatrixX3d::Zero(P.rows(), 3);
+  std::vector<int> slot(static_cast<std::size_t>(P.rows()), -1);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k)
+      if (x.face[F(f, k)] < 0) x.face[F(f, k)] = static_cast<int>(f), slot[F(f, k)] = k;
+  for (Eigen::Index i = 0; i < P.rows(); ++i) {
+    if (carrier[i] != kCounted) {
+      x.face[i] = -1;
+      continue;
+    }
+    ++x.counted;
+    const Eigen::Vector3d ray = P.row(i).transpose() - center;
+    if (x.face[i] < 0 || !((P.row(i) - V.row(i)).norm() <= erase) || !(ray.norm() > 0)) {
+      x.face[i] = -1;
+      continue;
+    }
+    x.point.row(i) = V.row(i);
+    x.crossed[i] = 1;
+    x.barycentric(i, slot[i]) = 1;
+    x.normal.row(i) = ray.normalized().transpose();
+    ++x.found;
+  }
+  return x;
+}
+
 Resampled measure(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3i& FL,
                   const Eigen::MatrixX3d& VO, const std::vector<std::uint8_t>& carrier,
                   const Eigen::Vector3d& center, double erase) {
@@ -386,8 +426,13 @@ LeakResiduals leak_residuals(const Mesh& original, const Smoother& on_original,
                              const Eigen::MatrixX3d& VL,
                              const std::vector<std::uint8_t>& leak_carrier,
                              const Eigen::Vector3d& center, double erase,
-                             std::size_t unsmooth_limit) {
-  const Crossings x = cross_rays(surface, original.F, VL, leak_carrier, center, erase);
+                             std::size_t unsmooth_limit, bool same_faces) {
+  // A leak with the original's faces is read vertex to vertex (cross_vertices): its vertices
+  // did not slide off their rays, so it is not read before a smoothing either.
+  const Crossings x = same_faces
+                          ? cross_vertices(surface, original.F, VL, leak_carrier, center, erase)
+                          : cross_rays(surface, original.F, VL, leak_carrier, center, erase);
+  if (same_faces) unsmooth_limit = 0;
   std::vector<Eigen::Index> rows;  // the crossed rows of VL, d's order
   for (Eigen::Index i = 0; i < VL.rows(); ++i)
     if (x.crossed[i]) rows.push_back(i);
@@ -489,12 +534,14 @@ std::optional<FingerprintBasis> fingerprint_reading(
   }
   const std::vector<std::uint8_t> leak_carrier = carrier_vertices(VL, FL);
   const Smoother on_original(original.F, original.V.rows()), on_leak(FL, VL.rows());
+  const bool same_faces =
+      VL.rows() == original.V.rows() && FL.rows() == original.F.rows() && FL == original.F;
   std::vector<std::string> taken;
   for (const bool against_processed : {false, true}) {
     if (against_processed && !processed) continue;
-    const LeakResiduals x =
-        leak_residuals(original, on_original, on_leak, against_processed ? reference : original.V,
-                       VL, leak_carrier, h.center, erase, against_processed ? 0 : unsmooth_limit);
+    const LeakResiduals x = leak_residuals(
+        original, on_original, on_leak, against_processed ? reference : original.V, VL,
+        leak_carrier, h.center, erase, against_processed ? 0 : unsmooth_limit, same_faces);
     taken.push_back(fmt::format(
         "against the {}original, {} ({} leak vertices{})", against_processed ? "processed " : "",
         x.processing, x.count,
