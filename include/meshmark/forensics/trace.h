@@ -56,8 +56,10 @@ Resampled resample_at_original(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3
 /// The version of trace's reading of a fingerprint, which a trace campaign's directory records
 /// beside the mark format (mark_format.txt) so that rows read otherwise are not resumed beside
 /// new ones: 1, the whole surface and its regions; 2, also against a smoothed leak's vertices
-/// before the smoothing (TraceOptions::fingerprint_unsmoothing, 2026-12-07).
-inline constexpr int kFingerprintReading = 2;
+/// before the smoothing (TraceOptions::fingerprint_unsmoothing, 2026-12-07); 3, a leak with the
+/// original's faces read vertex to vertex, and registered against the original smoothed
+/// (2026-12-07, later).
+inline constexpr int kFingerprintReading = 3;
 
 /// Options of trace.
 struct TraceOptions {
