@@ -53,6 +53,17 @@ struct Crossings {
   std::size_t counted = 0, found = 0;
 };
 
+// Crossings of the rows of P with none crossed yet (each row's point its own).
+Crossings uncrossed(const Eigen::MatrixX3d& P) {
+  Crossings x;
+  x.point = P;
+  x.crossed.assign(static_cast<std::size_t>(P.rows()), 0);
+  x.face.assign(static_cast<std::size_t>(P.rows()), -1);
+  x.barycentric = Eigen::MatrixX3d::Zero(P.rows(), 3);
+  x.normal = Eigen::MatrixX3d::Zero(P.rows(), 3);
+  return x;
+}
+
 Crossings cross_rays(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                      const Eigen::MatrixX3d& P, const std::vector<std::uint8_t>& carrier,
                      const Eigen::Vector3d& center, double erase) {
@@ -62,12 +73,7 @@ Crossings cross_rays(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
   Eigen::MatrixX3d Q(static_cast<Eigen::Index>(rows.size()), 3);
   for (std::size_t k = 0; k < rows.size(); ++k) Q.row(k) = P.row(rows[k]);
   const ClosestPoints cp = closest_points(V, F, Q);
-  Crossings x;
-  x.point = P;
-  x.crossed.assign(static_cast<std::size_t>(P.rows()), 0);
-  x.face.assign(static_cast<std::size_t>(P.rows()), -1);
-  x.barycentric = Eigen::MatrixX3d::Zero(P.rows(), 3);
-  x.normal = Eigen::MatrixX3d::Zero(P.rows(), 3);
+  Crossings x = uncrossed(P);
   x.counted = rows.size();
   for (std::size_t k = 0; k < rows.size(); ++k) {
     if (!(cp.distance(k) <= erase)) continue;
@@ -103,12 +109,7 @@ Crossings cross_rays(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
 Crossings cross_vertices(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
                          const Eigen::MatrixX3d& P, const std::vector<std::uint8_t>& carrier,
                          const Eigen::Vector3d& center, double erase) {
-  Crossings x;
-  x.point = P;
-  x.crossed.assign(static_cast<std::size_t>(P.rows()), 0);
-  x.face.assign(static_cast<std::size_t>(P.rows()), -1);
-  x.barycentric = Eigen::MatrixX3d::Zero(P.rows(), 3);
-  x.normal = Eigen::MatrixX3d::Zero(P.rows(), 3);
+  Crossings x = uncrossed(P);
   std::vector<int> slot(static_cast<std::size_t>(P.rows()), -1);
   for (Eigen::Index f = 0; f < F.rows(); ++f)
     for (int k = 0; k < 3; ++k)
