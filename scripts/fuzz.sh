@@ -43,13 +43,25 @@ for f in /usr/share/assimp/models/glTF2/BoxTextured-glTF-Embedded/BoxTextured.gl
          /usr/share/assimp/models/glTF2/glTF-Sample-Models/AnimatedMorphCube-glTF/AnimatedMorphCube.gltf; do add_seed "$f" 4; done
 add_seed /usr/share/assimp/models/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb 5
 for f in fuzz/regressions/*; do [ -f "$f" ] && cp "$f" "$seeds/"; done
+# Runs one fuzzer (NAME, then its command) into NAME.log; prints its final statistics, or, when
+# it crashed, the sanitizer's report and where the input was kept, then fails.
+run_fuzzer() {
+  local name="$1"; shift
+  if "$@" >"$out/$name.log" 2>&1; then
+    echo "fuzz: $name"; grep -E "^(Done|stat::)" "$out/$name.log"
+  else
+    echo "fuzz: $name crashed; its report (whole log: $out/$name.log):" >&2
+    grep -v "Uses:" "$out/$name.log" | grep -E -A12 "ERROR|runtime error|deadly signal|Test unit|==[0-9]+==" | head -80 >&2
+    exit 1
+  fi
+}
 corpus="$out/corpus"
 mkdir -p "$corpus"
-"$out/fuzz_read" -max_total_time="$seconds" -max_len=400000 -timeout=10 -rss_limit_mb=4096 \
-  -artifact_prefix=fuzz/crashes/ -print_final_stats=1 "$corpus" "$seeds" 2>&1 | tail -15
+run_fuzzer fuzz_read "$out/fuzz_read" -max_total_time="$seconds" -max_len=400000 -timeout=10 -rss_limit_mb=4096 \
+  -artifact_prefix=fuzz/crashes/ -print_final_stats=1 "$corpus" "$seeds"
 mkdir -p "$out/corpus-decode"
-"$out/fuzz_decode" -max_total_time="$seconds" -max_len=1024 -timeout=10 -rss_limit_mb=2048 \
-  -artifact_prefix=fuzz/crashes/ -print_final_stats=1 "$out/corpus-decode" 2>&1 | tail -6
+run_fuzzer fuzz_decode "$out/fuzz_decode" -max_total_time="$seconds" -max_len=1024 -timeout=10 -rss_limit_mb=2048 \
+  -artifact_prefix=fuzz/crashes/ -print_final_stats=1 "$out/corpus-decode"
 # What users feed besides meshes, each seed prefixed with the byte that selects its kind: a key
 # file, manifests (text and CSV), a real registry, and a .gltf with its external buffer.
 inputs="$out/seeds-inputs"
@@ -66,14 +78,14 @@ if command -v gltfpack >/dev/null && gltfpack -i data/meshes/spot.obj -o "$out/b
   { printf '\x04'; cat "$out/buffer.gltf"; printf '\x00'; cat "$out/buffer.bin"; } > "$inputs/gltf"
 fi
 mkdir -p "$out/corpus-inputs"
-"$out/fuzz_inputs" -max_total_time="$seconds" -max_len=200000 -timeout=10 -rss_limit_mb=2048 \
-  -artifact_prefix=fuzz/crashes/ -print_final_stats=1 "$out/corpus-inputs" "$inputs" 2>&1 | tail -6
+run_fuzzer fuzz_inputs "$out/fuzz_inputs" -max_total_time="$seconds" -max_len=200000 -timeout=10 -rss_limit_mb=2048 \
+  -artifact_prefix=fuzz/crashes/ -print_final_stats=1 "$out/corpus-inputs" "$inputs"
 # Campaign files: the project's own, their models found under data/ and in libcgal-demo's meshes
 # (unpacked into the fuzz build's tree by CMake).
 campaigns="$out/seeds-campaign"
 rm -rf "$campaigns" && mkdir -p "$campaigns" "$out/corpus-campaign"
 cp bench/campaigns/*.json "$campaigns/"
 MESHMARK_DATA_DIR="$PWD/data" MESHMARK_CGAL_DATA="$PWD/$out/cgal-data/data/meshes" \
-  "$out/fuzz_campaign" -max_total_time="$seconds" -max_len=20000 -timeout=10 -rss_limit_mb=2048 \
-  -artifact_prefix=fuzz/crashes/ -print_final_stats=1 "$out/corpus-campaign" "$campaigns" 2>&1 | tail -6
+  run_fuzzer fuzz_campaign "$out/fuzz_campaign" -max_total_time="$seconds" -max_len=20000 -timeout=10 -rss_limit_mb=2048 \
+  -artifact_prefix=fuzz/crashes/ -print_final_stats=1 "$out/corpus-campaign" "$campaigns"
 echo "fuzz: no crash in ${seconds} s per target"

@@ -5,8 +5,10 @@
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <utility>
 
 #include "campaign/campaign_parts.h"
 #include "meshmark/attacks/attack.h"
@@ -49,6 +51,22 @@ std::string expand(std::string path, const fs::path& base) {
 
 [[noreturn]] void bad(const std::string& file, const std::string& what) {
   throw InvalidInputError(file, 0, what);
+}
+
+// An integer setting: a JSON integer within T's range. A fraction (3.5), a float (3.0) or a
+// number beyond T (1e77) is refused, never truncated or converted out of range.
+template <class T>
+T integer(const std::string& file, const json& object, const char* key, const std::string& where,
+          T fallback) {
+  if (!object.contains(key)) return fallback;
+  const json& v = object[key];
+  if (v.is_number_unsigned()) {
+    if (const auto u = v.get<std::uint64_t>(); std::in_range<T>(u)) return static_cast<T>(u);
+  } else if (v.is_number_integer()) {
+    if (const auto i = v.get<std::int64_t>(); std::in_range<T>(i)) return static_cast<T>(i);
+  }
+  bad(file, fmt::format("{}\"{}\" is {}, not an integer from {} to {}", where, key, v.dump(),
+                        std::numeric_limits<T>::min(), std::numeric_limits<T>::max()));
 }
 
 void check_keys(const std::string& file, const json& object, const std::string& where,
@@ -108,7 +126,7 @@ void read_protocols(const std::string& file, const json& j, CampaignConfig& c) {
     }
     o.max_rms_percent = k.value("max_rms", o.max_rms_percent);
     o.max_msdm = k.value("max_msdm", o.max_msdm);
-    o.iterations = k.value("iterations", o.iterations);
+    o.iterations = integer(file, k, "iterations", where + ": ", o.iterations);
     o.min_strength = k.value("min", o.min_strength);
     o.max_strength = k.value("max", o.max_strength);
     return o;
@@ -150,7 +168,7 @@ void read_trace_settings(const std::string& file, const json& j, CampaignConfig&
        {"copies", "collusion", "spread", "fingerprint", "fingerprint_rms", "fingerprint_regions"})
     if (!c.trace && j.contains(k)) bad(file, fmt::format("\"{}\" needs \"mode\": \"trace\"", k));
   if (!c.trace) return;
-  c.copies = j.value("copies", c.copies);
+  c.copies = integer(file, j, "copies", "", c.copies);
   if (j.contains("collusion")) {
     const json& k = j["collusion"];
     std::vector<std::string> names;
@@ -240,10 +258,10 @@ CampaignConfig load_campaign(const std::string& path) {
   c.source = path;
   try {
     c.name = j.value("name", fs::path(path).stem().string());
-    c.bits = j.value("bits", 64);
-    c.payloads = j.value("payloads", 6);
-    c.draws = j.value("draws", 10);
-    c.seed = j.value("seed", std::uint64_t{1});
+    c.bits = integer(path, j, "bits", "", c.bits);
+    c.payloads = integer(path, j, "payloads", "", c.payloads);
+    c.draws = integer(path, j, "draws", "", c.draws);
+    c.seed = integer(path, j, "seed", "", c.seed);
     if (c.bits < 1 || c.bits > 4096) bad(path, fmt::format("bits {} is out of 1..4096", c.bits));
     if (c.payloads < 1) bad(path, "payloads must be at least 1");
     if (c.draws < 1) bad(path, "draws must be at least 1");
@@ -305,7 +323,7 @@ CampaignConfig load_campaign(const std::string& path) {
         if (!a.contains("strengths") || !a["strengths"].is_array() || a["strengths"].empty())
           bad(path, where + ": \"strengths\" must be a non-empty array");
         s.strengths = a["strengths"].get<std::vector<double>>();
-        s.draws = a.value("draws", 0);
+        s.draws = integer(path, a, "draws", where + ": ", 0);
         check_series(path, where, s);
         read_series_params(path, where, a, s);
         if (std::any_of(c.attacks.begin(), c.attacks.end(),

@@ -59,10 +59,21 @@ TEST(Campaign, RejectsBadFilesNamingFileAndKey) {
        "none.off does not exist"},
       {"{\"models\": [\"" + spot + "\"], \"variants\": [\"DXS\"]}", "variant \"DXS\""},
       {head + ", \"strength\": 0.7}", "strength 0.7 is out of (0, 1/2)"},
-      {head + ", \"bits\": \"many\"}", "wrong type"},
+      {head + ", \"bits\": \"many\"}", "\"bits\" is \"many\", not an integer"},
       {"{\"models\": [", "not valid JSON"},
       // A number beyond double's range ended the process (found by the fuzzer).
       {head + ", \"seed\": 666666666666e66666666666666667}", "not valid JSON"},
+      // An integer given as a float beyond the type's range was converted out of range, undefined
+      // behaviour (found by the fuzzer); a fraction was truncated. Both are refused.
+      {head + ", \"seed\": 1.66667e+77}", "\"seed\" is 1.66667e+77, not an integer from 0 to"},
+      {head + ", \"seed\": -1}", "\"seed\" is -1, not an integer"},
+      {head + ", \"draws\": 2.5}", "\"draws\" is 2.5, not an integer"},
+      {head + ", \"bits\": 1e10}", "\"bits\" is 10000000000.0, not an integer"},
+      {head + ", \"attacks\": [{\"kind\": \"noise\", \"strengths\": [1], \"draws\": 3e9}]}",
+       "attacks[0]: \"draws\" is 3000000000.0, not an integer"},
+      {head + ", \"calibration\": {\"iterations\": 4.5}}",
+       "calibration: \"iterations\" is 4.5, not an integer"},
+      {head + ", \"mode\": \"trace\", \"copies\": 1e300}", "\"copies\" is 1e+300, not an integer"},
       // Chains: the last step takes the strengths; every step must be an attack.
       {head + ", \"attacks\": [{\"kind\": \"similarity:2,simplify:0.3\", \"strengths\": [0.5]}]}",
        "attacks[0]: the last step of the chain \"similarity:2,simplify:0.3\" takes the strengths"},
