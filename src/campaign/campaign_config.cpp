@@ -157,15 +157,15 @@ void read_protocols(const std::string& file, const json& j, CampaignConfig& c) {
   c.calibration = c.protocols.front().calibration;
 }
 
-// The trace mode's settings ("mode", "copies", "collusion", "spread", "fingerprint",
+// The trace mode's settings ("mode", "copies", "collusion", "remarks", "spread", "fingerprint",
 // "fingerprint_rms", "fingerprint_regions"), refused in blind mode.
 void read_trace_settings(const std::string& file, const json& j, CampaignConfig& c) {
   const std::string mode = j.value("mode", "blind");
   if (mode != "blind" && mode != "trace")
     bad(file, fmt::format("mode \"{}\" is neither \"blind\" nor \"trace\"", mode));
   c.trace = mode == "trace";
-  for (const char* k :
-       {"copies", "collusion", "spread", "fingerprint", "fingerprint_rms", "fingerprint_regions"})
+  for (const char* k : {"copies", "collusion", "remarks", "spread", "fingerprint",
+                        "fingerprint_rms", "fingerprint_regions"})
     if (!c.trace && j.contains(k)) bad(file, fmt::format("\"{}\" needs \"mode\": \"trace\"", k));
   if (!c.trace) return;
   c.copies = integer(file, j, "copies", "", c.copies);
@@ -194,6 +194,25 @@ void read_trace_settings(const std::string& file, const json& j, CampaignConfig&
       }
       if (!seen.insert(coalition_name(c.coalitions.back())).second)
         bad(file, fmt::format("\"collusion\" lists the coalition \"{}\" twice", name));
+    }
+  }
+  if (j.contains("remarks")) {
+    const json& list = j["remarks"];
+    if (!list.is_array())
+      bad(file,
+          "\"remarks\" must be a list of re-markings (\"remark:VRS\", \"remark-key:DNL:0.1\")");
+    std::set<std::string> seen;
+    for (const json& n : list) {
+      if (!n.is_string())
+        bad(file, fmt::format("\"remarks\" lists {}, not a re-marking", n.dump()));
+      try {
+        c.remarks.push_back(parse_remark(n.get<std::string>()));
+      } catch (const InvalidArgumentError& e) {
+        bad(file, e.what());
+      }
+      if (!seen.insert(remark_name(c.remarks.back())).second)
+        bad(file,
+            fmt::format("\"remarks\" lists the re-marking \"{}\" twice", n.get<std::string>()));
     }
   }
   c.fingerprint = j.value("fingerprint", c.fingerprint);
@@ -250,9 +269,10 @@ CampaignConfig load_campaign(const std::string& path) {
   }
   if (!j.is_object()) bad(path, "a campaign is a JSON object");
   check_keys(path, j, "campaign",
-             {"name", "description", "models", "variants", "bits", "payloads", "draws", "seed",
-              "calibration", "protocols", "strength", "attacks", "mode", "copies", "collusion",
-              "spread", "fingerprint", "fingerprint_rms", "fingerprint_regions"});
+             {"name",     "description", "models",      "variants",        "bits",
+              "payloads", "draws",       "seed",        "calibration",     "protocols",
+              "strength", "attacks",     "mode",        "copies",          "collusion",
+              "remarks",  "spread",      "fingerprint", "fingerprint_rms", "fingerprint_regions"});
   const fs::path base = fs::absolute(path).parent_path();
   CampaignConfig c;
   c.source = path;

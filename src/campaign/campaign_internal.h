@@ -30,14 +30,26 @@ struct PlannedTrial {
   int colluders = 0;                             ///< 0 in blind mode, else 1 or the coalition's
   const CampaignCoalition* coalition = nullptr;  ///< trace mode's merged leaks
   std::string key;
+  const CampaignRemark* remark = nullptr;  ///< trace mode's re-marked leaks
 };
 
 /// The unit's trials in canonical order: attacks, strengths, draws, then (trace mode) every one
-/// again for each coalition of the config, in its order.
+/// again for each coalition of the config, in its order, then for each re-marking.
 std::vector<PlannedTrial> plan_trials(const CampaignConfig& config, const CampaignUnit& unit);
 
 /// The trial's attack applied to mesh (a copy of it for "none"), seeded from its key.
 Mesh attack_for_trial(const CampaignConfig& config, const PlannedTrial& trial, const Mesh& mesh);
+
+/// The other key of "remark-key" re-markings (CampaignRemark::other_key), from the seed.
+Key remarker_key(const CampaignConfig& config);
+
+/// The leaker's copy re-marked as whoever leaks it would with meshmark (CampaignRemark): the
+/// ID `id` coded into a histogram mark of the re-marking's scheme under the public key (as
+/// `embed COPY OUT --id ID`), or under remarker_key with that key's fingerprint too (as `embed
+/// --key-file OTHER --fingerprint`, the copy taken for the original). \throw
+/// InvalidArgumentError when the re-mark cannot be embedded.
+Mesh remarked_copy(const CampaignConfig& config, const CampaignRemark& remark, const Mesh& copy,
+                   std::uint64_t id);
 
 /// Trace mode's run_campaign_unit.
 void run_trace_unit(const CampaignConfig& config, const CampaignUnit& unit, const Mesh& mesh,

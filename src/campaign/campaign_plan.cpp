@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cstdlib>
 
 #include "campaign/campaign_internal.h"
 #include "campaign/campaign_parts.h"
@@ -66,9 +67,51 @@ std::string coalition_label(const CampaignCoalition& k) {
   return fmt::format("{} of {}", kind, k.size);
 }
 
+std::string remark_name(const CampaignRemark& r) {
+  const std::string name =
+      fmt::format("{}:{}", r.other_key ? "remark-key" : "remark", parse_scheme(r.scheme).name());
+  return r.strength > 0 ? fmt::format("{}:{:g}", name, r.strength) : name;
+}
+
+CampaignRemark parse_remark(const std::string& name) {
+  const std::size_t colon = name.find(':');
+  const std::string kind = name.substr(0, colon);
+  if ((kind != "remark" && kind != "remark-key") || colon == std::string::npos)
+    throw InvalidArgumentError(fmt::format(
+        "re-marking \"{}\": write remark:SCHEME or remark-key:SCHEME (another key), then "
+        "optionally :STRENGTH",
+        name));
+  CampaignRemark r;
+  r.other_key = kind == "remark-key";
+  const std::string rest = name.substr(colon + 1);
+  const std::size_t second = rest.find(':');
+  try {
+    r.scheme = parse_scheme(rest.substr(0, second)).name();
+  } catch (const InvalidArgumentError& e) {
+    throw InvalidArgumentError(fmt::format("re-marking \"{}\": {}", name, e.what()));
+  }
+  if (second != std::string::npos) {
+    const std::string x = rest.substr(second + 1);
+    char* end = nullptr;
+    r.strength = std::strtod(x.c_str(), &end);
+    if (x.empty() || end != x.c_str() + x.size() || !(r.strength > 0 && r.strength < 0.5))
+      throw InvalidArgumentError(
+          fmt::format("re-marking \"{}\": the strength \"{}\" is not in (0, 1/2)", name, x));
+  }
+  return r;
+}
+
+std::string remark_label(const CampaignRemark& r) {
+  const std::string at = r.strength > 0 ? fmt::format(" at {:g}", r.strength) : "";
+  return fmt::format("re-marked {}{} ({})", parse_scheme(r.scheme).name(), at,
+                     r.other_key ? "another key" : "public key");
+}
+
 std::string trace_attack_label(const std::string& attack, double x, const std::string& coalition) {
   const std::string a = attack == "none" ? "none" : fmt::format("{}:{:g}", attack, x);
-  return coalition.empty() ? a : coalition_label(parse_coalition(coalition)) + ", " + a;
+  if (coalition.empty()) return a;
+  if (coalition.starts_with("remark")) return remark_label(parse_remark(coalition)) + ", " + a;
+  return coalition_label(parse_coalition(coalition)) + ", " + a;
 }
 
 std::vector<AttackStep> series_chain(const std::string& kind, double x) {
@@ -136,16 +179,20 @@ std::vector<detail::PlannedTrial> detail::plan_trials(const CampaignConfig& c,
   std::vector<const CampaignCoalition*> leaks{nullptr};
   if (c.trace)
     for (const CampaignCoalition& k : c.coalitions) leaks.push_back(&k);
-  for (const CampaignCoalition* k : leaks) {
+  const auto plan = [&](const CampaignCoalition* k, const CampaignRemark* r) {
     const int colluders = k ? k->size : c.trace ? 1 : 0;
-    const std::string name = k ? coalition_name(*k) : "";
+    const std::string name = k ? coalition_name(*k) : r ? remark_name(*r) : "";
     for (const AttackSeries& s : c.attacks)
       for (const double x : s.strengths)
         for (int d = 0; d < draws_of(c, s); ++d)
           trials.push_back({&s, x, d, colluders, k,
                             trial_key(c.models[u.model].name, c.variants[u.variant], u.payload,
-                                      series_label(s), x, d, name, c.protocols[u.protocol].name)});
-  }
+                                      series_label(s), x, d, name, c.protocols[u.protocol].name),
+                            r});
+  };
+  for (const CampaignCoalition* k : leaks) plan(k, nullptr);
+  if (c.trace)
+    for (const CampaignRemark& r : c.remarks) plan(nullptr, &r);
   return trials;
 }
 

@@ -17,6 +17,7 @@
 #include "meshmark/carrier/variant.h"
 #include "meshmark/core/error.h"
 #include "meshmark/forensics/fingerprint.h"
+#include "meshmark/forensics/issue.h"
 #include "meshmark/forensics/trace.h"
 #include "meshmark/metrics/metrics.h"
 #include "meshmark/protocol/coding.h"
@@ -159,6 +160,32 @@ void judge(const Mesh& attacked, const Mesh& original, const std::vector<IssuedC
 
 }  // namespace
 
+Key remarker_key(const CampaignConfig& c) {
+  return key_from_passphrase_v1(fmt::format("meshmark campaign re-marker's key, seed {}", c.seed));
+}
+
+Mesh remarked_copy(const CampaignConfig& c, const CampaignRemark& r, const Mesh& copy,
+                   std::uint64_t id) {
+  const std::optional<Key> key = r.other_key ? std::optional<Key>(remarker_key(c)) : std::nullopt;
+  const IdCode code(IdCodeOptions{c.bits});
+  EmbedOptions eo = scheme_options(r.scheme);
+  if (r.strength > 0) eo.strength = r.strength;
+  eo.strengths = mark_strengths(key, c.bits, true, eo.strength, IssueSettings{}.strength_spread);
+  const EmbedResult e = embed(copy.V, copy.F, id_bins(code, id, key), eo);
+  if (e.status != EmbedStatus::Embedded)
+    throw InvalidArgumentError(fmt::format("re-marking {} with ID {}: {}: {}", remark_name(r), id,
+                                           embed_status_name(e.status), e.message));
+  Mesh out = copy;
+  out.V = e.V;
+  if (key)
+    if (const std::optional<FingerprintFrame> frame =
+            fingerprint_frame(copy.V, copy.F, eo.variant.center, c.bits))
+      out.V = add_fingerprint(e.V, copy.V, frame->basis,
+                              fingerprint_coefficients(*key, id, frame->basis.functions),
+                              c.fingerprint_rms, &frame->histogram, &frame->center_motion);
+  return out;
+}
+
 void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& mesh,
                     const CalibrationRecord& record,
                     const std::function<bool(const std::string& key)>& done,
@@ -225,7 +252,22 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
   }
   // The leak of a trial: the leaker's copy, or its coalition's merge (weights and regions drawn
   // from the trial's key).
+  std::map<const CampaignRemark*, Mesh> remarked;  // once per re-marking, for all its attacks
   const auto leak_of = [&](const PlannedTrial& t) {
+    if (t.remark) {
+      auto it = remarked.find(t.remark);
+      if (it == remarked.end()) {
+        const std::string name = remark_name(*t.remark);
+        it = remarked
+                 .emplace(t.remark, remarked_copy(c, *t.remark, marked[0],
+                                                  seed_of(fmt::format("{}|{}|{}|{}", model, variant,
+                                                                      u.payload, name),
+                                                          c.seed) %
+                                                      (std::uint64_t{1} << 31)))
+                 .first;
+      }
+      return it->second;
+    }
     if (!t.coalition) return marked[0];
     const std::vector<Mesh> coalition(marked.begin(), marked.begin() + t.colluders);
     const std::uint64_t seed = seed_of(t.key + "|coalition", c.seed);
@@ -242,7 +284,9 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
     row.attack_strength = t.strength;
     row.draw = t.draw;
     row.colluders = t.colluders;
-    row.coalition = t.coalition ? coalition_name(*t.coalition) : "";
+    row.coalition = t.coalition ? coalition_name(*t.coalition)
+                    : t.remark  ? remark_name(*t.remark)
+                                : "";
     const std::vector<std::uint64_t> leakers(pair.begin(), pair.begin() + t.colluders);
     row.leakers = joined(leakers);
     row.ber = 0.5;
@@ -272,6 +316,7 @@ std::vector<TraceSummaryRow> summarize_trace(const CampaignConfig& c,
   std::vector<TraceSummaryRow> out;
   std::vector<std::string> leaks{""};
   for (const CampaignCoalition& k : c.coalitions) leaks.push_back(coalition_name(k));
+  for (const CampaignRemark& r : c.remarks) leaks.push_back(remark_name(r));
   for (const std::string& coalition : leaks)
     for (const AttackSeries& s : c.attacks)
       for (const double x : s.strengths) {

@@ -28,15 +28,24 @@ std::string percent(int n, int of) {
   return of > 0 ? fmt::format("{:.1f} %", 100.0 * n / of) : "-";
 }
 
-// The coalitions of the campaign, for the report's first paragraph ("" without).
+// The coalitions and re-markings of the campaign, for the report's first paragraph ("" without).
 std::string coalitions_text(const CampaignConfig& c) {
-  std::vector<std::string> names;
+  std::vector<std::string> names, remarks;
   for (const CampaignCoalition& k : c.coalitions) names.push_back(coalition_label(k));
-  if (names.empty()) return "";
-  return fmt::format(
-      "; every attack also on the leaks merged by coalitions of consecutive IDs' copies ({}; "
-      "unequal weights and splice regions drawn per trial)",
-      fmt::join(names, ", "));
+  for (const CampaignRemark& r : c.remarks) remarks.push_back(remark_label(r));
+  std::string text =
+      names.empty() ? ""
+                    : fmt::format(
+                          "; every attack also on the leaks merged by coalitions of consecutive "
+                          "IDs' copies ({}; unequal weights and splice regions drawn per trial)",
+                          fmt::join(names, ", "));
+  if (!remarks.empty())
+    text += fmt::format(
+        "; every attack also on the leaker's copy re-marked with meshmark by whoever leaks it "
+        "({}; another ID drawn per leaker, the default strength unless given; under another key "
+        "with that key's fingerprint too)",
+        fmt::join(remarks, ", "));
+  return text;
 }
 
 // Two stacked bars per summary row (trace, blind): right green, none grey, wrong red.

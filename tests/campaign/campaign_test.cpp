@@ -16,11 +16,14 @@
 #include "campaign/campaign_internal.h"
 #include "campaign/campaign_parts.h"
 #include "meshmark/campaign/campaign.h"
+#include "meshmark/carrier/method.h"
 #include "meshmark/core/error.h"
 #include "meshmark/forensics/fingerprint.h"
 #include "meshmark/io/io.h"
 #include "meshmark/mark/calibrate.h"
 #include "meshmark/metrics/metrics.h"
+#include "meshmark/protocol/coding.h"
+#include "meshmark/protocol/watermark.h"
 #include "test_data.h"
 
 namespace meshmark {
@@ -105,6 +108,23 @@ TEST(Campaign, RejectsBadFilesNamingFileAndKey) {
       {head + ", \"mode\": \"trace\", \"copies\": 4, \"collusion\": [\"splice:5\"]}",
        "the coalition \"splice:5\" needs more than the 4 copies issued"},
       {head + ", \"fingerprint\": true}", "\"fingerprint\" needs \"mode\": \"trace\""},
+      // Re-markings.
+      {head + ", \"remarks\": [\"remark:VRS\"]}", "\"remarks\" needs \"mode\": \"trace\""},
+      {head + ", \"mode\": \"trace\", \"remarks\": \"remark:VRS\"}",
+       "\"remarks\" must be a list of re-markings"},
+      {head + ", \"mode\": \"trace\", \"remarks\": [7]}", "\"remarks\" lists 7, not a re-marking"},
+      {head + ", \"mode\": \"trace\", \"remarks\": [\"mark:VRS\"]}",
+       "re-marking \"mark:VRS\": write remark:SCHEME or remark-key:SCHEME"},
+      {head + ", \"mode\": \"trace\", \"remarks\": [\"remark\"]}",
+       "re-marking \"remark\": write remark:SCHEME"},
+      {head + ", \"mode\": \"trace\", \"remarks\": [\"remark:VXS\"]}",
+       "re-marking \"remark:VXS\": "},
+      {head + ", \"mode\": \"trace\", \"remarks\": [\"remark-key:VRS:0.7\"]}",
+       "re-marking \"remark-key:VRS:0.7\": the strength \"0.7\" is not in (0, 1/2)"},
+      {head + ", \"mode\": \"trace\", \"remarks\": [\"remark:VRS:0.05x\"]}",
+       "the strength \"0.05x\" is not in"},
+      {head + ", \"mode\": \"trace\", \"remarks\": [\"remark:VRS:0.1\", \"remark:VRS:.10\"]}",
+       "\"remarks\" lists the re-marking \"remark:VRS:.10\" twice"},
       {head + ", \"mode\": \"trace\", \"fingerprint\": \"yes\"}", "wrong type"},
       {head + ", \"mode\": \"trace\", \"fingerprint\": true, \"fingerprint_rms\": 0.02}",
        "fingerprint_rms 0.02 is out of (0, 0.01]"},
@@ -533,6 +553,71 @@ TEST(Campaign, TraceQuickCampaignNamesNoInnocentAndBeatsTheBlindDecoder) {
   ASSERT_EQ(again.code, 0) << again.out;
   EXPECT_NE(again.out.find(fmt::format("({} run now", n - n / 2)), std::string::npos) << again.out;
   EXPECT_EQ(rows_without_times(dir), rows);
+}
+
+// Re-marked leaks: the copy marked again as `embed --id` marks it (the re-mark's ID decodes under
+// the public key, or under the other key and not the public one), rows named after the
+// re-marking with the leaker alone, and trace names the leaker through the fingerprint (spot's
+// copies, 40 issued) and never anyone else.
+TEST(Campaign, RemarkedLeaksCarryTheNewMarkAndNameOnlyTheirBuyer) {
+  const std::string spot = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir() + "/remarks";
+  const std::string config = write_text(
+      test::scratch_dir() + "/remarks.json",
+      "{\"models\": [\"" + spot +
+          "\"], \"variants\": [\"DRS\"], \"mode\": \"trace\", \"copies\": 40, "
+          "\"fingerprint\": true, \"remarks\": [\"remark:VRS\", \"remark-key:DRS:0.03\", "
+          "\"remark:cho-mean\"], \"payloads\": 2, \"strength\": 0.05, \"draws\": 1}");
+  const CampaignConfig c = load_campaign(config);
+  ASSERT_EQ(c.remarks.size(), 3u);
+  EXPECT_EQ(remark_name(c.remarks[1]), "remark-key:DRS:0.03");
+  EXPECT_EQ(remark_label(c.remarks[1]), "re-marked DRS at 0.03 (another key)");
+
+  const Mesh mesh = read_mesh(spot);
+  const IdCode code(IdCodeOptions{c.bits});
+  for (const CampaignRemark& r : c.remarks) {
+    const Mesh leak = detail::remarked_copy(c, r, mesh, 123456);
+    const MarkScheme scheme = parse_scheme(r.scheme);
+    ExtractOptions xo;
+    xo.bits = c.bits;
+    xo.center = scheme.variant.center;
+    xo.method = scheme.method;
+    const std::optional<Key> key =
+        r.other_key ? std::optional<Key>(detail::remarker_key(c)) : std::nullopt;
+    const IdReading read = read_id(leak.V, leak.F, xo, code, key);
+    ASSERT_TRUE(read.id.valid) << remark_name(r);
+    EXPECT_EQ(read.id.id, 123456u) << remark_name(r);
+    if (r.other_key) {
+      const IdReading public_read = read_id(leak.V, leak.F, xo, code, std::nullopt);
+      EXPECT_FALSE(public_read.id.valid && public_read.id.id == 123456u);
+    }
+  }
+
+  const test::CliRun run = test::run_cli("bench " + config + " --out " + dir + " --fresh");
+  ASSERT_EQ(run.code, 0) << run.out;
+  const std::map<std::string, std::string> json_rows = rows_without_times(dir);
+  ASSERT_EQ(json_rows.size(), 2u * 4);  // payloads x (the copy, 3 re-markings), attack none
+  int remarked = 0;
+  for (const auto& [key, json] : json_rows) {
+    const TrialRow r = row_from_json(json);
+    ASSERT_EQ(r.status, "ok") << key;
+    EXPECT_EQ(r.colluders, 1) << key;
+    EXPECT_EQ(r.leakers, std::to_string(campaign_leaker(c, r.payload))) << key;
+    EXPECT_NE(r.trace_outcome, "wrong") << key << ": trace named " << r.trace_named;
+    EXPECT_NE(r.blind_outcome, "wrong") << key << ": blind decoded " << r.blind_id;
+    EXPECT_EQ(r.trace_outcome, "right") << key << ": " << r.trace_status;
+    EXPECT_GE(r.innocent_p, 1e-6) << key;
+    if (r.coalition.empty()) continue;
+    ++remarked;
+    EXPECT_TRUE(r.coalition == "remark:VRS" || r.coalition == "remark-key:DRS:0.03" ||
+                r.coalition == "remark:cho-mean")
+        << key;
+    EXPECT_EQ(key.substr(key.size() - r.coalition.size() - 1), "|" + r.coalition) << key;
+  }
+  EXPECT_EQ(remarked, 6);
+  const std::string report = read_file(dir + "/report.md");
+  EXPECT_NE(report.find("| re-marked VRS (public key), none | 2 |"), std::string::npos) << report;
 }
 
 // Coalitions of consecutive IDs: each trial's leakers are the unit's leaker and the K - 1 IDs

@@ -60,7 +60,11 @@
 /// coalition of K is the leaker and the K - 1 IDs after it (shifted down at the end of the
 /// range). Right is then at least one colluder named and no innocent; rows and summaries also
 /// count the trials that named every colluder. Rows carry both outcomes; keys of merged trials
-/// end in "|avg2" (an average of 2) or "|" and the coalition's name. "fingerprint": true issues
+/// end in "|avg2" (an average of 2) or "|" and the coalition's name. "remarks" repeats every
+/// attack on the leaker's copy re-marked with meshmark (CampaignRemark: "remark:VRS",
+/// "remark-key:DNL:0.1", "remark:cho-mean"), another ID drawn per model, variant and payload;
+/// their rows carry the re-marking's name in `coalition`, with 1 colluder, and keys end in "|"
+/// and that name. "fingerprint": true issues
 /// every copy with the fingerprint (the leakers' copies get theirs, the records mark format 5).
 /// bits and the 32-bit ID must make an IdCode (coding.h).
 ///
@@ -119,11 +123,32 @@ CampaignCoalition parse_coalition(const std::string& name);
 /// Its label in reports: "average of 3", "unequal average of 3", "splice of 3".
 std::string coalition_label(const CampaignCoalition& coalition);
 
-/// A trace trial's attack as reports print it: "simplify:0.5", or with its coalition first
-/// ("average of 3, simplify:0.5", "unequal average of 3, ...", "splice of 3, ..."). coalition:
-/// a coalition_name, or "" for a single copy.
+/// A trace trial's attack as reports print it: "simplify:0.5", or with its coalition or
+/// re-marking first ("average of 3, simplify:0.5", "unequal average of 3, ...", "splice of 3,
+/// ...", "re-marked VRS (public key), ..."). coalition: a coalition_name, a remark_name, or ""
+/// for a single copy as issued.
 std::string trace_attack_label(const std::string& attack, double attack_strength,
                                const std::string& coalition);
+
+/// A re-marking of a trace campaign: the leaker's copy marked again with meshmark by whoever
+/// leaks it, as anyone can, before the trial's attack: another ID's histogram mark in `scheme`
+/// under the public key (what `meshmark embed COPY OUT --id N` does without a key), or under
+/// another secret key with that key's fingerprint too (`embed --key-file OTHER --fingerprint`).
+struct CampaignRemark {
+  std::string scheme = "VRS";  ///< a variant or a Cho method (MarkScheme: "DNL", "cho-mean")
+  double strength = 0;         ///< the re-mark's strength in (0, 1/2); 0: embed's default
+  bool other_key = false;      ///< another secret key (with its fingerprint), else the public key
+};
+
+/// Its name in campaign files, rows and trial keys: "remark:SCHEME" (public key) or
+/// "remark-key:SCHEME" (another key), then ":STRENGTH" when not the default ("remark:VRL:0.1").
+std::string remark_name(const CampaignRemark& remark);
+
+/// Parses remark_name's form. \throw InvalidArgumentError naming what is wrong.
+CampaignRemark parse_remark(const std::string& name);
+
+/// Its label in reports: "re-marked VRS (public key)", "re-marked VRL at 0.1 (another key)".
+std::string remark_label(const CampaignRemark& remark);
 
 /// A model of a campaign.
 struct CampaignModel {
@@ -150,6 +175,9 @@ struct CampaignConfig {
   int copies = 1000;                        ///< trace: IDs issued per model and variant (>= 2)
   /// trace: every attack also on the leaks these coalitions merge (empty: single copies only)
   std::vector<CampaignCoalition> coalitions;
+  /// trace, "remarks": every attack also on the leaker's copy re-marked by each of these
+  /// (single copies; rows name the re-marking where coalitions name theirs)
+  std::vector<CampaignRemark> remarks;
   /// trace: copies issued with the fingerprint (mark format 5, fingerprint.h), as `embed
   /// --registry DB --fingerprint` issues them
   bool fingerprint = false;
