@@ -29,6 +29,13 @@ bool keeps_its_promises(const meshmark::CampaignConfig& c) {
   if (c.trace && (c.copies < 2 || c.copies > 1000000 || !(c.spread >= 0 && c.spread <= 4)))
     return false;
   if (!c.calibrate && !(c.strength > 0 && c.strength < 0.5)) return false;
+  // Every accepted re-marking names itself in a form that parses back to it.
+  for (const meshmark::CampaignRemark& r : c.remarks) {
+    if (!c.trace || !(r.strength >= 0 && r.strength < 0.5)) return false;
+    const meshmark::CampaignRemark back = meshmark::parse_remark(meshmark::remark_name(r));
+    if (back.scheme != r.scheme || back.strength != r.strength || back.other_key != r.other_key)
+      return false;
+  }
   // Every accepted series runs: each of its strengths makes a chain the attacks take.
   for (std::size_t i = 1; i < c.attacks.size(); ++i) {
     if (c.attacks[i].strengths.empty() || c.attacks[i].draws < 0) return false;

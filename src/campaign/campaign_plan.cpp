@@ -70,7 +70,7 @@ std::string coalition_label(const CampaignCoalition& k) {
 std::string remark_name(const CampaignRemark& r) {
   const std::string name =
       fmt::format("{}:{}", r.other_key ? "remark-key" : "remark", parse_scheme(r.scheme).name());
-  return r.strength > 0 ? fmt::format("{}:{:g}", name, r.strength) : name;
+  return r.strength > 0 ? fmt::format("{}:{}", name, r.strength) : name;  // round-trip digits
 }
 
 CampaignRemark parse_remark(const std::string& name) {
@@ -102,7 +102,7 @@ CampaignRemark parse_remark(const std::string& name) {
 }
 
 std::string remark_label(const CampaignRemark& r) {
-  const std::string at = r.strength > 0 ? fmt::format(" at {:g}", r.strength) : "";
+  const std::string at = r.strength > 0 ? fmt::format(" at {}", r.strength) : "";
   return fmt::format("re-marked {}{} ({})", parse_scheme(r.scheme).name(), at,
                      r.other_key ? "another key" : "public key");
 }

@@ -573,6 +573,10 @@ TEST(Campaign, RemarkedLeaksCarryTheNewMarkAndNameOnlyTheirBuyer) {
   ASSERT_EQ(c.remarks.size(), 3u);
   EXPECT_EQ(remark_name(c.remarks[1]), "remark-key:DRS:0.03");
   EXPECT_EQ(remark_label(c.remarks[1]), "re-marked DRS at 0.03 (another key)");
+  // A name holds the strength to the last digit: it parses back to the same re-marking.
+  const CampaignRemark fine = parse_remark("remark:VRL:0.0123456789");
+  EXPECT_EQ(fine.strength, 0.0123456789);
+  EXPECT_EQ(parse_remark(remark_name(fine)).strength, fine.strength);
 
   const Mesh mesh = read_mesh(spot);
   const IdCode code(IdCodeOptions{c.bits});
