@@ -223,15 +223,19 @@ FingerprintBasis bumps_of(const FingerprintBasis& basis, const Eigen::MatrixX3d&
 // (K x 2) and R_c = sum x r_i, x = (1, t_i).
 class NormalEquations {
  public:
-  NormalEquations(int functions, const Histogram* keep)
+  // obliquity: per row, a third regressor of each class beside (1, t) (trace's (n . u)^2: a
+  // mark moving vertices along the normals moves the distance to the center by that much).
+  NormalEquations(int functions, const Histogram* keep, const Eigen::VectorXd* obliquity = nullptr)
       : K_(functions),
         keep_(keep),
+        obliquity_(keep ? obliquity : nullptr),
+        D_(obliquity_ ? 3 : 2),
         classes_(keep ? keep->bins * kSlices : 0),
         A_(Eigen::MatrixXd::Zero(functions, functions)),
         y_(Eigen::VectorXd::Zero(functions)),
-        G_(static_cast<std::size_t>(classes_), Eigen::Matrix2d::Zero()),
-        R_(static_cast<std::size_t>(classes_), Eigen::Vector2d::Zero()),
-        M_(static_cast<std::size_t>(classes_), Eigen::MatrixX2d::Zero(functions, 2)) {}
+        G_(static_cast<std::size_t>(classes_), Eigen::Matrix3d::Zero()),
+        R_(static_cast<std::size_t>(classes_), Eigen::Vector3d::Zero()),
+        M_(static_cast<std::size_t>(classes_), Eigen::MatrixX3d::Zero(functions, 3)) {}
 
   // Phi^T Phi and Phi^T r, accumulated row by row over the used vertices (each touches a few
   // dozen bumps, in bump order: its products fall in A's upper triangle). rows' row i is the
@@ -253,7 +257,8 @@ class NormalEquations {
         for (int f = first; f <= e; ++f) column[rows.index[f]] += rows.value[f] * v;
       }
       if (!keep_) continue;
-      const Eigen::Vector2d x(1, keep_->t(i));
+      const double w = obliquity_ && std::isfinite((*obliquity_)(i)) ? (*obliquity_)(i) : 0;
+      const Eigen::Vector3d x(1, keep_->t(i), w);
       G_[c] += x * x.transpose(), R_[c] += x * residual(i);
       for (int e = first; e < last; ++e)
         M_[c].row(rows.index[e]) += static_cast<double>(rows.value[e]) * x.transpose();
@@ -265,15 +270,27 @@ class NormalEquations {
     A.triangularView<Eigen::StrictlyLower>() = A.transpose();
     // sum_c M_c G_c^-1 M_c^T as one product W W^T, W's columns M_c S_c with S_c S_c^T = G_c^-1
     // (G_c^-1 is symmetric and positive semi-definite).
-    Eigen::MatrixXd W = Eigen::MatrixXd::Zero(K_, 2 * static_cast<Eigen::Index>(classes_));
+    Eigen::MatrixXd W = Eigen::MatrixXd::Zero(K_, D_ * static_cast<Eigen::Index>(classes_));
     for (int c = 0; c < classes_; ++c) {
       if (G_[c](0, 0) == 0) continue;
-      const Eigen::Matrix2d Ginv = line_fit_operator(G_[c]);
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(Ginv);
-      const Eigen::Matrix2d S =
-          eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
-      W.middleCols(2 * c, 2) = M_[c] * S;
-      y_.noalias() -= M_[c] * (Ginv * R_[c]);
+      if (D_ == 2) {
+        const Eigen::Matrix2d Ginv = line_fit_operator(G_[c].topLeftCorner<2, 2>());
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(Ginv);
+        const Eigen::Matrix2d S =
+            eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+        W.middleCols(2 * c, 2) = M_[c].leftCols<2>() * S;
+        y_.noalias() -= M_[c].leftCols<2>() * (Ginv * R_[c].head<2>());
+        continue;
+      }
+      // The pseudo-inverse: a class whose t or obliquity does not vary fits fewer terms.
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(G_[c]);
+      const double floor = 1e-12 * std::max(eig.eigenvalues().maxCoeff(), 1e-300);
+      Eigen::Vector3d root = Eigen::Vector3d::Zero();
+      for (int d = 0; d < 3; ++d)
+        if (eig.eigenvalues()(d) > floor) root(d) = 1 / std::sqrt(eig.eigenvalues()(d));
+      const Eigen::Matrix3d S = eig.eigenvectors() * root.asDiagonal();
+      W.middleCols(3 * c, 3) = M_[c] * S;
+      y_.noalias() -= M_[c] * (S * (S.transpose() * R_[c]));
     }
     if (classes_ > 0) A.selfadjointView<Eigen::Lower>().rankUpdate(W, -1.0);
     A.triangularView<Eigen::StrictlyUpper>() = A.transpose();
@@ -284,18 +301,23 @@ class NormalEquations {
  private:
   int K_;
   const Histogram* keep_;
+  const Eigen::VectorXd* obliquity_;
+  int D_;
   int classes_;
   Eigen::MatrixXd A_;
   Eigen::VectorXd y_;
-  std::vector<Eigen::Matrix2d> G_;
-  std::vector<Eigen::Vector2d> R_;
-  std::vector<Eigen::MatrixX2d> M_;
+  std::vector<Eigen::Matrix3d> G_;
+  std::vector<Eigen::Vector3d> R_;
+  std::vector<Eigen::MatrixX3d> M_;
 };
 
 // \throw InvalidArgumentError for a ridge outside [0, 1e6), or a residual, mask or histogram
 // not of n rows.
 void check_reading(Eigen::Index n, const Eigen::VectorXd& residual,
-                   const std::vector<std::uint8_t>& measured, const Histogram* keep, double ridge) {
+                   const std::vector<std::uint8_t>& measured, const Histogram* keep, double ridge,
+                   const Eigen::VectorXd* obliquity = nullptr) {
+  if (obliquity && obliquity->size() != n)
+    throw InvalidArgumentError("the obliquities and the basis differ in size");
   if (!(ridge >= 0 && ridge < 1e6))
     throw InvalidArgumentError(fmt::format("the fingerprint ridge {} is outside [0, 1e6)", ridge));
   if (residual.size() != n || measured.size() != static_cast<std::size_t>(n))
@@ -719,11 +741,11 @@ Eigen::MatrixX3d add_fingerprint_at(const Eigen::MatrixX3d& V, const Eigen::Matr
 
 Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::VectorXd& residual,
                                  const std::vector<std::uint8_t>& measured, const Histogram* keep,
-                                 double ridge) {
+                                 double ridge, const Eigen::VectorXd* obliquity) {
   const Eigen::Index n = static_cast<Eigen::Index>(basis.row_start.size()) - 1;
-  check_reading(n, residual, measured, keep, ridge);
+  check_reading(n, residual, measured, keep, ridge, obliquity);
   check_rows(basis, true);
-  NormalEquations equations(basis.functions, keep);
+  NormalEquations equations(basis.functions, keep, obliquity);
   equations.add(basis, 0, residual, measured);
   return equations.solve(ridge);
 }
@@ -731,11 +753,12 @@ Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::Vec
 Eigen::VectorXd read_fingerprint_at(const FingerprintBasis& basis, const Eigen::MatrixX3d& P,
                                     const Eigen::VectorXd& residual,
                                     const std::vector<std::uint8_t>& measured,
-                                    const Histogram* keep, double ridge) {
+                                    const Histogram* keep, double ridge,
+                                    const Eigen::VectorXd* obliquity) {
   FingerprintBasis block = bumps_of(basis, P, measured);
-  check_reading(P.rows(), residual, measured, keep, ridge);
+  check_reading(P.rows(), residual, measured, keep, ridge, obliquity);
   const BumpGrid grid(block.points, 3 * block.width);
-  NormalEquations equations(basis.functions, keep);
+  NormalEquations equations(basis.functions, keep, obliquity);
   for (Eigen::Index begin = 0; begin < P.rows(); begin += kFieldBlock) {
     const Eigen::Index rows = std::min(kFieldBlock, P.rows() - begin);
     const std::vector<std::uint8_t> mask(measured.begin() + begin, measured.begin() + begin + rows);

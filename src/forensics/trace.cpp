@@ -371,6 +371,9 @@ struct LeakResiduals {
   std::string processing = "none";    ///< what the fit took out
   /// #VL (0 where not crossed), when computed (unsmoothed_residuals): empty otherwise.
   Eigen::VectorXd unsmoothed;
+  /// #VL (0 where not crossed): (n . u)^2 at each crossing, n the original's vertex normals
+  /// interpolated there, u the ray (read_fingerprint_at's obliquity).
+  Eigen::VectorXd obliquity;
 };
 
 // A leak smoothed after resampling has vertices that slid along the surface: read against the
@@ -422,9 +425,9 @@ std::optional<Eigen::VectorXd> unsmoothed_residuals(
   return residual;
 }
 
-LeakResiduals leak_residuals(const Mesh& original, const Smoother& on_original,
-                             const Smoother& on_leak, const Eigen::MatrixX3d& surface,
-                             const Eigen::MatrixX3d& VL,
+LeakResiduals leak_residuals(const Mesh& original, const Eigen::MatrixX3d& normals,
+                             const Smoother& on_original, const Smoother& on_leak,
+                             const Eigen::MatrixX3d& surface, const Eigen::MatrixX3d& VL,
                              const std::vector<std::uint8_t>& leak_carrier,
                              const Eigen::Vector3d& center, double erase,
                              std::size_t unsmooth_limit, bool same_faces) {
@@ -442,14 +445,20 @@ LeakResiduals leak_residuals(const Mesh& original, const Smoother& on_original,
   Eigen::MatrixX3d ray(n, 3);
   LeakResiduals out;
   out.on_original = VL;
+  out.obliquity = Eigen::VectorXd::Zero(VL.rows());
   for (Eigen::Index j = 0; j < n; ++j) {
     const Eigen::Index i = rows[j];
     const Eigen::Vector3d v = VL.row(i).transpose() - center;
     d(j) = v.norm() - (x.point.row(i).transpose() - center).norm();
     ray.row(j) = v.normalized().transpose();
     out.on_original.row(i).setZero();
-    for (int c = 0; c < 3; ++c)
+    Eigen::RowVector3d normal = Eigen::RowVector3d::Zero();
+    for (int c = 0; c < 3; ++c) {
       out.on_original.row(i) += x.barycentric(i, c) * original.V.row(original.F(x.face[i], c));
+      normal += x.barycentric(i, c) * normals.row(original.F(x.face[i], c));
+    }
+    const double along = normal.norm() > 0 ? normal.normalized().dot(ray.row(j)) : 0;
+    out.obliquity(i) = along * along;
   }
   SmoothingFit fit;
   fit.residual = d;
@@ -535,24 +544,25 @@ std::optional<FingerprintBasis> fingerprint_reading(
   }
   const std::vector<std::uint8_t> leak_carrier = carrier_vertices(VL, FL);
   const Smoother on_original(original.F, original.V.rows()), on_leak(FL, VL.rows());
+  const Eigen::MatrixX3d normals = vertex_normals(original.V, original.F);
   const bool same_faces =
       VL.rows() == original.V.rows() && FL.rows() == original.F.rows() && FL == original.F;
   std::vector<std::string> taken;
   for (const bool against_processed : {false, true}) {
     if (against_processed && !processed) continue;
     const LeakResiduals x = leak_residuals(
-        original, on_original, on_leak, against_processed ? reference : original.V, VL,
+        original, normals, on_original, on_leak, against_processed ? reference : original.V, VL,
         leak_carrier, h.center, erase, against_processed ? 0 : unsmooth_limit, same_faces);
     taken.push_back(fmt::format(
         "against the {}original, {} ({} leak vertices{})", against_processed ? "processed " : "",
         x.processing, x.count,
         x.unsmoothed.size() > 0 ? ", and against its vertices before the smoothing" : ""));
     const Histogram classes = histogram_at(h, x.on_original, x.crossed);
-    readings.push_back(
-        read_fingerprint_at(basis, x.on_original, x.residual, x.crossed, &classes, ridge));
+    readings.push_back(read_fingerprint_at(basis, x.on_original, x.residual, x.crossed, &classes,
+                                           ridge, &x.obliquity));
     if (x.unsmoothed.size() > 0)
-      readings.push_back(
-          read_fingerprint_at(basis, x.on_original, x.unsmoothed, x.crossed, &classes, ridge));
+      readings.push_back(read_fingerprint_at(basis, x.on_original, x.unsmoothed, x.crossed,
+                                             &classes, ridge, &x.obliquity));
   }
   // Each reading also over the regions of each partition (fingerprint_regions: the bumps
   // alone decide them), for a splice whose colluders each kept a part of the surface.

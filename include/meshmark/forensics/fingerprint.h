@@ -203,14 +203,20 @@ Eigen::VectorXd fingerprint_field_at(const FingerprintBasis& basis, const Eigen:
 /// (TraceOptions::fingerprint_ridge). With `keep`
 /// (the histogram add_fingerprint kept), the residual and every column of Phi lose their mean
 /// over each radial class first: what a histogram mark moved (a function of the distance to the
-/// center) drops out, and a field added with the same `keep` reads back whole.
+/// center) drops out, and a field added with the same `keep` reads back whole. With
+/// `obliquity` too (per row; needs `keep`), each class also loses its fit on it: trace passes
+/// (n . u)^2 at each point, n the original's normal and u the direction from the center, which
+/// is how much a mark moving vertices along the normals (a re-mark in an N variant) moves their
+/// distance to the center.
 /// \throw InvalidArgumentError for a ridge outside [0, 1e6), sizes that differ, or a basis whose
 /// rows are not well formed (each in increasing order of bumps within [0, K)).
 Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::VectorXd& residual,
                                  const std::vector<std::uint8_t>& measured,
-                                 const Histogram* keep = nullptr, double ridge = 0);
+                                 const Histogram* keep = nullptr, double ridge = 0,
+                                 const Eigen::VectorXd* obliquity = nullptr);
 
-/// read_fingerprint(fingerprint_basis_at(basis, P, measured), residual, measured, keep, ridge),
+/// read_fingerprint(fingerprint_basis_at(basis, P, measured), residual, measured, keep, ridge,
+/// obliquity),
 /// the same reading bit for bit, without holding the basis at P: its rows are evaluated and
 /// summed 65,536 at a time. What trace reads a leak with: the rows at all of a leak's points
 /// would be the largest allocation of a trace (about 216 bytes a vertex).
@@ -218,7 +224,8 @@ Eigen::VectorXd read_fingerprint(const FingerprintBasis& basis, const Eigen::Vec
 Eigen::VectorXd read_fingerprint_at(const FingerprintBasis& basis, const Eigen::MatrixX3d& P,
                                     const Eigen::VectorXd& residual,
                                     const std::vector<std::uint8_t>& measured,
-                                    const Histogram* keep = nullptr, double ridge = 0);
+                                    const Histogram* keep = nullptr, double ridge = 0,
+                                    const Eigen::VectorXd* obliquity = nullptr);
 
 /// The most regions a partition of fingerprint_regions may have.
 inline constexpr int kMaxFingerprintRegions = 64;

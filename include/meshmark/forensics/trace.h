@@ -58,8 +58,9 @@ Resampled resample_at_original(const Eigen::MatrixX3d& VL, const Eigen::MatrixX3
 /// new ones: 1, the whole surface and its regions; 2, also against a smoothed leak's vertices
 /// before the smoothing (TraceOptions::fingerprint_unsmoothing, 2026-12-07); 3, a leak with the
 /// original's faces read vertex to vertex, and registered against the original smoothed
-/// (2026-12-07, later).
-inline constexpr int kFingerprintReading = 3;
+/// (2026-12-07, later); 4, each radial class also fitted on (n . u)^2, what a re-mark along the
+/// normals moves (read_fingerprint_at's obliquity, 2026-12-07, session 52).
+inline constexpr int kFingerprintReading = 4;
 
 /// Options of trace.
 struct TraceOptions {
