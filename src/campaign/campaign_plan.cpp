@@ -108,7 +108,7 @@ std::string remark_label(const CampaignRemark& r) {
 }
 
 std::string trace_attack_label(const std::string& attack, double x, const std::string& coalition) {
-  const std::string a = attack == "none" ? "none" : fmt::format("{}:{:g}", attack, x);
+  std::string a = attack == "none" ? "none" : fmt::format("{}:{:g}", attack, x);
   if (coalition.empty()) return a;
   if (coalition.starts_with("remark")) return remark_label(parse_remark(coalition)) + ", " + a;
   return coalition_label(parse_coalition(coalition)) + ", " + a;
