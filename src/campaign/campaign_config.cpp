@@ -8,6 +8,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <system_error>
 #include <utility>
 
 #include "campaign/campaign_parts.h"
@@ -302,8 +303,10 @@ CampaignConfig load_campaign(const std::string& path) {
         bad(path, fmt::format("models[{}] is neither a path nor an object", i));
       }
       if (model.name.empty()) model.name = fs::path(model.path).stem().string();
-      if (!fs::is_regular_file(model.path))
-        bad(path, fmt::format("models[{}]: {} does not exist", i, model.path));
+      std::error_code unreadable;  // a name too long for the file system, say: not a file
+      if (!fs::is_regular_file(model.path, unreadable))
+        bad(path, fmt::format("models[{}]: {} does not exist{}", i, model.path,
+                              unreadable ? " (" + unreadable.message() + ")" : ""));
       if (!names.insert(model.name).second)
         bad(path, fmt::format("models[{}]: the name \"{}\" is used twice", i, model.name));
       c.models.push_back(model);

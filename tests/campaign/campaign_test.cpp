@@ -60,6 +60,10 @@ TEST(Campaign, RejectsBadFilesNamingFileAndKey) {
       {head + ", \"attacks\": [{\"kind\": \"noise\"}]}", "attacks[0]: \"strengths\""},
       {"{\"models\": [\"" + dir + "/none.off\"], \"variants\": [\"DRS\"]}",
        "none.off does not exist"},
+      // A name longer than the file system allows threw std::filesystem_error out of the loader
+      // (found by the campaign fuzzer): refused as a model that does not exist.
+      {"{\"models\": [\"" + dir + "/" + std::string(300, 'x') + ".off\"], \"variants\": [\"DRS\"]}",
+       ".off does not exist (File name too long)"},
       {"{\"models\": [\"" + spot + "\"], \"variants\": [\"DXS\"]}", "variant \"DXS\""},
       {head + ", \"strength\": 0.7}", "strength 0.7 is out of (0, 1/2)"},
       {head + ", \"bits\": \"many\"}", "\"bits\" is \"many\", not an integer"},
