@@ -895,34 +895,45 @@ double FingerprintScorer::best_z(std::uint64_t id, int format) const {
 
 std::pair<double, double> FingerprintScorer::best_z_split(std::uint64_t id, int format,
                                                           std::size_t split) const {
+  std::pair<double, double> best;
+  best_z_split(&id, 1, format, split, &best);
+  return best;
+}
+
+void FingerprintScorer::best_z_split(const std::uint64_t* ids, std::size_t count, int format,
+                                     std::size_t split, std::pair<double, double>* out) const {
   check_format(format);
   constexpr double kNone = -std::numeric_limits<double>::infinity();
-  std::pair<double, double> best{kNone, kNone};
-  const auto take = [&](std::size_t r, double z) {
+  const std::size_t R = readings_.size();
+  const auto take = [&](std::pair<double, double>& best, std::size_t r, double z) {
     double& part = r < split ? best.first : best.second;
     part = std::max(part, z);
   };
+  std::fill(out, out + count, std::pair<double, double>{kNone, kNone});
   if (format == kGaussianFingerprintFormat) {
-    const Eigen::VectorXd g = gaussian_coefficients(key_, id, functions_);
-    for (std::size_t r = 0; r < readings_.size(); ++r) take(r, fingerprint_score(g, readings_[r]));
-    return best;
+    for (std::size_t i = 0; i < count; ++i) {
+      const Eigen::VectorXd g = gaussian_coefficients(key_, ids[i], functions_);
+      for (std::size_t r = 0; r < R; ++r) take(out[i], r, fingerprint_score(g, readings_[r]));
+    }
+    return;
   }
-  // The signs' bytes (on the stack for K <= 512, the default), then each reading's table.
-  const int bytes = (functions_ + 7) / 8;
-  std::array<std::uint8_t, 64> small;
-  std::vector<std::uint8_t> large(bytes > 64 ? static_cast<std::size_t>(bytes) : 0);
-  std::uint8_t* signs = bytes > 64 ? large.data() : small.data();
-  sign_bytes(sign_key_, id, static_cast<std::size_t>(bytes), signs);
-  const std::size_t R = readings_.size();
-  std::array<double, 64> few{};
-  std::vector<double> many(R > few.size() ? R : 0, 0.0);
-  double* z = R > few.size() ? many.data() : few.data();
-  for (int c = 0; c < bytes; ++c) {
-    const double* terms = table_.data() + (static_cast<std::size_t>(c) * 256 + signs[c]) * R;
-    for (std::size_t r = 0; r < R; ++r) z[r] += terms[r];
+  // Every buyer's sign bytes, then byte by byte the table's slice of that byte (256 x R terms)
+  // added to each buyer's sums: the slice stays in cache across the batch. Each sum still adds
+  // its terms in byte order, as for one buyer alone.
+  const std::size_t bytes = (static_cast<std::size_t>(functions_) + 7) / 8;
+  std::vector<std::uint8_t> signs(count * bytes);
+  for (std::size_t i = 0; i < count; ++i) sign_bytes(sign_key_, ids[i], bytes, &signs[i * bytes]);
+  std::vector<double> z(count * R, 0.0);
+  for (std::size_t c = 0; c < bytes; ++c) {
+    const double* slice = table_.data() + c * 256 * R;
+    for (std::size_t i = 0; i < count; ++i) {
+      const double* terms = slice + static_cast<std::size_t>(signs[i * bytes + c]) * R;
+      double* sum = &z[i * R];
+      for (std::size_t r = 0; r < R; ++r) sum[r] += terms[r];
+    }
   }
-  for (std::size_t r = 0; r < R; ++r) take(r, z[r]);
-  return best;
+  for (std::size_t i = 0; i < count; ++i)
+    for (std::size_t r = 0; r < R; ++r) take(out[i], r, z[i * R + r]);
 }
 
 }  // namespace meshmark

@@ -585,8 +585,8 @@ std::optional<FingerprintBasis> fingerprint_reading(
 // method): each one's best exact p over the readings of kBands' widths times their number, and
 // for a copy with a fingerprint (and a basis) that combined with the fingerprint's p
 // (combined_p_value: conservative whichever mark the leak kept). Not yet corrected for the number
-// of candidates. Codewords are packed (matches are popcounts) and the candidates are cut into
-// chunks on the thread budget: each score depends on its candidate alone.
+// of candidates. Codewords are packed (matches are popcounts) and the candidates are scored in
+// batches on the thread budget: each score depends on its candidate alone.
 struct Score {  // a candidate's evidence before the ranking (CandidateScore without the row)
   const CandidateRow* copy = nullptr;
   std::size_t order = 0;  // its place among the candidates, for ties
@@ -634,43 +634,58 @@ std::vector<Score> score_group(const std::vector<const CandidateRow*>& copies,
           ? std::optional<FingerprintScorer>(std::in_place, key, basis->functions, readings)
           : std::nullopt;
   std::vector<Score> scores(copies.size());
-  detail::parallel_chunks(
-      static_cast<std::int64_t>(copies.size()), [&](int, std::int64_t begin, std::int64_t end) {
-        constexpr std::int64_t kBatch = 256;  // codewords encoded together (CodewordEncoder)
-        std::vector<std::uint64_t> ids, codewords(static_cast<std::size_t>(kBatch * words));
-        for (std::int64_t c = begin; c < end; ++c) {
-          const CandidateRow& copy = *copies[c];
-          Score& best = scores[c];
-          best.copy = &copy;
-          if (!bands.empty() && (c - begin) % kBatch == 0) {  // no codeword without bins
-            ids.clear();
-            for (std::int64_t i = c; i < std::min(end, c + kBatch); ++i)
-              ids.push_back(copies[i]->id);
-            encoder.encode(ids.data(), ids.size(), codewords.data());
-          }
-          const std::uint64_t* codeword =
-              codewords.data() + static_cast<std::size_t>((c - begin) % kBatch * words);
-          for (std::size_t k = 0; k < bands.size(); ++k) {
-            const Reading& r = bands[k];
-            int matches = 0;
-            for (int w = 0; w < words; ++w)
-              matches += __builtin_popcountll(r.known[w] & ~(codeword[w] ^ r.ones[w]));
-            const double p =
-                std::min(1.0, r.null.p_value(matches) * static_cast<double>(kBands.size()));
-            if (k == 0 || p < best.p_value)
-              best.compared = r.compared, best.matches = matches, best.p_value = p;
-          }
-          if (fingerprint && has_fingerprint(copy.mark_format)) {
-            const auto [z_whole, z_regional] =
-                fingerprint->best_z_split(copy.id, copy.mark_format, whole);
-            best.fingerprint_z = std::max(z_whole, z_regional);
-            best.fingerprint_p = fingerprint_p_value(
-                z_whole, whole, z_regional, readings.size() - whole, share, copy.mark_format);
-            best.p_value = bands.empty() ? best.fingerprint_p  // the fingerprint alone
-                                         : combined_p_value(best.p_value, best.fingerprint_p);
-          }
-        }
-      });
+  // Candidates 256 at a time: their codewords encoded together (CodewordEncoder) and their
+  // fingerprints scored together, each format's apart (FingerprintScorer); each thread takes
+  // the next batch when done with one.
+  constexpr std::int64_t kBatch = 256;
+  const auto count = static_cast<std::int64_t>(copies.size());
+  detail::parallel_for((count + kBatch - 1) / kBatch, 0, [&](std::int64_t batch) {
+    const std::int64_t begin = batch * kBatch, end = std::min(count, begin + kBatch);
+    std::vector<std::uint64_t> ids, codewords(static_cast<std::size_t>(kBatch * words));
+    if (!bands.empty()) {  // no codeword without bins
+      for (std::int64_t c = begin; c < end; ++c) ids.push_back(copies[c]->id);
+      encoder.encode(ids.data(), ids.size(), codewords.data());
+    }
+    std::vector<std::pair<double, double>> z(kBatch), batch_z(kBatch);
+    std::vector<int> formats;
+    for (std::int64_t c = begin; fingerprint && c < end; ++c)
+      if (has_fingerprint(copies[c]->mark_format) &&
+          std::find(formats.begin(), formats.end(), copies[c]->mark_format) == formats.end())
+        formats.push_back(copies[c]->mark_format);
+    std::vector<std::int64_t> at;
+    for (const int format : formats) {
+      ids.clear(), at.clear();
+      for (std::int64_t c = begin; c < end; ++c)
+        if (copies[c]->mark_format == format) ids.push_back(copies[c]->id), at.push_back(c);
+      fingerprint->best_z_split(ids.data(), ids.size(), format, whole, batch_z.data());
+      for (std::size_t j = 0; j < at.size(); ++j) z[at[j] - begin] = batch_z[j];
+    }
+    for (std::int64_t c = begin; c < end; ++c) {
+      const CandidateRow& copy = *copies[c];
+      Score& best = scores[c];
+      best.copy = &copy;
+      const std::uint64_t* codeword =
+          codewords.data() + static_cast<std::size_t>((c - begin) * words);
+      for (std::size_t k = 0; k < bands.size(); ++k) {
+        const Reading& r = bands[k];
+        int matches = 0;
+        for (int w = 0; w < words; ++w)
+          matches += __builtin_popcountll(r.known[w] & ~(codeword[w] ^ r.ones[w]));
+        const double p =
+            std::min(1.0, r.null.p_value(matches) * static_cast<double>(kBands.size()));
+        if (k == 0 || p < best.p_value)
+          best.compared = r.compared, best.matches = matches, best.p_value = p;
+      }
+      if (fingerprint && has_fingerprint(copy.mark_format)) {
+        const auto [z_whole, z_regional] = z[c - begin];
+        best.fingerprint_z = std::max(z_whole, z_regional);
+        best.fingerprint_p = fingerprint_p_value(z_whole, whole, z_regional,
+                                                 readings.size() - whole, share, copy.mark_format);
+        best.p_value = bands.empty() ? best.fingerprint_p  // the fingerprint alone
+                                     : combined_p_value(best.p_value, best.fingerprint_p);
+      }
+    }
+  });
   return scores;
 }
 

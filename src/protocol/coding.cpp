@@ -210,37 +210,86 @@ struct FirstRound {
   std::array<std::uint8_t, 64> f{};
 };
 
+// Round `round` of the network on x: which half it changes (right: R from L), and its hash's
+// input, (round, k, id_bits, nb, the other half packed MSB first) into data; returns its size
+// in bytes, or 0 when the half it changes is empty (the round does nothing).
+std::size_t round_input(const std::uint8_t* x, int k, int id_bits, int n, int round,
+                        std::array<std::uint8_t, 6 + 64>& data) {
+  const int a = k / 2;                // k < 1024: a half fits in 64 bytes
+  const bool right = round % 2 == 0;  // even rounds change R from L, odd ones L from R
+  const int from = right ? 0 : a, from_len = right ? a : k - a;
+  if ((right ? k - a : a) == 0) return 0;
+  const std::size_t size = 6 + static_cast<std::size_t>(from_len + 7) / 8;
+  std::fill(data.begin(), data.begin() + static_cast<std::ptrdiff_t>(size), 0);
+  data[0] = static_cast<std::uint8_t>(round);
+  data[1] = static_cast<std::uint8_t>(k & 0xFF), data[2] = static_cast<std::uint8_t>(k >> 8);
+  data[3] = static_cast<std::uint8_t>(id_bits);
+  data[4] = static_cast<std::uint8_t>(n & 0xFF), data[5] = static_cast<std::uint8_t>(n >> 8);
+  for (int i = 0; i < from_len; ++i)
+    data[6 + i / 8] |= static_cast<std::uint8_t>(x[from + i] << (7 - i % 8));
+  return size;
+}
+
+// The round's output: the half it changes XOR the hash f (MSB first).
+void round_output(std::uint8_t* x, int k, int round, const std::uint8_t* f) {
+  const int a = k / 2;
+  const bool right = round % 2 == 0;
+  const int to = right ? a : 0, to_len = right ? k - a : a;
+  for (int i = 0; i < to_len; ++i) x[to + i] ^= (f[i / 8] >> (7 - i % 8)) & 1;
+}
+
+// Round 0 of x through memo: hashed only when its input differs from the last one's.
+void first_round(std::uint8_t* x, int k, int id_bits, int n, const KeyedHash& to_right,
+                 FirstRound& memo) {
+  std::array<std::uint8_t, 6 + 64> data{};
+  const std::size_t size = round_input(x, k, id_bits, n, 0, data);
+  if (size == 0) return;
+  if (memo.size != size || !std::equal(data.begin(), data.begin() + size, memo.data.begin())) {
+    std::copy(data.begin(), data.begin() + size, memo.data.begin());
+    memo.size = size;
+    to_right.digest(data.data(), size, memo.f.data());
+  }
+  round_output(x, k, 0, memo.f.data());
+}
+
 void feistel(std::uint8_t* x, int k, int id_bits, int n, const KeyedHash* to_right,
              const KeyedHash* to_left, bool inverse, FirstRound* memo = nullptr) {
-  const int a = k / 2;
-  std::array<std::uint8_t, 6 + 64> data{};  // k < 1024: a half fits in 64 bytes
+  std::array<std::uint8_t, 6 + 64> data{};
   std::array<std::uint8_t, 64> f{};
   for (int step = 0; step < kFeistelRounds; ++step) {
     const int round = inverse ? kFeistelRounds - 1 - step : step;
-    const bool right = round % 2 == 0;  // even rounds change R from L, odd ones L from R
-    const int from = right ? 0 : a, from_len = right ? a : k - a;
-    const int to = right ? a : 0, to_len = right ? k - a : a;
-    if (to_len == 0) continue;
-    const std::size_t size = 6 + static_cast<std::size_t>(from_len + 7) / 8;
-    std::fill(data.begin(), data.begin() + static_cast<std::ptrdiff_t>(size), 0);
-    data[0] = static_cast<std::uint8_t>(round);
-    data[1] = static_cast<std::uint8_t>(k & 0xFF), data[2] = static_cast<std::uint8_t>(k >> 8);
-    data[3] = static_cast<std::uint8_t>(id_bits);
-    data[4] = static_cast<std::uint8_t>(n & 0xFF), data[5] = static_cast<std::uint8_t>(n >> 8);
-    for (int i = 0; i < from_len; ++i)
-      data[6 + i / 8] |= static_cast<std::uint8_t>(x[from + i] << (7 - i % 8));
     if (memo && round == 0) {
-      if (memo->size != size ||
-          !std::equal(data.begin(), data.begin() + size, memo->data.begin())) {
-        std::copy(data.begin(), data.begin() + size, memo->data.begin());
-        memo->size = size;
-        to_right->digest(data.data(), size, memo->f.data());
-      }
-      f = memo->f;
-    } else {
-      (right ? to_right : to_left)->digest(data.data(), size, f.data());
+      first_round(x, k, id_bits, n, *to_right, *memo);
+      continue;
     }
-    for (int i = 0; i < to_len; ++i) x[to + i] ^= (f[i / 8] >> (7 - i % 8)) & 1;
+    const std::size_t size = round_input(x, k, id_bits, n, round, data);
+    if (size == 0) continue;
+    (round % 2 == 0 ? to_right : to_left)->digest(data.data(), size, f.data());
+    round_output(x, k, round, f.data());
+  }
+}
+
+// The forward network on four messages at once: round 0 through memo (consecutive IDs share
+// it), the others' hashes four at a time (KeyedHash::digest4). The halves' lengths, so the
+// inputs' sizes, are the same for the four.
+void feistel4(const std::array<std::uint8_t*, 4>& x, int k, int id_bits, int n,
+              const KeyedHash* to_right, const KeyedHash* to_left, FirstRound& memo) {
+  std::array<std::array<std::uint8_t, 6 + 64>, 4> data{};
+  std::array<std::array<std::uint8_t, 64>, 4> f{};
+  const std::array<const std::uint8_t*, 4> in = {data[0].data(), data[1].data(), data[2].data(),
+                                                 data[3].data()};
+  const std::array<std::uint8_t*, 4> out = {f[0].data(), f[1].data(), f[2].data(), f[3].data()};
+  for (int round = 0; round < kFeistelRounds; ++round) {
+    if (round == 0) {
+      if (to_right)
+        for (std::uint8_t* lane : x) first_round(lane, k, id_bits, n, *to_right, memo);
+      continue;
+    }
+    std::size_t size = 0;
+    for (int l = 0; l < 4; ++l) size = round_input(x[l], k, id_bits, n, round, data[l]);
+    if (size == 0) continue;
+    (round % 2 == 0 ? to_right : to_left)->digest4(in, size, out);
+    for (int l = 0; l < 4; ++l) round_output(x[l], k, round, f[l].data());
   }
 }
 
@@ -538,21 +587,34 @@ void CodewordEncoder::encode(const std::uint64_t* ids, std::size_t count,
                              std::uint64_t* out) const {
   FirstRound memo;
   const int w = words();
-  for (std::size_t c = 0; c < count; ++c, out += w) {
-    const std::uint64_t id = ids[c];
-    if (id_bits_ < 64 && (id >> id_bits_) != 0)
-      throw InvalidArgumentError(fmt::format("ID {} does not fit in {} bits", id, id_bits_));
-    std::array<std::uint8_t, 1024> x;  // k < 1024: high k - id_bits bits 0, the ID MSB first
-    std::fill_n(x.begin(), k_ - id_bits_, std::uint8_t{0});
-    for (int i = 0; i < id_bits_; ++i) x[k_ - id_bits_ + i] = (id >> (id_bits_ - 1 - i)) & 1;
-    feistel(x.data(), k_, id_bits_, n_, to_right_ ? &*to_right_ : nullptr,
-            to_left_ ? &*to_left_ : nullptr, false, to_right_ ? &memo : nullptr);
-    for (int j = 0; j < w; ++j) out[j] = mask_[j];
-    for (int g = 0; 8 * g < k_; ++g) {
-      int v = 0;
-      for (int b = 0; b < 8 && 8 * g + b < k_; ++b) v |= x[8 * g + b] << b;
-      const std::uint64_t* row = bytes_.data() + (static_cast<std::size_t>(g) * 256 + v) * w;
-      for (int j = 0; j < w; ++j) out[j] ^= row[j];
+  // The messages (k < 1024 bits each: high k - id_bits bits 0, the ID MSB first), four at a
+  // time through the permutation, the rest one by one.
+  std::array<std::array<std::uint8_t, 1024>, 4> x;
+  for (std::size_t c = 0; c < count; c += 4) {
+    const int lanes = static_cast<int>(std::min<std::size_t>(4, count - c));
+    for (int l = 0; l < lanes; ++l) {
+      const std::uint64_t id = ids[c + l];
+      if (id_bits_ < 64 && (id >> id_bits_) != 0)
+        throw InvalidArgumentError(fmt::format("ID {} does not fit in {} bits", id, id_bits_));
+      std::fill_n(x[l].begin(), k_ - id_bits_, std::uint8_t{0});
+      for (int i = 0; i < id_bits_; ++i) x[l][k_ - id_bits_ + i] = (id >> (id_bits_ - 1 - i)) & 1;
+    }
+    const KeyedHash* right = to_right_ ? &*to_right_ : nullptr;
+    const KeyedHash* left = to_left_ ? &*to_left_ : nullptr;
+    if (lanes == 4)
+      feistel4({x[0].data(), x[1].data(), x[2].data(), x[3].data()}, k_, id_bits_, n_, right, left,
+               memo);
+    else
+      for (int l = 0; l < lanes; ++l)
+        feistel(x[l].data(), k_, id_bits_, n_, right, left, false, right ? &memo : nullptr);
+    for (int l = 0; l < lanes; ++l, out += w) {
+      for (int j = 0; j < w; ++j) out[j] = mask_[j];
+      for (int g = 0; 8 * g < k_; ++g) {
+        int v = 0;
+        for (int b = 0; b < 8 && 8 * g + b < k_; ++b) v |= x[l][8 * g + b] << b;
+        const std::uint64_t* row = bytes_.data() + (static_cast<std::size_t>(g) * 256 + v) * w;
+        for (int j = 0; j < w; ++j) out[j] ^= row[j];
+      }
     }
   }
 }

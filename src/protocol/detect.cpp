@@ -6,6 +6,7 @@
 #include <bit>
 #include <cmath>
 
+#include "core/parallel.h"
 #include "meshmark/core/error.h"
 
 namespace meshmark {
@@ -75,22 +76,15 @@ std::vector<std::uint64_t> shorten(std::vector<std::uint64_t> rows, std::uint64_
   return rows;
 }
 
-// Over the 2^rows.size() words u of span(rows): count[2 wt(u) + (wt(u & word) mod 2)]. The
-// span is split in two halves whose words are listed, then every pair is combined; eight
-// interleaved histograms keep the increments independent.
-__attribute__((target_clones("popcnt", "default"))) std::vector<std::uint64_t> dual_weight_counts(
-    const std::vector<std::uint64_t>& rows, std::uint64_t word) {
-  const std::size_t low = rows.size() / 2, high = rows.size() - low;
-  auto span = [&](std::size_t first, std::size_t count) {
-    std::vector<std::uint64_t> words(std::size_t(1) << count, 0);
-    for (std::size_t i = 1; i < words.size(); ++i)
-      words[i] = words[i & (i - 1)] ^ rows[first + std::countr_zero(i)];
-    return words;
-  };
-  const std::vector<std::uint64_t> a = span(0, low), b = span(low, high);
+// Over the words u = a[i] ^ b[j] for j in [first, last): count[2 wt(u) + (wt(u & word) mod 2)].
+// Eight interleaved histograms keep the increments independent.
+__attribute__((target_clones("popcnt", "default"))) std::vector<std::uint64_t> pair_weight_counts(
+    const std::vector<std::uint64_t>& a, const std::vector<std::uint64_t>& b, std::size_t first,
+    std::size_t last, std::uint64_t word) {
   std::vector<std::uint32_t> h(8 * 130, 0);
   std::vector<std::uint64_t> count(130, 0);
-  for (const std::uint64_t hb : b) {
+  for (std::size_t j = first; j < last; ++j) {
+    const std::uint64_t hb = b[j];
     std::size_t i = 0;
     for (; i + 8 <= a.size(); i += 8)
       for (int lane = 0; lane < 8; ++lane) {
@@ -105,6 +99,38 @@ __attribute__((target_clones("popcnt", "default"))) std::vector<std::uint64_t> d
     for (std::size_t q = 0; q < h.size(); ++q) count[q % 130] += h[q];
     std::fill(h.begin(), h.end(), 0);
   }
+  return count;
+}
+
+// Over the 2^rows.size() words u of span(rows): count[2 wt(u) + (wt(u & word) mod 2)]. The
+// span is split in two halves whose words are listed, then every pair is combined, the second
+// half's words cut into chunks on the thread budget (integer counts: the same sums whatever
+// the cut).
+std::vector<std::uint64_t> dual_weight_counts(const std::vector<std::uint64_t>& rows,
+                                              std::uint64_t word) {
+  const std::size_t low = rows.size() / 2, high = rows.size() - low;
+  auto span = [&](std::size_t first, std::size_t count) {
+    std::vector<std::uint64_t> words(std::size_t(1) << count, 0);
+    for (std::size_t i = 1; i < words.size(); ++i)
+      words[i] = words[i & (i - 1)] ^ rows[first + std::countr_zero(i)];
+    return words;
+  };
+  const std::vector<std::uint64_t> a = span(0, low), b = span(low, high);
+  // Enough pairs per chunk to be worth a thread (2^20), at most the budget's chunks.
+  const auto pairs = static_cast<std::int64_t>(a.size() * b.size());
+  const int chunks = pairs < (std::int64_t{1} << 20)
+                         ? 1
+                         : static_cast<int>(std::min<std::int64_t>(
+                               detail::thread_budget(), static_cast<std::int64_t>(b.size())));
+  std::vector<std::vector<std::uint64_t>> parts(static_cast<std::size_t>(chunks));
+  const auto n = static_cast<std::int64_t>(b.size());
+  (void)detail::parallel_for(chunks, chunks, [&](std::int64_t c) {
+    parts[c] = pair_weight_counts(a, b, static_cast<std::size_t>(n * c / chunks),
+                                  static_cast<std::size_t>(n * (c + 1) / chunks), word);
+  });
+  std::vector<std::uint64_t> count(130, 0);
+  for (const std::vector<std::uint64_t>& part : parts)
+    for (std::size_t q = 0; q < count.size(); ++q) count[q] += part[q];
   return count;
 }
 

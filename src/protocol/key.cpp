@@ -39,8 +39,35 @@ constexpr std::uint8_t kBlake2bSigma[12][16] = {
     {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15},
     {14, 10, 4, 8, 9, 15, 13, 6, 1, 12, 0, 2, 11, 7, 5, 3}};
 
-inline std::uint64_t rotr64(std::uint64_t x, int n) {
-  return (x >> n) | (x << (64 - n));
+// BLAKE2b's twelve rounds (RFC 7693: G and the message schedule) on the working vector v, for
+// the words of one block, or of four blocks on vector lanes (Word a 64-bit integer or a vector
+// of four). Always inlined, so that it is compiled for the target of the function calling it.
+template <class Word>
+[[gnu::always_inline]] inline void rotate_right(Word& x, int n) {
+  x = (x >> n) | (x << (64 - n));
+}
+
+template <class Word>
+[[gnu::always_inline]] inline void blake2b_g(Word (&v)[16], int a, int b, int c, int d,
+                                             const Word& x, const Word& y) {
+  v[a] += v[b] + x, v[d] ^= v[a], rotate_right(v[d], 32);
+  v[c] += v[d], v[b] ^= v[c], rotate_right(v[b], 24);
+  v[a] += v[b] + y, v[d] ^= v[a], rotate_right(v[d], 16);
+  v[c] += v[d], v[b] ^= v[c], rotate_right(v[b], 63);
+}
+
+template <class Word>
+[[gnu::always_inline]] inline void blake2b_rounds(Word (&v)[16], const Word (&m)[16]) {
+  for (const auto& s : kBlake2bSigma) {
+    blake2b_g(v, 0, 4, 8, 12, m[s[0]], m[s[1]]);
+    blake2b_g(v, 1, 5, 9, 13, m[s[2]], m[s[3]]);
+    blake2b_g(v, 2, 6, 10, 14, m[s[4]], m[s[5]]);
+    blake2b_g(v, 3, 7, 11, 15, m[s[6]], m[s[7]]);
+    blake2b_g(v, 0, 5, 10, 15, m[s[8]], m[s[9]]);
+    blake2b_g(v, 1, 6, 11, 12, m[s[10]], m[s[11]]);
+    blake2b_g(v, 2, 7, 8, 13, m[s[12]], m[s[13]]);
+    blake2b_g(v, 3, 4, 9, 14, m[s[14]], m[s[15]]);
+  }
 }
 
 void blake2b_compress(std::array<std::uint64_t, 8>& h, const std::uint8_t* block, std::uint64_t t,
@@ -54,24 +81,47 @@ void blake2b_compress(std::array<std::uint64_t, 8>& h, const std::uint8_t* block
   for (int i = 0; i < 8; ++i) v[i] = h[i], v[i + 8] = kBlake2bIv[i];
   v[12] ^= t;  // the counter's high word is 0
   if (last) v[14] = ~v[14];
-  const auto g = [&v](int a, int b, int c, int d, std::uint64_t x, std::uint64_t y) {
-    v[a] += v[b] + x, v[d] = rotr64(v[d] ^ v[a], 32);
-    v[c] += v[d], v[b] = rotr64(v[b] ^ v[c], 24);
-    v[a] += v[b] + y, v[d] = rotr64(v[d] ^ v[a], 16);
-    v[c] += v[d], v[b] = rotr64(v[b] ^ v[c], 63);
-  };
-  for (const auto& s : kBlake2bSigma) {
-    g(0, 4, 8, 12, m[s[0]], m[s[1]]);
-    g(1, 5, 9, 13, m[s[2]], m[s[3]]);
-    g(2, 6, 10, 14, m[s[4]], m[s[5]]);
-    g(3, 7, 11, 15, m[s[6]], m[s[7]]);
-    g(0, 5, 10, 15, m[s[8]], m[s[9]]);
-    g(1, 6, 11, 12, m[s[10]], m[s[11]]);
-    g(2, 7, 8, 13, m[s[12]], m[s[13]]);
-    g(3, 4, 9, 14, m[s[14]], m[s[15]]);
-  }
+  blake2b_rounds(v, m);
   for (int i = 0; i < 8; ++i) h[i] ^= v[i] ^ v[i + 8];
 }
+
+// The same compression on four blocks at once, one per lane of a vector of four 64-bit words
+// (GCC's vector extension): lane l of h and block[l] are one independent BLAKE2b state and
+// block, all four with the same counter t and flag. Built for AVX2 and for the baseline target,
+// the processor choosing at load time (target_clones); trace encodes four candidates' rounds of
+// the ID permutation with it. PackedEncoderGivesEncodesCodewords and
+// KeyedHashDigest4IsFourDigests check it against the one-lane function and libsodium.
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang_analyzer__)
+#define MESHMARK_LANE_TARGETS __attribute__((target_clones("avx2", "default")))
+#else
+#define MESHMARK_LANE_TARGETS
+#endif
+using Lanes = std::uint64_t __attribute__((vector_size(32)));
+
+MESHMARK_LANE_TARGETS
+void blake2b_compress4(std::array<std::array<std::uint64_t, 4>, 8>& h,
+                       const std::array<const std::uint8_t*, 4>& block, std::uint64_t t,
+                       bool last) {
+  Lanes m[16], v[16];
+  for (int i = 0; i < 16; ++i)
+    for (int l = 0; l < 4; ++l) {
+      std::uint64_t w = 0;
+      for (int b = 7; b >= 0; --b) w = (w << 8) | block[l][8 * i + b];
+      m[i][l] = w;
+    }
+  for (int i = 0; i < 8; ++i) {
+    v[i] = Lanes{h[i][0], h[i][1], h[i][2], h[i][3]};
+    v[i + 8] = Lanes{} + kBlake2bIv[i];
+  }
+  v[12] ^= t;
+  if (last) v[14] = ~v[14];
+  blake2b_rounds(v, m);
+  for (int i = 0; i < 8; ++i) {
+    const Lanes out = v[i] ^ v[i + 8];
+    for (int l = 0; l < 4; ++l) h[i][l] ^= out[l];
+  }
+}
+#undef MESHMARK_LANE_TARGETS
 
 void ensure_sodium() {
   static const int status = sodium_init();  // thread-safe once; 1 = already initialized
@@ -309,6 +359,27 @@ void KeyedHash::digest(const std::uint8_t* data, std::size_t size, std::uint8_t*
   std::array<unsigned char, 64> full;
   crypto_generichash_final(&state, full.data(), static_cast<std::size_t>(out_len_));
   std::memcpy(out, full.data(), static_cast<std::size_t>(bytes_));
+}
+
+void KeyedHash::digest4(const std::array<const std::uint8_t*, 4>& data, std::size_t size,
+                        const std::array<std::uint8_t*, 4>& out) const {
+  if (prefix_ >= kBlock || prefix_ + size > kBlock) {  // libsodium, one message at a time
+    for (int l = 0; l < 4; ++l) digest(data[l], size, out[l]);
+    return;
+  }
+  std::array<std::array<std::uint8_t, kBlock>, 4> blocks;
+  std::array<const std::uint8_t*, 4> block{};
+  std::array<std::array<std::uint64_t, 4>, 8> h;
+  for (int l = 0; l < 4; ++l) {
+    blocks[l] = prefix_block_;
+    if (size > 0) std::memcpy(blocks[l].data() + prefix_, data[l], size);
+    block[l] = blocks[l].data();
+  }
+  for (int i = 0; i < 8; ++i) h[i].fill(chain_[i]);
+  blake2b_compress4(h, block, kBlock + prefix_ + size, true);
+  for (int l = 0; l < 4; ++l)
+    for (int i = 0; i < bytes_; ++i)
+      out[l][i] = static_cast<std::uint8_t>(h[i / 8][l] >> (8 * (i % 8)));
 }
 
 std::vector<std::uint8_t> keyed_hash_bits(const Key& key, std::string_view domain,

@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <limits>
 #include <map>
+#include <numeric>
 #include <random>
 #include <string>
 #include <tuple>
@@ -381,6 +382,17 @@ TEST(Fingerprint, InnocentScoresStayWithinTheirNull) {
   const Scene s = setup("elephant.off");
   const Eigen::VectorXd b = averaged_reading(s, kFingerprintMarkFormat);
   const FingerprintScorer scorer(s.key, 128, {b, -b});
+  // Scored 1,000 at a time (as trace does) and split after the first reading: each part is the
+  // score of one sign of b.
+  std::vector<std::uint64_t> batch(1000);
+  std::iota(batch.begin(), batch.end(), std::uint64_t{1000});
+  std::vector<std::pair<double, double>> parts(batch.size());
+  scorer.best_z_split(batch.data(), batch.size(), kFingerprintMarkFormat, 1, parts.data());
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    const double one = fingerprint_score(fingerprint_coefficients(s.key, batch[i], 128), b);
+    ASSERT_NEAR(parts[i].first, one, 1e-12) << "ID " << batch[i];
+    ASSERT_NEAR(parts[i].second, -one, 1e-12) << "ID " << batch[i];
+  }
   std::vector<double> z;
   double mean = 0, square = 0;
   for (std::uint64_t id = 1000; id < 101000; ++id) {

@@ -381,6 +381,42 @@ TEST(Key, KeyedHashIsKeyedBlake2bOfDomainZeroAndData) {
   EXPECT_THROW(KeyedHash(key, "d", 513), InvalidArgumentError);
 }
 
+// KeyedHash::digest4 against libsodium's BLAKE2b of each message (as above): four different
+// messages of one length, lengths on either side of the one-block limit (where digest4 hands
+// each message to libsodium), digests of 1 to 512 bits.
+TEST(Key, KeyedHashDigest4IsFourDigests) {
+  ASSERT_GE(sodium_init(), 0);
+  Random rng(6);
+  Key key;
+  for (auto& b : key.bytes) b = static_cast<std::uint8_t>(rng.next() >> 56);
+  const std::string domain = "id-feistel";
+  for (const int nbits : {1, 16, 100, 256, 512})
+    for (const std::size_t size : {0, 1, 10, 38, 64, 116, 117, 118, 200}) {
+      const KeyedHash hash(key, domain, nbits);
+      std::array<std::vector<std::uint8_t>, 4> data;
+      std::array<std::array<std::uint8_t, 64>, 4> got{};
+      for (auto& d : data) {
+        d.resize(size);
+        for (auto& b : d) b = static_cast<std::uint8_t>(rng.next() >> 56);
+      }
+      hash.digest4({data[0].data(), data[1].data(), data[2].data(), data[3].data()}, size,
+                   {got[0].data(), got[1].data(), got[2].data(), got[3].data()});
+      const std::size_t bytes = (static_cast<std::size_t>(nbits) + 7) / 8;
+      const std::size_t out_len = std::max<std::size_t>(bytes, crypto_generichash_BYTES_MIN);
+      for (int l = 0; l < 4; ++l) {
+        std::vector<std::uint8_t> message(domain.begin(), domain.end());
+        message.push_back(0);
+        message.insert(message.end(), data[l].begin(), data[l].end());
+        std::vector<std::uint8_t> want(out_len);
+        crypto_generichash(want.data(), out_len, message.data(), message.size(), key.bytes.data(),
+                           key.bytes.size());
+        ASSERT_TRUE(std::equal(want.begin(), want.begin() + static_cast<std::ptrdiff_t>(bytes),
+                               got[l].begin()))
+            << "lane " << l << ", " << nbits << " bits of " << size << " bytes";
+      }
+    }
+}
+
 // The packed encoder trace scores with against IdCode::encode, bit for bit: several codes,
 // consecutive IDs (which share the permutation's first round), decreasing and random IDs (which
 // do not), the largest ID, and an ID too long.
@@ -408,6 +444,14 @@ TEST(IdCode, PackedEncoderGivesEncodesCodewords) {
       for (int j = 0; j < encoder.words() * 64; ++j)
         ASSERT_EQ((got[j / 64] >> (j % 64)) & 1, j < bits ? want.bits[j] : 0u)
             << "nb " << bits << ", ID " << ids[c] << ", bit " << j;
+    }
+    // Any count: the encoder takes four IDs at a time and the rest one by one.
+    for (std::size_t count = 1; count <= 7; ++count) {
+      std::vector<std::uint64_t> few(count * static_cast<std::size_t>(encoder.words()));
+      encoder.encode(ids.data() + 301, count, few.data());
+      EXPECT_TRUE(std::equal(few.begin(), few.end(),
+                             packed.begin() + 301 * static_cast<std::ptrdiff_t>(encoder.words())))
+          << "nb " << bits << ", " << count << " IDs";
     }
     const std::uint64_t too_long = top + 1;
     EXPECT_THROW(encoder.encode(&too_long, 1, packed.data()), InvalidArgumentError);
