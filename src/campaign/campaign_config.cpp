@@ -158,14 +158,14 @@ void read_protocols(const std::string& file, const json& j, CampaignConfig& c) {
   c.calibration = c.protocols.front().calibration;
 }
 
-// The trace mode's settings ("mode", "copies", "collusion", "remarks", "spread", "fingerprint",
-// "fingerprint_rms", "fingerprint_regions"), refused in blind mode.
+// The trace mode's settings ("mode", "copies", "collusion", "remarks", "innocents", "spread",
+// "fingerprint", "fingerprint_rms", "fingerprint_regions"), refused in blind mode.
 void read_trace_settings(const std::string& file, const json& j, CampaignConfig& c) {
   const std::string mode = j.value("mode", "blind");
   if (mode != "blind" && mode != "trace")
     bad(file, fmt::format("mode \"{}\" is neither \"blind\" nor \"trace\"", mode));
   c.trace = mode == "trace";
-  for (const char* k : {"copies", "collusion", "remarks", "spread", "fingerprint",
+  for (const char* k : {"copies", "collusion", "remarks", "innocents", "spread", "fingerprint",
                         "fingerprint_rms", "fingerprint_regions"})
     if (!c.trace && j.contains(k)) bad(file, fmt::format("\"{}\" needs \"mode\": \"trace\"", k));
   if (!c.trace) return;
@@ -214,6 +214,24 @@ void read_trace_settings(const std::string& file, const json& j, CampaignConfig&
       if (!seen.insert(remark_name(c.remarks.back())).second)
         bad(file,
             fmt::format("\"remarks\" lists the re-marking \"{}\" twice", n.get<std::string>()));
+    }
+  }
+  if (j.contains("innocents")) {
+    const json& list = j["innocents"];
+    const std::string kinds = "\"unmarked\", \"other-key\", \"without-leaker\"";
+    if (!list.is_array()) bad(file, fmt::format("\"innocents\" must be a list of {}", kinds));
+    for (const json& n : list) {
+      if (!n.is_string())
+        bad(file, fmt::format("\"innocents\" lists {}, not one of {}", n.dump(), kinds));
+      const std::string name = n.get<std::string>();
+      const auto names = enum_names<CampaignInnocent>();
+      const auto it = std::find(names.begin(), names.end(), name);
+      if (it == names.end())
+        bad(file, fmt::format("\"innocents\" lists \"{}\", not one of {}", name, kinds));
+      const auto innocent = static_cast<CampaignInnocent>(it - names.begin());
+      if (std::find(c.innocents.begin(), c.innocents.end(), innocent) != c.innocents.end())
+        bad(file, fmt::format("\"innocents\" lists \"{}\" twice", name));
+      c.innocents.push_back(innocent);
     }
   }
   c.fingerprint = j.value("fingerprint", c.fingerprint);
@@ -270,10 +288,27 @@ CampaignConfig load_campaign(const std::string& path) {
   }
   if (!j.is_object()) bad(path, "a campaign is a JSON object");
   check_keys(path, j, "campaign",
-             {"name",     "description", "models",      "variants",        "bits",
-              "payloads", "draws",       "seed",        "calibration",     "protocols",
-              "strength", "attacks",     "mode",        "copies",          "collusion",
-              "remarks",  "spread",      "fingerprint", "fingerprint_rms", "fingerprint_regions"});
+             {"name",
+              "description",
+              "models",
+              "variants",
+              "bits",
+              "payloads",
+              "draws",
+              "seed",
+              "calibration",
+              "protocols",
+              "strength",
+              "attacks",
+              "mode",
+              "copies",
+              "collusion",
+              "remarks",
+              "innocents",
+              "spread",
+              "fingerprint",
+              "fingerprint_rms",
+              "fingerprint_regions"});
   const fs::path base = fs::absolute(path).parent_path();
   CampaignConfig c;
   c.source = path;

@@ -30,11 +30,13 @@ struct PlannedTrial {
   int colluders = 0;                             ///< 0 in blind mode, else 1 or the coalition's
   const CampaignCoalition* coalition = nullptr;  ///< trace mode's merged leaks
   std::string key;
-  const CampaignRemark* remark = nullptr;  ///< trace mode's re-marked leaks
+  const CampaignRemark* remark = nullptr;      ///< trace mode's re-marked leaks
+  const CampaignInnocent* innocent = nullptr;  ///< trace mode's innocent leaks
 };
 
 /// The unit's trials in canonical order: attacks, strengths, draws, then (trace mode) every one
-/// again for each coalition of the config, in its order, then for each re-marking.
+/// again for each coalition of the config, in its order, then for each re-marking, then for
+/// each innocent leak.
 std::vector<PlannedTrial> plan_trials(const CampaignConfig& config, const CampaignUnit& unit);
 
 /// The trial's attack applied to mesh (a copy of it for "none"), seeded from its key.

@@ -1,7 +1,8 @@
 // Campaign serialization: rows and calibrations as JSON lines (the journals' records), rows as
 // CSV. The JSON fields are those of TrialRow and CalibrationRecord, by name (nlohmann's type
 // macros); a row's protocol and a calibration's protocol and cause only when not empty, the
-// trace mode's fields only on trace rows (colluders not 0), as the journals have always held.
+// trace mode's fields only on trace rows (colluders not 0, or an innocent leak's: a trace outcome
+// and no colluder), as the journals have always held.
 
 #include <fmt/format.h>
 
@@ -72,7 +73,7 @@ std::string csv_quote(const std::string& s) {
 std::string row_to_json(const TrialRow& r) {
   json j = r;
   if (r.protocol.empty()) j.erase("protocol");
-  if (r.colluders == 0) {
+  if (r.colluders == 0 && r.trace_outcome.empty()) {  // a blind row
     for (const char* f : kTraceFields) j.erase(f);
     for (const char* f : {"trace_all_named", "innocents", "innocent_p"}) j.erase(f);
   }

@@ -107,10 +107,28 @@ std::string remark_label(const CampaignRemark& r) {
                      r.other_key ? "another key" : "public key");
 }
 
+std::string innocent_name(CampaignInnocent innocent) {
+  return fmt::format("innocent:{}", enum_name(innocent));
+}
+
+std::string innocent_label(CampaignInnocent innocent) {
+  switch (innocent) {
+    case CampaignInnocent::Unmarked:
+      return "innocent: the original, unmarked";
+    case CampaignInnocent::OtherKey:
+      return "innocent: the leaker's ID under another key";
+    case CampaignInnocent::WithoutLeaker:
+      return "innocent: the leaker's copy, its row left out";
+  }
+  throw InvalidArgumentError("unknown innocent leak");
+}
+
 std::string trace_attack_label(const std::string& attack, double x, const std::string& coalition) {
   std::string a = attack == "none" ? "none" : fmt::format("{}:{:g}", attack, x);
   if (coalition.empty()) return a;
   if (coalition.starts_with("remark")) return remark_label(parse_remark(coalition)) + ", " + a;
+  if (coalition.starts_with("innocent:"))
+    return innocent_label(parse_enum<CampaignInnocent>(coalition.substr(9))) + ", " + a;
   return coalition_label(parse_coalition(coalition)) + ", " + a;
 }
 
@@ -179,20 +197,26 @@ std::vector<detail::PlannedTrial> detail::plan_trials(const CampaignConfig& c,
   std::vector<const CampaignCoalition*> leaks{nullptr};
   if (c.trace)
     for (const CampaignCoalition& k : c.coalitions) leaks.push_back(&k);
-  const auto plan = [&](const CampaignCoalition* k, const CampaignRemark* r) {
-    const int colluders = k ? k->size : c.trace ? 1 : 0;
-    const std::string name = k ? coalition_name(*k) : r ? remark_name(*r) : "";
+  const auto plan = [&](const CampaignCoalition* k, const CampaignRemark* r,
+                        const CampaignInnocent* innocent) {
+    const int colluders = k ? k->size : c.trace && !innocent ? 1 : 0;
+    const std::string name = k          ? coalition_name(*k)
+                             : r        ? remark_name(*r)
+                             : innocent ? innocent_name(*innocent)
+                                        : "";
     for (const AttackSeries& s : c.attacks)
       for (const double x : s.strengths)
         for (int d = 0; d < draws_of(c, s); ++d)
           trials.push_back({&s, x, d, colluders, k,
                             trial_key(c.models[u.model].name, c.variants[u.variant], u.payload,
                                       series_label(s), x, d, name, c.protocols[u.protocol].name),
-                            r});
+                            r, innocent});
   };
-  for (const CampaignCoalition* k : leaks) plan(k, nullptr);
-  if (c.trace)
-    for (const CampaignRemark& r : c.remarks) plan(nullptr, &r);
+  for (const CampaignCoalition* k : leaks) plan(k, nullptr, nullptr);
+  if (c.trace) {
+    for (const CampaignRemark& r : c.remarks) plan(nullptr, &r, nullptr);
+    for (const CampaignInnocent& innocent : c.innocents) plan(nullptr, nullptr, &innocent);
+  }
   return trials;
 }
 

@@ -110,10 +110,13 @@ std::vector<std::uint64_t> unit_leakers(const CampaignConfig& c, int payload, in
   return ids;
 }
 
-// Traces and decodes blind one attacked mesh, filling the row's outcomes.
+// Traces and decodes blind one attacked mesh, filling the row's outcomes: trace against the
+// leakers among the copies, the blind decoder against the IDs the leak carries under the key
+// (`carried`; the bit error rate against the first of them, or against `ber_id` without any).
 void judge(const Mesh& attacked, const Mesh& original, const std::vector<IssuedCopy>& copies,
            const Key& key, const CampaignConfig& c, const EmbedOptions& scheme,
-           const std::vector<std::uint64_t>& leakers, TrialRow& row) {
+           const std::vector<std::uint64_t>& leakers, const std::vector<std::uint64_t>& carried,
+           std::uint64_t ber_id, TrialRow& row) {
   const IdCode code(IdCodeOptions{c.bits});
   auto t0 = Clock::now();
   TraceOptions options;
@@ -151,10 +154,11 @@ void judge(const Mesh& attacked, const Mesh& original, const std::vector<IssuedC
       code, key);
   row.extract_seconds = since(t0);
   row.blind_outcome = trace_outcome_name(trace_outcome(
-      blind.id.valid ? std::vector{blind.id.id} : std::vector<std::uint64_t>{}, leakers));
+      blind.id.valid ? std::vector{blind.id.id} : std::vector<std::uint64_t>{}, carried));
   row.blind_id = blind.id.valid ? std::to_string(blind.id.id)
                                 : fmt::format("no ID ({})", id_decode_status_name(blind.id.status));
-  row.ber = bit_error_rate(blind.reading.bits, code.encode(leakers.front(), key));
+  row.ber = bit_error_rate(blind.reading.bits,
+                           code.encode(carried.empty() ? ber_id : carried.front(), key));
   row.erasures = blind.reading.extract.erasures;
 }
 
@@ -251,9 +255,18 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
     }
   }
   // The leak of a trial: the leaker's copy, or its coalition's merge (weights and regions drawn
-  // from the trial's key).
+  // from the trial's key), or an innocent leak.
   std::map<const CampaignRemark*, Mesh> remarked;  // once per re-marking, for all its attacks
-  const auto leak_of = [&](const PlannedTrial& t) {
+  std::optional<Mesh> other_key;                   // the leaker's ID under another key
+  Mesh merged;                                     // the last coalition's leak
+  const auto leak_of = [&](const PlannedTrial& t) -> const Mesh& {
+    if (t.innocent) {
+      if (*t.innocent == CampaignInnocent::Unmarked) return mesh;
+      if (*t.innocent == CampaignInnocent::WithoutLeaker) return marked[0];
+      if (!other_key)  // as another shop would issue it: both marks under its own key
+        other_key = remarked_copy(c, CampaignRemark{variant, record.strength, true}, mesh, pair[0]);
+      return *other_key;
+    }
     if (t.remark) {
       auto it = remarked.find(t.remark);
       if (it == remarked.end()) {
@@ -274,8 +287,13 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
     CollusionOptions o;
     o.kind = t.coalition->kind;
     if (t.coalition->weighted) o.weights = random_collusion_weights(t.colluders, seed);
-    return attack_collude(coalition, o, seed);
+    merged = attack_collude(coalition, o, seed);
+    return merged;
   };
+  // The registry without the leaker's row (CampaignInnocent::WithoutLeaker).
+  std::vector<IssuedCopy> without;
+  for (const IssuedCopy& copy : copies)
+    if (copy.id != pair[0]) without.push_back(copy);
 
   for (const PlannedTrial& t : todo) {
     TrialRow row = base;
@@ -284,9 +302,10 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
     row.attack_strength = t.strength;
     row.draw = t.draw;
     row.colluders = t.colluders;
-    row.coalition = t.coalition ? coalition_name(*t.coalition)
-                    : t.remark  ? remark_name(*t.remark)
-                                : "";
+    row.coalition = t.coalition  ? coalition_name(*t.coalition)
+                    : t.remark   ? remark_name(*t.remark)
+                    : t.innocent ? innocent_name(*t.innocent)
+                                 : "";
     const std::vector<std::uint64_t> leakers(pair.begin(), pair.begin() + t.colluders);
     row.leakers = joined(leakers);
     row.ber = 0.5;
@@ -297,7 +316,9 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
         const Mesh attacked = attack_for_trial(c, t, leak_of(t));
         row.attack_seconds = since(t0);
         row.vertices = static_cast<int>(attacked.V.rows());
-        judge(attacked, mesh, copies, key, c, eo, leakers, row);
+        const bool without_leaker = t.innocent && *t.innocent == CampaignInnocent::WithoutLeaker;
+        judge(attacked, mesh, without_leaker ? without : copies, key, c, eo, leakers,
+              without_leaker ? std::vector<std::uint64_t>{pair[0]} : leakers, pair[0], row);
       } catch (const Error& e) {
         row.status = fmt::format("attack or trace failed: {}", e.what());
       }
@@ -317,6 +338,7 @@ std::vector<TraceSummaryRow> summarize_trace(const CampaignConfig& c,
   std::vector<std::string> leaks{""};
   for (const CampaignCoalition& k : c.coalitions) leaks.push_back(coalition_name(k));
   for (const CampaignRemark& r : c.remarks) leaks.push_back(remark_name(r));
+  for (const CampaignInnocent i : c.innocents) leaks.push_back(innocent_name(i));
   for (const std::string& coalition : leaks)
     for (const AttackSeries& s : c.attacks)
       for (const double x : s.strengths) {

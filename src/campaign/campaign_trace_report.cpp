@@ -28,7 +28,8 @@ std::string percent(int n, int of) {
   return of > 0 ? fmt::format("{:.1f} %", 100.0 * n / of) : "-";
 }
 
-// The coalitions and re-markings of the campaign, for the report's first paragraph ("" without).
+// The coalitions, re-markings and innocent leaks of the campaign, for the report's first
+// paragraph ("" without).
 std::string coalitions_text(const CampaignConfig& c) {
   std::vector<std::string> names, remarks;
   for (const CampaignCoalition& k : c.coalitions) names.push_back(coalition_label(k));
@@ -45,6 +46,12 @@ std::string coalitions_text(const CampaignConfig& c) {
         "({}; another ID drawn per leaker, the default strength unless given; under another key "
         "with that key's fingerprint too)",
         fmt::join(remarks, ", "));
+  std::vector<std::string> innocents;
+  for (const CampaignInnocent i : c.innocents) innocents.push_back(innocent_label(i));
+  if (!innocents.empty())
+    text += fmt::format(
+        "; every attack also on leaks that no candidate leaked, where naming anyone is wrong ({})",
+        fmt::join(innocents, "; "));
   return text;
 }
 
@@ -202,7 +209,9 @@ std::string write_trace_report(const std::string& out_dir, const CampaignConfig&
     if (detail::outcome_is(r.trace_outcome, TraceOutcome::Wrong) ||
         detail::outcome_is(r.blind_outcome, TraceOutcome::Wrong))
       wrong.push_back(&r);
-    if (detail::outcome_is(r.trace_outcome, TraceOutcome::None)) unnamed.push_back(&r);
+    // An innocent leak (no colluder) is right to name nobody: not listed as a miss.
+    if (detail::outcome_is(r.trace_outcome, TraceOutcome::None) && r.colluders > 0)
+      unnamed.push_back(&r);
     if (r.status != "ok") failed.push_back(&r);
   }
   std::string md = fmt::format("# Campaign `{}` (trace)\n\n", c.name);
@@ -257,7 +266,8 @@ std::string write_trace_report(const std::string& out_dir, const CampaignConfig&
         model_table(c, rows) + "\n";
   md += "Trials where trace named the leaker (right / trials), per attack and model:\n\n" +
         right_by_model(c, summary, rows) + "\n";
-  md += fmt::format("## Trials trace named nobody ({})\n\n", unnamed.size());
+  md += fmt::format("## Trials trace named nobody ({}{})\n\n", unnamed.size(),
+                    c.innocents.empty() ? "" : ", innocent leaks left out");
   md += unnamed.empty() ? "None.\n\n" : trial_lines(unnamed, 100) + "\n";
   if (!failed.empty())
     md += fmt::format("## Failed trials ({})\n\n{}\n", failed.size(), trial_lines(failed, 50));

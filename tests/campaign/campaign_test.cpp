@@ -36,6 +36,16 @@ std::string write_text(const std::string& path, const std::string& text) {
   return path;
 }
 
+// A trace campaign file `name`.json in the scratch folder: spot, DRS at 0.05, 40 copies with
+// the fingerprint, one draw, and `settings` (JSON members: the leaks, payloads, attacks).
+std::string spot_trace_campaign(const std::string& name, const std::string& settings) {
+  return write_text(test::scratch_dir() + "/" + name + ".json",
+                    "{\"models\": [\"" + test::data_mesh("spot.obj") +
+                        "\"], \"variants\": [\"DRS\"], \"mode\": \"trace\", \"copies\": 40, "
+                        "\"fingerprint\": true, \"strength\": 0.05, \"draws\": 1, " +
+                        settings + "}");
+}
+
 std::string error_of(const std::string& path) {
   try {
     load_campaign(path);
@@ -129,6 +139,14 @@ TEST(Campaign, RejectsBadFilesNamingFileAndKey) {
        "the strength \"0.05x\" is not in"},
       {head + ", \"mode\": \"trace\", \"remarks\": [\"remark:VRS:0.1\", \"remark:VRS:.10\"]}",
        "\"remarks\" lists the re-marking \"remark:VRS:.10\" twice"},
+      {head + ", \"innocents\": [\"unmarked\"]}", "\"innocents\" needs \"mode\": \"trace\""},
+      {head + ", \"mode\": \"trace\", \"innocents\": \"unmarked\"}",
+       "\"innocents\" must be a list of \"unmarked\", \"other-key\", \"without-leaker\""},
+      {head + ", \"mode\": \"trace\", \"innocents\": [1]}", "\"innocents\" lists 1, not one of"},
+      {head + ", \"mode\": \"trace\", \"innocents\": [\"guilty\"]}",
+       "\"innocents\" lists \"guilty\", not one of"},
+      {head + ", \"mode\": \"trace\", \"innocents\": [\"unmarked\", \"unmarked\"]}",
+       "\"innocents\" lists \"unmarked\" twice"},
       {head + ", \"mode\": \"trace\", \"fingerprint\": \"yes\"}", "wrong type"},
       {head + ", \"mode\": \"trace\", \"fingerprint\": true, \"fingerprint_rms\": 0.02}",
        "fingerprint_rms 0.02 is out of (0, 0.01]"},
@@ -567,12 +585,10 @@ TEST(Campaign, RemarkedLeaksCarryTheNewMarkAndNameOnlyTheirBuyer) {
   const std::string spot = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
   const std::string dir = test::scratch_dir() + "/remarks";
-  const std::string config = write_text(
-      test::scratch_dir() + "/remarks.json",
-      "{\"models\": [\"" + spot +
-          "\"], \"variants\": [\"DRS\"], \"mode\": \"trace\", \"copies\": 40, "
-          "\"fingerprint\": true, \"remarks\": [\"remark:VRS\", \"remark-key:DRS:0.03\", "
-          "\"remark:cho-mean\"], \"payloads\": 2, \"strength\": 0.05, \"draws\": 1}");
+  const std::string config = spot_trace_campaign(
+      "remarks",
+      "\"remarks\": [\"remark:VRS\", \"remark-key:DRS:0.03\", \"remark:cho-mean\"], "
+      "\"payloads\": 2");
   const CampaignConfig c = load_campaign(config);
   ASSERT_EQ(c.remarks.size(), 3u);
   EXPECT_EQ(remark_name(c.remarks[1]), "remark-key:DRS:0.03");
@@ -628,6 +644,66 @@ TEST(Campaign, RemarkedLeaksCarryTheNewMarkAndNameOnlyTheirBuyer) {
   EXPECT_NE(report.find("| re-marked VRS (public key), none | 2 |"), std::string::npos) << report;
 }
 
+// Leaks that nobody in the registry leaked: the unmarked original, the leaker's ID issued with
+// both marks under another key (which really carries that mark: it decodes under that key), and
+// the leaker's copy traced against the registry without its row (which names the leaker with
+// the row: the plain copy's trial). Trace names nobody in any of them; the blind decoder reads
+// the leaker's ID from the leaker's copy alone.
+TEST(Campaign, InnocentLeaksNameNobody) {
+  const std::string spot = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir() + "/innocents";
+  const std::string config = spot_trace_campaign(
+      "innocents",
+      "\"innocents\": [\"unmarked\", \"other-key\", \"without-leaker\"], \"payloads\": 2");
+  const CampaignConfig c = load_campaign(config);
+  ASSERT_EQ(c.innocents.size(), 3u);
+  EXPECT_EQ(innocent_name(c.innocents[1]), "innocent:other-key");
+
+  const Mesh mesh = read_mesh(spot);
+  const IdCode code(IdCodeOptions{c.bits});
+  const Mesh other = detail::remarked_copy(c, CampaignRemark{"DRS", 0.05, true}, mesh, 4321);
+  ExtractOptions xo;
+  xo.bits = c.bits;
+  xo.center = parse_scheme("DRS").variant.center;
+  const IdReading read = read_id(other.V, other.F, xo, code, detail::remarker_key(c));
+  ASSERT_TRUE(read.id.valid);
+  EXPECT_EQ(read.id.id, 4321u);
+
+  const test::CliRun run = test::run_cli("bench " + config + " --out " + dir + " --fresh");
+  ASSERT_EQ(run.code, 0) << run.out;
+  const std::map<std::string, std::string> json_rows = rows_without_times(dir);
+  ASSERT_EQ(json_rows.size(), 2u * 4);  // payloads x (the copy, 3 innocent leaks), attack none
+  std::map<std::string, int> seen;
+  for (const auto& [key, json] : json_rows) {
+    const TrialRow r = row_from_json(json);
+    ASSERT_EQ(r.status, "ok") << key;
+    const std::string leaker = std::to_string(campaign_leaker(c, r.payload));
+    if (r.coalition.empty()) {  // the leaker's copy with its row: named
+      EXPECT_EQ(r.trace_outcome, "right") << key << ": " << r.trace_status;
+      continue;
+    }
+    ++seen[r.coalition];
+    EXPECT_EQ(key.substr(key.size() - r.coalition.size() - 1), "|" + r.coalition) << key;
+    EXPECT_EQ(r.colluders, 0) << key;
+    EXPECT_EQ(r.leakers, "") << key;
+    EXPECT_EQ(r.trace_outcome, "none") << key << ": trace named " << r.trace_named;
+    EXPECT_EQ(r.trace_named, "") << key;
+    EXPECT_GE(r.innocent_p, 1e-6) << key;
+    const bool without = r.coalition == "innocent:without-leaker";
+    EXPECT_EQ(r.innocents, without ? 39 : 40) << key;
+    EXPECT_EQ(r.blind_outcome, without ? "right" : "none") << key << ": " << r.blind_id;
+    if (without) EXPECT_EQ(r.blind_id, leaker) << key;
+  }
+  EXPECT_EQ(seen, (std::map<std::string, int>{{"innocent:other-key", 2},
+                                              {"innocent:unmarked", 2},
+                                              {"innocent:without-leaker", 2}}));
+  const std::string report = read_file(dir + "/report.md");
+  EXPECT_NE(report.find("| innocent: the original, unmarked, none | 2 | 0.0 % | 100.0 % | 0.0 % |"),
+            std::string::npos)
+      << report;
+}
+
 // Coalitions of consecutive IDs: each trial's leakers are the unit's leaker and the K - 1 IDs
 // next to it, every merged leak (equal, unequal, spliced; spot with the fingerprint) names
 // colluders only, and the summary's counts are those of the rows, recounted here.
@@ -635,13 +711,10 @@ TEST(Campaign, CoalitionsOfConsecutiveIdsNameColludersOnly) {
   const std::string spot = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
   const std::string dir = test::scratch_dir() + "/coalitions";
-  const std::string config = write_text(
-      test::scratch_dir() + "/coalitions.json",
-      "{\"models\": [\"" + spot +
-          "\"], \"variants\": [\"DRS\"], \"mode\": \"trace\", \"copies\": 40, "
-          "\"fingerprint\": true, \"collusion\": [\"average:2\", \"weighted:3\", \"splice:3\", "
-          "\"average:5\"], \"payloads\": 3, \"strength\": 0.05, \"attacks\": [{\"kind\": "
-          "\"noise\", \"strengths\": [0.0005]}], \"draws\": 1}");
+  const std::string config = spot_trace_campaign(
+      "coalitions",
+      "\"collusion\": [\"average:2\", \"weighted:3\", \"splice:3\", \"average:5\"], "
+      "\"payloads\": 3, \"attacks\": [{\"kind\": \"noise\", \"strengths\": [0.0005]}]");
   const CampaignConfig c = load_campaign(config);
   const test::CliRun run = test::run_cli("bench " + config + " --out " + dir + " --fresh");
   ASSERT_EQ(run.code, 0) << run.out;

@@ -150,6 +150,34 @@ CampaignRemark parse_remark(const std::string& name);
 /// Its label in reports: "re-marked VRS (public key)", "re-marked VRL at 0.1 (another key)".
 std::string remark_label(const CampaignRemark& remark);
 
+/// A trace campaign's innocent leak: a mesh that no candidate of the registry leaked, which trace
+/// must answer with nobody ("innocents" in campaign files). Its rows carry innocent_name in
+/// `coalition`, 0 colluders and no leaker: a trial is right never, none when nobody is named,
+/// and wrong when anyone is. The blind decoder is judged against the ID the leak carries under
+/// the campaign's key: the leaker's for WithoutLeaker, nobody's for the others.
+enum class CampaignInnocent {
+  Unmarked,       ///< "unmarked": the original itself
+  OtherKey,       ///< "other-key": the leaker's ID issued, both marks, under another shop's key
+  WithoutLeaker,  ///< "without-leaker": the leaker's copy, its row left out of the registry
+};
+
+/// The names of CampaignInnocent's values in campaign files.
+template <>
+struct EnumTable<CampaignInnocent> {
+  static constexpr const char* what = "innocent leak";
+  static constexpr NamedValue<CampaignInnocent> values[] = {
+      {CampaignInnocent::Unmarked, "unmarked"},
+      {CampaignInnocent::OtherKey, "other-key"},
+      {CampaignInnocent::WithoutLeaker, "without-leaker"}};
+};
+
+/// Its name in rows and trial keys: "innocent:" and its name in files ("innocent:other-key").
+std::string innocent_name(CampaignInnocent innocent);
+
+/// Its label in reports: "innocent: the original, unmarked", "innocent: the leaker's ID under
+/// another key", "innocent: the leaker's copy, its row left out".
+std::string innocent_label(CampaignInnocent innocent);
+
 /// A model of a campaign.
 struct CampaignModel {
   std::string name;  ///< short name used in rows (the file's stem by default)
@@ -178,6 +206,8 @@ struct CampaignConfig {
   /// trace, "remarks": every attack also on the leaker's copy re-marked by each of these
   /// (single copies; rows name the re-marking where coalitions name theirs)
   std::vector<CampaignRemark> remarks;
+  /// trace, "innocents": every attack also on these leaks, which nobody in the registry leaked
+  std::vector<CampaignInnocent> innocents;
   /// trace: copies issued with the fingerprint (mark format 5, fingerprint.h), as `embed
   /// --registry DB --fingerprint` issues them
   bool fingerprint = false;
@@ -243,7 +273,8 @@ struct TrialRow {
   double embed_seconds = 0, attack_seconds = 0, extract_seconds = 0;
   // Trace mode only (colluders 0 otherwise). ber is then the blind reading's against the
   // (first) leaker's codeword, and extract_seconds read_id's time.
-  int colluders = 0;             ///< copies merged into the leak: 1, or the coalition's size
+  int colluders =
+      0;  ///< copies merged into the leak: 1, the coalition's size, or 0 (an innocent leak)
   std::string coalition;         ///< coalition_name, "" for a single copy
   std::string leakers;           ///< their IDs, space-separated
   std::string trace_outcome;     ///< trace_outcome_name of trace()'s named buyers
