@@ -64,7 +64,9 @@
 /// attack on the leaker's copy re-marked with meshmark (CampaignRemark: "remark:VRS",
 /// "remark-key:DNL:0.1", "remark:cho-mean"), another ID drawn per model, variant and payload;
 /// their rows carry the re-marking's name in `coalition`, with 1 colluder, and keys end in "|"
-/// and that name. "fingerprint": true issues
+/// and that name. "innocents" repeats every attack on leaks nobody in the registry leaked
+/// (CampaignInnocent: "unmarked", "other-key", "without-leaker"), where any name is wrong; their
+/// rows carry innocent_name in `coalition`, with 0 colluders. "fingerprint": true issues
 /// every copy with the fingerprint (the leakers' copies get theirs, the records mark format 5).
 /// bits and the 32-bit ID must make an IdCode (coding.h).
 ///
