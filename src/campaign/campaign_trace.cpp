@@ -290,10 +290,12 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
     merged = attack_collude(coalition, o, seed);
     return merged;
   };
-  // The registry without the leaker's row (CampaignInnocent::WithoutLeaker).
+  // The registry without the leaker's row, when a CampaignInnocent::WithoutLeaker trial runs.
   std::vector<IssuedCopy> without;
-  for (const IssuedCopy& copy : copies)
-    if (copy.id != pair[0]) without.push_back(copy);
+  if (std::find(c.innocents.begin(), c.innocents.end(), CampaignInnocent::WithoutLeaker) !=
+      c.innocents.end())
+    for (const IssuedCopy& copy : copies)
+      if (copy.id != pair[0]) without.push_back(copy);
 
   for (const PlannedTrial& t : todo) {
     TrialRow row = base;

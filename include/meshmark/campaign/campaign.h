@@ -273,10 +273,11 @@ struct TrialRow {
   int erasures = 0;
   std::string status;  ///< "ok", or what failed (embedding, attack)
   double embed_seconds = 0, attack_seconds = 0, extract_seconds = 0;
-  // Trace mode only (colluders 0 otherwise). ber is then the blind reading's against the
-  // (first) leaker's codeword, and extract_seconds read_id's time.
-  int colluders =
-      0;  ///< copies merged into the leak: 1, the coalition's size, or 0 (an innocent leak)
+  // Trace mode only (otherwise colluders 0 and trace_outcome empty; an innocent leak's row has
+  // colluders 0 and a trace outcome). ber is then the blind reading's against the (first)
+  // leaker's codeword (the unit's leaker's for an innocent leak), and extract_seconds read_id's.
+  /// copies merged into the leak: 1, the coalition's size, or 0 (an innocent leak)
+  int colluders = 0;
   std::string coalition;         ///< coalition_name, "" for a single copy
   std::string leakers;           ///< their IDs, space-separated
   std::string trace_outcome;     ///< trace_outcome_name of trace()'s named buyers
