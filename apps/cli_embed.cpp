@@ -126,6 +126,10 @@ int run(const EmbedArgs& a) {
   const bool ok = c.status == CopyStatus::Written;
   const std::uint64_t id = request.auto_id ? c.record.id : request.id.value_or(0);
   if (ok && c.fingerprint_alone) {  // no histogram mark in the copy: nothing of it to print
+    // Why: the fidelity search's message, or the embedding's at the fixed strength.
+    const std::string why = calibration
+                                ? calibration->message
+                                : fmt::format("at strength {:g}, {}", used.strength, r.message);
     if (a.json) {
       const nlohmann::json j = {{"status", "fingerprint alone"},
                                 {"message", c.message},
@@ -134,12 +138,12 @@ int run(const EmbedArgs& a) {
                                 {"id", id},
                                 {"strength", 0.0},
                                 {"fingerprint_alone", true},
-                                {"histogram_mark", calibration ? calibration->message : ""}};
+                                {"histogram_mark", why}};
       fmt::print("{}\n", j.dump(2));
     } else {
       fmt::print("embedded: {}\n", c.message);
       fmt::print("  ID               {} ({} bits, coded)\n", id, a.keys.id_bits);
-      fmt::print("  histogram mark   none: {}\n", calibration ? calibration->message : "");
+      fmt::print("  histogram mark   none: {}\n", why);
       fmt::print("  written          {} (the fingerprint alone, which only trace reads)\n",
                  printable(a.output));
     }

@@ -162,6 +162,15 @@ void judge(const Mesh& attacked, const Mesh& original, const std::vector<IssuedC
   row.erasures = blind.reading.extract.erasures;
 }
 
+// The fingerprint's RMS on the original of `frame`, as issue_copies raises it on a small one
+// (fingerprint_rms), from the campaign's "fingerprint_rms".
+double issued_fingerprint_rms(const CampaignConfig& c, const FingerprintFrame& frame) {
+  FingerprintOptions o;
+  o.rms = c.fingerprint_rms;
+  return fingerprint_rms(
+      static_cast<std::size_t>(std::count(frame.counted.begin(), frame.counted.end(), 1)), o);
+}
+
 }  // namespace
 
 Key remarker_key(const CampaignConfig& c) {
@@ -184,9 +193,9 @@ Mesh remarked_copy(const CampaignConfig& c, const CampaignRemark& r, const Mesh&
   if (key)
     if (const std::optional<FingerprintFrame> frame =
             fingerprint_frame(copy.V, copy.F, eo.variant.center, c.bits))
-      out.V = add_fingerprint(e.V, copy.V, frame->basis,
-                              fingerprint_coefficients(*key, id, frame->basis.functions),
-                              c.fingerprint_rms, &frame->histogram, &frame->center_motion);
+      out.V = add_fingerprint(
+          e.V, copy.V, frame->basis, fingerprint_coefficients(*key, id, frame->basis.functions),
+          issued_fingerprint_rms(c, *frame), &frame->histogram, &frame->center_motion);
   return out;
 }
 
@@ -201,7 +210,7 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
   const std::string& model = c.models[u.model].name;
   const std::string& variant = c.variants[u.variant];
   const Key key = campaign_key(c);
-  const std::vector<IssuedCopy> copies =
+  std::vector<IssuedCopy> copies =
       campaign_copies(c, model, variant, record.strength, record.bin_offset);
   int most = 1;
   for (const PlannedTrial& t : todo) most = std::max(most, t.colluders);
@@ -228,8 +237,15 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
   }
   for (std::size_t k = 0; k < pair.size() && base.status == "ok"; ++k) {
     const auto t0 = Clock::now();
-    const EmbedResult e = embed(mesh.V, mesh.F, id_bins(code, pair[k], key), eo);
+    EmbedResult e = embed(mesh.V, mesh.F, id_bins(code, pair[k], key), eo);
     if (k == 0) base.embed_seconds = since(t0);
+    if (e.status == EmbedStatus::Infeasible && frame) {
+      // As issue_copies issues it: the fingerprint alone, its row of strength 0.
+      e.V = mesh.V, e.rms_percent = 0, e.status = EmbedStatus::Embedded;
+      for (IssuedCopy& copy : copies)
+        if (copy.id == pair[k]) copy.strength = 0, copy.bin_offset = 0;
+      if (k == 0) base.strength = 0;
+    }
     if (e.status != EmbedStatus::Embedded) {
       base.status =
           fmt::format("embedding ID {} {}: {}", pair[k], embed_status_name(e.status), e.message);
@@ -240,7 +256,7 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
     if (frame)  // as issue_copies adds it
       marked.back().V = add_fingerprint(
           e.V, mesh.V, frame->basis, fingerprint_coefficients(key, pair[k], frame->basis.functions),
-          c.fingerprint_rms, &frame->histogram, &frame->center_motion);
+          issued_fingerprint_rms(c, *frame), &frame->histogram, &frame->center_motion);
     if (k == 0) {
       base.rms_percent = e.rms_percent;
       if (frame) {  // both marks, as embed measures one (each position once)

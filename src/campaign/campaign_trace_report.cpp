@@ -227,8 +227,10 @@ std::string write_trace_report(const std::string& out_dir, const CampaignConfig&
       c.calibrate ? "calibrated strengths" : fmt::format("alpha {}", c.strength), c.spread,
       c.fingerprint
           ? fmt::format(", every copy with the fingerprint at an RMS of {:g} % of the diagonal "
-                        "(mark format {}), read over the whole surface{}",
-                        100 * c.fingerprint_rms, kFingerprintMarkFormat,
+                        "(up to {:g} times more on originals of fewer than {} counted vertices; "
+                        "mark format {}), read over the whole surface{}",
+                        100 * c.fingerprint_rms, kFingerprintMaxBoost, kFingerprintFullVertices,
+                        kFingerprintMarkFormat,
                         c.fingerprint_regions.empty()
                             ? ""
                             : fmt::format(" and over regions (partitions of {})",

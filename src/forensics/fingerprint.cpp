@@ -345,6 +345,15 @@ int fingerprint_functions(std::size_t counted, const FingerprintOptions& options
   return k >= 8 ? k : 0;
 }
 
+double fingerprint_rms(std::size_t counted, const FingerprintOptions& options) {
+  if (counted >= kFingerprintFullVertices) return options.rms;
+  const double boost =
+      counted == 0
+          ? kFingerprintMaxBoost
+          : std::sqrt(static_cast<double>(kFingerprintFullVertices) / static_cast<double>(counted));
+  return options.rms * std::min(kFingerprintMaxBoost, boost);
+}
+
 namespace {
 
 // Rows [offset, offset + rows' rows) of Phi a into s (and 1 into covered where a row has

@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -359,18 +360,29 @@ Distortion distortion(const Original& original, const Eigen::MatrixX3d& V,
   return d;
 }
 
-// A copy whose histogram mark cannot fit the limits, issued with the fingerprint alone when
-// that fits them (its row records strength 0: trace then reads the fingerprint only), or
-// refused naming both. `why`: the calibration's message.
+using Field = std::function<Eigen::MatrixX3d(const Eigen::MatrixX3d&)>;
+
+// A copy whose histogram mark cannot fit the limits, or cannot be embedded at a fixed strength
+// (no limits: some bits infeasible), issued with the fingerprint alone when that fits them (its
+// row records strength 0: trace then reads the fingerprint only), or refused naming both.
+// `fields`: the fingerprint at the RMS issued (fingerprint_rms), then at FingerprintOptions::rms
+// when that is less (a small original's raised RMS may not fit where the plain one does); the
+// first that fits is issued. `why`: the calibration's or the embedding's message.
 void issue_fingerprint_alone(const CopyRequest& request, const Original& original,
-                             const IssueSettings& settings,
-                             const std::function<Eigen::MatrixX3d(const Eigen::MatrixX3d&)>& add,
-                             const CalibrateOptions& limits, const std::string& why,
-                             CopyOutcome& out) {
+                             const IssueSettings& settings, const std::vector<Field>& fields,
+                             const std::optional<CalibrateOptions>& fidelity,
+                             const std::string& why, CopyOutcome& out) {
   const Mesh& O = original.mesh;
   Mesh copy = O;
-  copy.V = add(O.V);
-  const Distortion d = distortion(original, copy.V, limits);
+  CalibrateOptions limits;  // none: measured for the message alone
+  limits.max_rms_percent = limits.max_msdm = std::numeric_limits<double>::infinity();
+  if (fidelity) limits = *fidelity;
+  Distortion d;
+  for (const Field& add : fields) {
+    copy.V = add(O.V);
+    d = distortion(original, copy.V, limits);
+    if (d.within(limits)) break;
+  }
   const double rms = d.rms_percent, m = d.msdm;
   if (!d.within(limits)) {
     out.status = CopyStatus::NotWithinFidelity;
@@ -394,9 +406,12 @@ void issue_fingerprint_alone(const CopyRequest& request, const Original& origina
   out.message = fmt::format("the fingerprint alone, RMS {:.5f} %, MSDM {:.4f}", rms, m);
   if (request.auto_id) out.message = fmt::format("ID {}, {}", *request.id, out.message);
   out.warnings.push_back(fmt::format(
-      "{}: no histogram mark fits the fidelity limits ({}): issued with the fingerprint alone, "
-      "which only trace reads, with the original and the registry",
-      request.input, why));
+      "{}: {} ({}): issued with the fingerprint alone, which only trace reads, with the "
+      "original and the registry",
+      request.input,
+      fidelity ? "no histogram mark fits the fidelity limits"
+               : fmt::format("no histogram mark at strength {:g}", out.embedding.strength),
+      why));
 }
 
 // Embeds and writes one copy (out[k] pending).
@@ -414,7 +429,8 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   o.strengths = mark_strengths(settings.key, nb, coded, o.strength, settings.strength_spread);
   // The fingerprint (fingerprint.h), added after the histogram mark; with fidelity limits,
   // to every strength tried, so that both marks together fit them.
-  std::function<Eigen::MatrixX3d(const Eigen::MatrixX3d&)> fingerprint;
+  Field fingerprint;
+  Field plain_fingerprint;  // at FingerprintOptions::rms, when fingerprint's is raised
   const bool required = settings.fingerprint.value_or(false);
   if (required && !coded) {
     refuse(out, "a fingerprint goes with a coded ID, not a raw payload");
@@ -437,27 +453,31 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   // The field kept from moving the center too (add_fingerprint's center_motion): a second
   // chance for a copy whose file the plain field would cost histogram bits (the center's drift,
   // which weak marks feel); it costs the field 6 to 16 % of its RMS, so it is not the default.
-  std::function<Eigen::MatrixX3d(const Eigen::MatrixX3d&)> centered;
+  Field centered;
   if (coded && original.fingerprint) {
     const FingerprintBasis& b = *original.fingerprint;
     const Eigen::VectorXd g =
         fingerprint_coefficients(id_key(settings.key), *request.id, b.functions);
     const auto add = [&original, &b, g](const Eigen::MatrixX3d& V,
-                                        const Eigen::MatrixX3d* center_motion) {
-      const double rms = FingerprintOptions().rms;
+                                        const Eigen::MatrixX3d* center_motion, double rms) {
       if (b.row_start.empty())  // prepared for one copy: the rows are not held
         return add_fingerprint_at(V, original.mesh.V, b, original.counted_mask, g, rms,
                                   &original.histogram, center_motion);
       return add_fingerprint(V, original.mesh.V, b, g, rms, &original.histogram, center_motion);
     };
-    fingerprint = [add](const Eigen::MatrixX3d& V) { return add(V, nullptr); };
-    centered = [add, &original](const Eigen::MatrixX3d& V) {
-      return add(V, &original.center_motion);
+    const double rms = fingerprint_rms(original.counted), plain = FingerprintOptions().rms;
+    fingerprint = [add, rms](const Eigen::MatrixX3d& V) { return add(V, nullptr, rms); };
+    centered = [add, &original, rms](const Eigen::MatrixX3d& V) {
+      return add(V, &original.center_motion, rms);
     };
+    if (rms > plain)
+      plain_fingerprint = [add, plain](const Eigen::MatrixX3d& V) {
+        return add(V, nullptr, plain);
+      };
   }
   const EmbedOptions searched = o;  // what a search starts from
   // The strength search within the limits, with `finish` added to every embedding tried.
-  const auto search = [&](const std::function<Eigen::MatrixX3d(const Eigen::MatrixX3d&)>& finish) {
+  const auto search = [&](const Field& finish) {
     CalibrateOptions co = *settings.limits;
     co.strengths = [&](double alpha) {
       return mark_strengths(settings.key, nb, coded, alpha, settings.strength_spread);
@@ -476,13 +496,22 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
     out.calibration->embedding.V.resize(0, 3);
     if (c.status == CalibrateStatus::BelowMinimum) {
       if (fingerprint)
-        issue_fingerprint_alone(request, original, settings, fingerprint, co, c.message, out);
+        issue_fingerprint_alone(request, original, settings,
+                                plain_fingerprint
+                                    ? std::vector<Field>{fingerprint, plain_fingerprint}
+                                    : std::vector<Field>{fingerprint},
+                                co, c.message, out);
       else
         out.status = CopyStatus::NotWithinFidelity, out.message = c.message;
       return;
     }
   } else {
     out.result = original.embedder.embed(out.bins, o);
+    if (out.result.status == EmbedStatus::Infeasible && fingerprint) {
+      issue_fingerprint_alone(request, original, settings, {fingerprint}, std::nullopt,
+                              out.result.message, out);
+      return;
+    }
   }
   out.record.strength = o.strength, out.record.bin_offset = o.bin_offset;
   if (out.result.check.status == CarrierHealth::Weak)
@@ -503,12 +532,11 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   // The RMS of a field alone, as a fraction of the diagonal: it moves each vertex by its own
   // amount along the original's ray, whatever the positions it is added to, so it is measured
   // on the original's.
-  const auto field_rms =
-      [&original](const std::function<Eigen::MatrixX3d(const Eigen::MatrixX3d&)>& field) {
-        const Eigen::MatrixX3d& VO = original.mesh.V;
-        return std::sqrt((field(VO) - VO).rowwise().squaredNorm().mean()) /
-               original.fingerprint->diagonal;
-      };
+  const auto field_rms = [&original](const Field& field) {
+    const Eigen::MatrixX3d& VO = original.mesh.V;
+    return std::sqrt((field(VO) - VO).rowwise().squaredNorm().mean()) /
+           original.fingerprint->diagonal;
+  };
   double fingerprint_rms = 0;  // as a fraction of the diagonal
   // The copy with the histogram mark alone (at a fixed strength; found again for a calibrated
   // one when needed), for the second chances below.

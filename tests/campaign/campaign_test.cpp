@@ -16,6 +16,7 @@
 #include "campaign/campaign_internal.h"
 #include "campaign/campaign_parts.h"
 #include "meshmark/campaign/campaign.h"
+#include "meshmark/carrier/histogram.h"
 #include "meshmark/carrier/method.h"
 #include "meshmark/core/error.h"
 #include "meshmark/forensics/fingerprint.h"
@@ -702,6 +703,51 @@ TEST(Campaign, InnocentLeaksNameNobody) {
   EXPECT_NE(report.find("| innocent: the original, unmarked, none | 2 | 0.0 % | 100.0 % | 0.0 % |"),
             std::string::npos)
       << report;
+}
+
+// A trace campaign on an original whose histogram mark is infeasible at the campaign's strength
+// (libcgal-demo's mushroom at 0.05) issues each leaker's copy as issue_copies does: with the
+// fingerprint alone (the trial's strength 0, its RMS that of the field alone, measured here
+// against 1e-4 sqrt(8192 / counted) within [0.5, 1.5]: one copy, 146 signs, the classes' lines
+// left out), and trace names its buyer; without the fingerprint the unit is not issued, and
+// its trials say why.
+TEST(Campaign, AnInfeasibleHistogramMarkLeavesTheFingerprintAlone) {
+  const std::string mushroom = test::cgal_mesh("mushroom.off");
+  MESHMARK_REQUIRE(mushroom, "libcgal-demo's mushroom.off");
+  const Mesh mesh = read_mesh(mushroom);
+  const std::vector<std::uint8_t> carrier = carrier_vertices(mesh.V, mesh.F);
+  const auto counted = static_cast<double>(std::count(carrier.begin(), carrier.end(), kCounted));
+  for (const bool fingerprint : {true, false}) {
+    const std::string name = fingerprint ? "mushroom-alone" : "mushroom-without";
+    const std::string dir = test::scratch_dir() + "/" + name;
+    const std::string config =
+        write_text(test::scratch_dir() + "/" + name + ".json",
+                   "{\"models\": [\"" + mushroom +
+                       "\"], \"variants\": [\"VRS\"], \"mode\": \"trace\", \"copies\": 40, "
+                       "\"fingerprint\": " +
+                       (fingerprint ? "true" : "false") +
+                       ", \"strength\": 0.05, \"draws\": 1, \"payloads\": 2, \"attacks\": []}");
+    const test::CliRun run = test::run_cli("bench " + config + " --out " + dir + " --fresh");
+    ASSERT_EQ(run.code, 0) << run.out;
+    const std::map<std::string, std::string> rows = rows_without_times(dir);
+    ASSERT_EQ(rows.size(), 2u) << name;
+    for (const auto& [key, json] : rows) {
+      const TrialRow r = row_from_json(json);
+      if (!fingerprint) {
+        EXPECT_NE(r.status.find("infeasible"), std::string::npos) << key << ": " << r.status;
+        EXPECT_EQ(r.trace_outcome, "none") << key;
+        continue;
+      }
+      ASSERT_EQ(r.status, "ok") << key;
+      EXPECT_EQ(r.strength, 0.0) << key;
+      const double expected = 100 * 1e-4 * std::sqrt(8192 / counted);  // % of the diagonal
+      EXPECT_GT(r.rms_percent, 0.5 * expected) << key;
+      EXPECT_LT(r.rms_percent, 1.5 * expected) << key;
+      EXPECT_EQ(r.trace_outcome, "right") << key << ": " << r.trace_status;
+      EXPECT_EQ(r.trace_named, std::to_string(campaign_leaker(load_campaign(config), r.payload)))
+          << key;
+    }
+  }
 }
 
 // Coalitions of consecutive IDs: each trial's leakers are the unit's leaker and the K - 1 IDs

@@ -1047,6 +1047,82 @@ TEST(Fingerprint, ACopyWhoseHistogramMarkCannotFitIsIssuedWithTheFingerprintAlon
   EXPECT_EQ(nobody.status, TraceStatus::NoBuyer) << nobody.message;
 }
 
+// fingerprint_rms against its rule written out: FingerprintOptions::rms from 8,192 counted
+// vertices on, times sqrt(8,192 / counted) below, at most 3 times; the options' rms scales it.
+TEST(Fingerprint, ASmallOriginalsFieldIsRaisedByTheSquareRootOfItsVertexCount) {
+  const FingerprintOptions plain;
+  for (const std::size_t counted : {8192, 20000, 1000000})
+    EXPECT_EQ(fingerprint_rms(counted), plain.rms) << counted;
+  EXPECT_DOUBLE_EQ(fingerprint_rms(2048), 2 * plain.rms);  // sqrt(8192 / 2048) = 2
+  EXPECT_DOUBLE_EQ(fingerprint_rms(4096), std::sqrt(2.0) * plain.rms);
+  EXPECT_DOUBLE_EQ(fingerprint_rms(8191), std::sqrt(8192.0 / 8191.0) * plain.rms);
+  for (const std::size_t counted : {0, 1, 500, 910})  // sqrt(8192 / 910) > 3
+    EXPECT_DOUBLE_EQ(fingerprint_rms(counted), 3 * plain.rms) << counted;
+  FingerprintOptions stronger;
+  stronger.rms = 5e-4;
+  EXPECT_DOUBLE_EQ(fingerprint_rms(2048, stronger), 1e-3);
+}
+
+// libcgal-demo's mushroom (2,337 vertices): at the default strength (0.05, no fidelity
+// limits) its histogram mark is infeasible (bits that cannot reach their targets inside their
+// bins). Issued by default into a registry, each copy carries the fingerprint alone: its
+// outcome and warning say so, its row records strength 0 and mark format 5, and the file's
+// displacement (the field alone) has the raised RMS of fingerprint_rms, computed here from the
+// counted vertices: the mean over 4 IDs within [0.7, 1.15] of 1e-4 sqrt(8192 / counted) (a
+// copy's RMS varies with its 146 signs, and the classes' lines the field leaves out take 6 to
+// 16 % of it; the plain 1e-4 would read about 0.5 of it). A copy smoothed 10 times names its
+// buyer by the fingerprint alone, the original nobody. Without the fingerprint the copy is not
+// embedded, as before.
+TEST(Fingerprint, ACopyWhoseHistogramMarkIsInfeasibleAtItsStrengthCarriesTheFingerprintAlone) {
+  const std::string original = test::cgal_mesh("mushroom.off");
+  MESHMARK_REQUIRE(original, "libcgal-demo's mushroom.off");
+  const std::string dir = fresh_dir("fingerprint-alone-fixed");
+  IssueSettings settings;
+  settings.key = key_from_passphrase_v1("mushroom shop key");
+  settings.registry = dir + "/shop.db";
+  const Mesh O = read_mesh(original);
+  const std::vector<std::uint8_t> carrier = carrier_vertices(O.V, O.F);
+  const auto counted = static_cast<double>(std::count(carrier.begin(), carrier.end(), kCounted));
+  ASSERT_LT(counted, 8192);
+  const double expected = 1e-4 * std::sqrt(8192 / counted);
+  double sum = 0;
+  for (std::uint64_t id = 1; id <= 4; ++id) {
+    const CopyRequest r = copy_request(original, dir + fmt::format("/copy{}.ply", id), id);
+    const CopyOutcome c = issue_copies({r}, settings).copies[0];
+    ASSERT_EQ(c.status, CopyStatus::Written) << c.message;
+    EXPECT_TRUE(c.fingerprint_alone) << c.message;
+    EXPECT_NE(c.message.find("the fingerprint alone"), std::string::npos) << c.message;
+    ASSERT_FALSE(c.warnings.empty());
+    EXPECT_NE(c.warnings.back().find("no histogram mark at strength 0.05"), std::string::npos)
+        << c.warnings.back();
+    sum += counted_rms_percent(O, read_mesh(r.output)) / 100;
+  }
+  EXPECT_GT(sum / 4 / expected, 0.7);
+  EXPECT_LT(sum / 4 / expected, 1.15);
+  const std::vector<IssuedCopy> rows = read_registry(settings.registry, {});
+  ASSERT_EQ(rows.size(), 4u);
+  for (const IssuedCopy& row : rows) {
+    EXPECT_EQ(row.strength, 0.0);
+    EXPECT_EQ(row.mark_format, kFingerprintMarkFormat);
+  }
+  const std::string hash = content_hash(read_file(original));
+  const Mesh leak =
+      apply_attack_chain(read_mesh(dir + "/copy3.ply"), parse_attack_chain("smooth:10"), 1);
+  const TraceResult found = trace_issued(leak, O, hash, settings.registry, *settings.key);
+  ASSERT_EQ(found.status, TraceStatus::Named) << found.message;
+  ASSERT_EQ(found.named.size(), 1u);
+  EXPECT_EQ(found.named[0].copy.id, 3u);
+  EXPECT_EQ(found.named[0].compared, 0);  // no histogram mark was read
+  const TraceResult nobody = trace_issued(O, O, hash, settings.registry, *settings.key);
+  EXPECT_EQ(nobody.status, TraceStatus::NoBuyer) << nobody.message;
+  settings.fingerprint = false;
+  settings.registry = dir + "/without.db";
+  const CopyOutcome without =
+      issue_copies({copy_request(original, dir + "/without.ply", 1)}, settings).copies[0];
+  EXPECT_EQ(without.status, CopyStatus::NotEmbedded) << without.message;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/without.ply"));
+}
+
 // Within limits (RMS 0.02 %, MSDM 1) under this key, spot's copy for ID 25 calibrated with
 // format 4's field lost 8 histogram bits in its OBJ file and needed the field kept from moving
 // the center. Format 5's narrower field costs more of the RMS limit on this small mesh (at 0.02 %

@@ -213,8 +213,9 @@ struct CampaignConfig {
   /// trace: copies issued with the fingerprint (mark format 5, fingerprint.h), as `embed
   /// --registry DB --fingerprint` issues them
   bool fingerprint = false;
-  /// trace, "fingerprint_rms": the fingerprint's RMS as a fraction of the diagonal
-  /// (FingerprintOptions::rms, what issued copies get), in (0, 0.01]
+  /// trace, "fingerprint_rms": the fingerprint's RMS as a fraction of the diagonal on
+  /// originals of kFingerprintFullVertices counted vertices and more, raised on smaller ones
+  /// as issued copies are (FingerprintOptions::rms, fingerprint_rms), in (0, 0.01]
   double fingerprint_rms = 1e-4;
   /// trace, "fingerprint_regions": the partitions trace also reads the fingerprint over
   /// (TraceOptions::fingerprint_regions; [] reads the whole surface alone)

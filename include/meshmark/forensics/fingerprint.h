@@ -17,6 +17,7 @@
 /// field and of the reading (add_fingerprint's and read_fingerprint's `keep`).
 
 #include <Eigen/Core>
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <utility>
@@ -59,10 +60,29 @@ struct FingerprintOptions {
   /// innocent's score does not depend on K; the buyer's grows as sqrt(K) (an unprocessed copy
   /// of bunny00: z = 5.6, 8.0, 11.5, 15.3, 20.5 at K = 32 to 512), and so do colluders'.
   int functions = 512;
-  /// The fingerprint's expected RMS radial displacement, as a fraction of the original's
-  /// bounding-box diagonal (1e-4: 0.01 %, a quarter of the paper's RMS limit of 0.04 %).
+  /// The fingerprint's expected RMS radial displacement on originals of at least
+  /// kFingerprintFullVertices counted carrier vertices, as a fraction of the original's
+  /// bounding-box diagonal (1e-4: 0.01 %, a quarter of the paper's RMS limit of 0.04 %); smaller
+  /// originals get more (fingerprint_rms).
   double rms = 1e-4;
 };
+
+/// Counted carrier vertices from which a fingerprint has its default K (512 functions, one per
+/// 16 vertices) and FingerprintOptions::rms; below, fingerprint_rms raises the RMS.
+inline constexpr std::size_t kFingerprintFullVertices = 8192;
+/// The most fingerprint_rms raises the RMS on small originals: 3 times options.rms (0.03 % of
+/// the diagonal by default, still below the paper's RMS limit of 0.04 % on its own).
+inline constexpr double kFingerprintMaxBoost = 3;
+
+/// The RMS a fingerprint is issued with on an original of `counted` counted carrier vertices,
+/// as a fraction of its bounding-box diagonal: options.rms times
+/// min(kFingerprintMaxBoost, sqrt(kFingerprintFullVertices / counted)), and options.rms itself
+/// from kFingerprintFullVertices on. A copy's score at trace does not depend on the RMS (the
+/// normalized correlation z); its strength against the rest of the reading does, and the rest
+/// (what the histogram mark leaves, what processing adds) is spread over fewer vertices per
+/// function on a small original: its measured coefficients are noisier by about the square
+/// root of the vertex count, which this makes up for (docs/forensics.md, "Small originals").
+double fingerprint_rms(std::size_t counted, const FingerprintOptions& options = {});
 
 /// The most basis functions a fingerprint can have (a bump's index is 16 bits).
 inline constexpr int kMaxFingerprintFunctions = 65535;

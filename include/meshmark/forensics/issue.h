@@ -58,9 +58,11 @@ struct IssueSettings {
   std::optional<CalibrateOptions> limits;
   /// The buyer's fingerprint (fingerprint.h), a second mark that only trace reads, with the
   /// original; a copy with one is recorded as mark format 5 (kFingerprintMarkFormat). It moves
-  /// the vertices by a further RMS of FingerprintOptions::rms (0.01 %) of the diagonal; with
-  /// fidelity limits both marks together stay within them, and a copy whose histogram mark
-  /// cannot fit is issued with the fingerprint alone (CopyOutcome::fingerprint_alone).
+  /// the vertices by a further RMS of fingerprint_rms() of the diagonal (0.01 %, up to 0.03 %
+  /// on originals under 8,192 counted carrier vertices); with fidelity limits both marks
+  /// together stay within them, and a copy whose histogram mark cannot fit, or is infeasible at
+  /// the fixed strength without limits, is issued with the fingerprint alone
+  /// (CopyOutcome::fingerprint_alone).
   /// - unset (the default): every copy recorded in a registry (a coded ID) carries one, unless
   ///   its original has fewer counted carrier vertices than a fingerprint needs (128,
   ///   fingerprint_functions()): such copies are issued without, with a warning;
@@ -143,9 +145,9 @@ struct CopyOutcome {
   std::optional<CalibrateResult> calibration;  ///< the fidelity search, with limits
   IssuedCopy record;                           ///< the registry record (coded IDs with a registry)
   std::int64_t vertices = 0;                   ///< the original's vertex count
-  /// Written with the fingerprint alone: no histogram mark fits the fidelity limits (word,
-  /// bins, embedding and result are then the search's weakest attempt, not in the copy; the
-  /// record's strength is 0).
+  /// Written with the fingerprint alone: no histogram mark fits the fidelity limits, or none is
+  /// feasible at the fixed strength (word, bins, embedding and result are then the search's
+  /// weakest attempt or the infeasible embedding, not in the copy; the record's strength is 0).
   bool fingerprint_alone = false;
   /// Written with the fingerprint kept from moving the center (add_fingerprint's
   /// center_motion): the plain field would have cost the file histogram bits (weak marks).
