@@ -454,25 +454,33 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   // chance for a copy whose file the plain field would cost histogram bits (the center's drift,
   // which weak marks feel); it costs the field 6 to 16 % of its RMS, so it is not the default.
   Field centered;
+  // The fingerprint's RMS (fingerprint_rms: raised on small originals) and the plain one; the
+  // fields above at an RMS.
+  double rms = 0;
+  const double plain_rms = FingerprintOptions().rms;
+  std::function<void(double)> use_rms;
   if (coded && original.fingerprint) {
     const FingerprintBasis& b = *original.fingerprint;
     const Eigen::VectorXd g =
         fingerprint_coefficients(id_key(settings.key), *request.id, b.functions);
     const auto add = [&original, &b, g](const Eigen::MatrixX3d& V,
-                                        const Eigen::MatrixX3d* center_motion, double rms) {
+                                        const Eigen::MatrixX3d* center_motion, double r) {
       if (b.row_start.empty())  // prepared for one copy: the rows are not held
-        return add_fingerprint_at(V, original.mesh.V, b, original.counted_mask, g, rms,
+        return add_fingerprint_at(V, original.mesh.V, b, original.counted_mask, g, r,
                                   &original.histogram, center_motion);
-      return add_fingerprint(V, original.mesh.V, b, g, rms, &original.histogram, center_motion);
+      return add_fingerprint(V, original.mesh.V, b, g, r, &original.histogram, center_motion);
     };
-    const double rms = fingerprint_rms(original.counted), plain = FingerprintOptions().rms;
-    fingerprint = [add, rms](const Eigen::MatrixX3d& V) { return add(V, nullptr, rms); };
-    centered = [add, &original, rms](const Eigen::MatrixX3d& V) {
-      return add(V, &original.center_motion, rms);
+    use_rms = [add, &original, &fingerprint, &centered](double r) {
+      fingerprint = [add, r](const Eigen::MatrixX3d& V) { return add(V, nullptr, r); };
+      centered = [add, &original, r](const Eigen::MatrixX3d& V) {
+        return add(V, &original.center_motion, r);
+      };
     };
-    if (rms > plain)
-      plain_fingerprint = [add, plain](const Eigen::MatrixX3d& V) {
-        return add(V, nullptr, plain);
+    rms = fingerprint_rms(original.counted);
+    use_rms(rms);
+    if (rms > plain_rms)
+      plain_fingerprint = [add, plain_rms](const Eigen::MatrixX3d& V) {
+        return add(V, nullptr, plain_rms);
       };
   }
   const EmbedOptions searched = o;  // what a search starts from
@@ -489,6 +497,16 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   if (settings.limits) {
     CalibrateOptions co = *settings.limits;
     out.calibration = search(fingerprint);
+    if (out.calibration->status == CalibrateStatus::BelowMinimum && plain_fingerprint) {
+      // A small original's raised field may leave no room for a histogram mark where the plain
+      // one does: both marks, with the plain field, before the fingerprint alone.
+      CalibrateResult again = search(plain_fingerprint);
+      if (again.status != CalibrateStatus::BelowMinimum) {
+        out.calibration = std::move(again);
+        rms = plain_rms;
+        use_rms(rms);
+      }
+    }
     const CalibrateResult& c = *out.calibration;
     o.strength = c.strength > 0 ? c.strength : co.min_strength;
     o.bin_offset = c.bin_offset, o.strengths = c.strengths;
@@ -598,8 +616,8 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
           }
         }
         if (!written.carried) {  // the mark at the strength first found, for the last chance
-          EmbedResult plain = original.embedder.embed(out.bins, o);
-          if (plain.status == EmbedStatus::Embedded) unmarked = std::move(plain.V);
+          EmbedResult alone = original.embedder.embed(out.bins, o);
+          if (alone.status == EmbedStatus::Embedded) unmarked = std::move(alone.V);
         }
       } else if (std::optional<WrittenCheck> w = try_instead(centered(*unmarked));
                  w && w->carried) {

@@ -67,9 +67,11 @@ struct FingerprintOptions {
   double rms = 1e-4;
 };
 
-/// Counted carrier vertices from which a fingerprint has its default K (512 functions, one per
-/// 16 vertices) and FingerprintOptions::rms; below, fingerprint_rms raises the RMS.
-inline constexpr std::size_t kFingerprintFullVertices = 8192;
+/// Counted carrier vertices from which a fingerprint has FingerprintOptions::rms; below,
+/// fingerprint_rms raises it. At 0.01 % the campaigns' meshes of 24k to 44k vertices read
+/// strongly enough; ChineseDragon-10kv (10,000) gained 6 of 128 leaks with the raise and lost
+/// none (bench/results/trace-all-fingerprint/README.md).
+inline constexpr std::size_t kFingerprintFullVertices = 32768;
 /// The most fingerprint_rms raises the RMS on small originals: 3 times options.rms (0.03 % of
 /// the diagonal by default, still below the paper's RMS limit of 0.04 % on its own).
 inline constexpr double kFingerprintMaxBoost = 3;
@@ -79,8 +81,8 @@ inline constexpr double kFingerprintMaxBoost = 3;
 /// min(kFingerprintMaxBoost, sqrt(kFingerprintFullVertices / counted)), and options.rms itself
 /// from kFingerprintFullVertices on. A copy's score at trace does not depend on the RMS (the
 /// normalized correlation z); its strength against the rest of the reading does, and the rest
-/// (what the histogram mark leaves, what processing adds) is spread over fewer vertices per
-/// function on a small original: its measured coefficients are noisier by about the square
+/// (what the histogram mark leaves, what processing adds) is averaged over fewer vertices per
+/// function on a smaller original: its measured coefficients are noisier by about the square
 /// root of the vertex count, which this makes up for (docs/forensics.md, "Small originals").
 double fingerprint_rms(std::size_t counted, const FingerprintOptions& options = {});
 

@@ -59,7 +59,7 @@ struct IssueSettings {
   /// The buyer's fingerprint (fingerprint.h), a second mark that only trace reads, with the
   /// original; a copy with one is recorded as mark format 5 (kFingerprintMarkFormat). It moves
   /// the vertices by a further RMS of fingerprint_rms() of the diagonal (0.01 %, up to 0.03 %
-  /// on originals under 8,192 counted carrier vertices); with fidelity limits both marks
+  /// on originals under 32,768 counted carrier vertices); with fidelity limits both marks
   /// together stay within them, and a copy whose histogram mark cannot fit, or is infeasible at
   /// the fixed strength without limits, is issued with the fingerprint alone
   /// (CopyOutcome::fingerprint_alone).
