@@ -39,7 +39,8 @@ int run_batch(const std::string& manifest, IssueSettings settings, bool json) {
                         {"ok", c.ok()},
                         {"message", c.message},
                         {"warnings", c.warnings},
-                        {"strength", c.embedding.strength},
+                        {"strength", c.fingerprint_alone ? 0.0 : c.embedding.strength},
+                        {"fingerprint_alone", c.fingerprint_alone},
                         {"rms_percent", c.result.rms_percent}});
     }
     fmt::print("{}\n", nlohmann::json{{"manifest", manifest},

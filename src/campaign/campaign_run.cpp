@@ -96,12 +96,14 @@ void prepare_directory(const CampaignConfig& config, const CampaignRunOptions& o
         "elsewhere",
         p.dir.string()));
   if (!fs::exists(p.stamp)) write_file_atomically(p.stamp, stamp);
-  // Copies with the fingerprint are issued in this build's mark format and read by its version
-  // of trace's reading: rows of another (a directory without the file holds rows of format 4,
-  // or none; one naming no reading, rows of reading 1) are not resumed beside them.
+  // Copies with the fingerprint are issued in this build's mark format, with its field's RMS
+  // (fingerprint_rms), and read by its version of trace's reading: rows of another (a directory
+  // without the file holds rows of format 4, or none; one naming no reading, rows of reading 1;
+  // one naming no raise, rows at 0.01 % on every original) are not resumed beside them.
   if (config.trace && config.fingerprint) {
-    const std::string format = fmt::format("mark format {}, fingerprint reading {}\n",
-                                           kFingerprintMarkFormat, kFingerprintReading);
+    const std::string format =
+        fmt::format("mark format {}, fingerprint reading {}, raised below {} vertices\n",
+                    kFingerprintMarkFormat, kFingerprintReading, kFingerprintFullVertices);
     const bool rows = fs::exists(p.rows) && fs::file_size(p.rows) > 0;
     const std::string held = fs::exists(p.format) ? read_file(p.format)
                              : rows               ? "mark format 4\n"

@@ -226,15 +226,15 @@ std::string write_trace_report(const std::string& out_dir, const CampaignConfig&
       campaign_first_id(c), c.payloads, c.draws, coalitions_text(c),
       c.calibrate ? "calibrated strengths" : fmt::format("alpha {}", c.strength), c.spread,
       c.fingerprint
-          ? fmt::format(", every copy with the fingerprint at an RMS of {:g} % of the diagonal "
-                        "(up to {:g} times more on originals of fewer than {} counted vertices; "
-                        "mark format {}), read over the whole surface{}",
-                        100 * c.fingerprint_rms, kFingerprintMaxBoost, kFingerprintFullVertices,
-                        kFingerprintMarkFormat,
-                        c.fingerprint_regions.empty()
-                            ? ""
-                            : fmt::format(" and over regions (partitions of {})",
-                                          fmt::join(c.fingerprint_regions, ", ")))
+          ? fmt::format(
+                ", every copy with the fingerprint at an RMS of {:g} % of the diagonal "
+                "(raised up to {:g} times that on originals of fewer than {} counted vertices; "
+                "mark format {}), read over the whole surface{}",
+                100 * c.fingerprint_rms, kFingerprintMaxBoost, kFingerprintFullVertices,
+                kFingerprintMarkFormat,
+                c.fingerprint_regions.empty() ? ""
+                                              : fmt::format(" and over regions (partitions of {})",
+                                                            fmt::join(c.fingerprint_regions, ", ")))
           : "",
       c.seed, rows.size(), wall_seconds);
   md +=

@@ -403,6 +403,9 @@ void issue_fingerprint_alone(const CopyRequest& request, const Original& origina
   }
   out.record.strength = 0, out.record.bin_offset = 0;
   out.fingerprint_alone = true;
+  // No histogram mark in the copy: what is reported of it is the copy's (the fingerprint's).
+  out.result.V.resize(0, 3);
+  out.result.rms_percent = rms;
   out.message = fmt::format("the fingerprint alone, RMS {:.5f} %, MSDM {:.4f}", rms, m);
   if (request.auto_id) out.message = fmt::format("ID {}, {}", *request.id, out.message);
   out.warnings.push_back(fmt::format(
@@ -497,7 +500,9 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   if (settings.limits) {
     CalibrateOptions co = *settings.limits;
     out.calibration = search(fingerprint);
-    if (out.calibration->status == CalibrateStatus::BelowMinimum && plain_fingerprint) {
+    const CalibrateCause cause = out.calibration->cause;
+    if (out.calibration->status == CalibrateStatus::BelowMinimum && plain_fingerprint &&
+        (cause == CalibrateCause::RmsLimit || cause == CalibrateCause::MsdmLimit)) {
       // A small original's raised field may leave no room for a histogram mark where the plain
       // one does: both marks, with the plain field, before the fingerprint alone.
       CalibrateResult again = search(plain_fingerprint);
@@ -525,7 +530,8 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
     }
   } else {
     out.result = original.embedder.embed(out.bins, o);
-    if (out.result.status == EmbedStatus::Infeasible && fingerprint) {
+    if (out.result.status == EmbedStatus::Infeasible && fingerprint &&
+        !settings.registry.empty()) {  // unregistered, it would carry no mark anyone reads
       issue_fingerprint_alone(request, original, settings, {fingerprint}, std::nullopt,
                               out.result.message, out);
       return;
@@ -555,12 +561,12 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
     return std::sqrt((field(VO) - VO).rowwise().squaredNorm().mean()) /
            original.fingerprint->diagonal;
   };
-  double fingerprint_rms = 0;  // as a fraction of the diagonal
+  double field_alone = 0;  // the fingerprint's RMS, as a fraction of the diagonal
   // The copy with the histogram mark alone (at a fixed strength; found again for a calibrated
   // one when needed), for the second chances below.
   std::optional<Eigen::MatrixX3d> unmarked;
   if (fingerprint) {
-    fingerprint_rms = field_rms(fingerprint);  // a calibrated embedding already carries it
+    field_alone = field_rms(fingerprint);  // a calibrated embedding already carries it
     if (!out.calibration) {
       unmarked = copy.V;
       copy.V = fingerprint(copy.V);
@@ -594,7 +600,8 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
     WrittenCheck written = write_marked_mesh(request.output, copy, settings.write, settings.read,
                                              out.bins, eo, 0.5 * o.strength);
     if (!written.carried && fingerprint) {
-      // First the field kept from moving the center, then (unless asked for) none.
+      // First the field kept from moving the center, then (at a fixed strength, on a small
+      // original) the plain field, then (unless asked for) none.
       if (out.calibration) {
         // Searched again with it: the field changes what the copy costs, near a limit.
         CalibrateResult again = search(centered);
@@ -609,7 +616,7 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
             again.embedding.V.resize(0, 3);
             out.result = again.embedding;
             out.calibration = std::move(again);
-            fingerprint_rms = field_rms(centered);
+            field_alone = field_rms(centered);
             out.kept_center = true;
           } else {
             o = first;
@@ -622,8 +629,14 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
       } else if (std::optional<WrittenCheck> w = try_instead(centered(*unmarked));
                  w && w->carried) {
         written = std::move(*w);
-        fingerprint_rms = field_rms(centered);
+        field_alone = field_rms(centered);
         out.kept_center = true;
+      } else if (plain_fingerprint) {  // a small original's raised field: the plain one next
+        if (std::optional<WrittenCheck> p = try_instead(plain_fingerprint(*unmarked));
+            p && p->carried) {
+          written = std::move(*p);
+          field_alone = field_rms(plain_fingerprint);
+        }
       }
       if (!written.carried && unmarked && !required)
         if (std::optional<WrittenCheck> w = try_instead(*unmarked); w && w->carried) {
@@ -632,7 +645,7 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
               "the histogram mark alone)",
               request.input, written.message));
           written = std::move(*w);
-          fingerprint_rms = 0;
+          field_alone = 0;
           out.record.mark_format = kMarkFormatVersion;
         }
     }
@@ -646,10 +659,10 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   }
   out.message = fmt::format(
       "{} rounds, RMS {:.5f} %{}{}, {:.1f} ms", out.result.rounds, out.result.rms_percent,
-      fingerprint_rms <= 0 ? ""
+      field_alone <= 0 ? ""
       : out.calibration
-          ? fmt::format(" for both marks (the fingerprint's alone {:.5f} %)", 100 * fingerprint_rms)
-          : fmt::format(" and fingerprint RMS {:.5f} %", 100 * fingerprint_rms),
+          ? fmt::format(" for both marks (the fingerprint's alone {:.5f} %)", 100 * field_alone)
+          : fmt::format(" and fingerprint RMS {:.5f} %", 100 * field_alone),
       out.calibration ? fmt::format(", strength {:.5f}, MSDM {:.4f}", out.calibration->strength,
                                     out.calibration->msdm)
                       : "",

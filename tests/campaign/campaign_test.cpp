@@ -828,17 +828,20 @@ TEST(Campaign, CoalitionsOfConsecutiveIdsNameColludersOnly) {
   const std::string report = read_file(dir + "/report.md");
   EXPECT_NE(report.find("| unequal average of 3, noise:0.0005 | 3 |"), std::string::npos);
   EXPECT_NE(report.find("splice of 3, average of 5"), std::string::npos);
-  // Rows of copies issued in another mark format or traced by another version of the
-  // fingerprint's reading (an older build's) are not resumed: the directory says which format
-  // and reading its rows hold.
+  // Rows of copies issued in another mark format, with another rule for the field's RMS, or
+  // traced by another version of the fingerprint's reading (an older build's) are not resumed:
+  // the directory says which format, rule and reading its rows hold.
   const std::string held = "mark format " + std::to_string(kFingerprintMarkFormat) +
-                           ", fingerprint reading " + std::to_string(kFingerprintReading);
+                           ", fingerprint reading " + std::to_string(kFingerprintReading) +
+                           ", raised below 32768 vertices";
   EXPECT_EQ(read_file(dir + "/mark_format.txt"), held + "\n");
   const test::CliRun again = test::run_cli("bench " + config + " --out " + dir);
   ASSERT_EQ(again.code, 0) << again.out;
   EXPECT_NE(again.out.find("(0 run now"), std::string::npos) << again.out;
   for (const std::string older_build :
-       {std::string("mark format 4"), "mark format " + std::to_string(kFingerprintMarkFormat)}) {
+       {std::string("mark format 4"), "mark format " + std::to_string(kFingerprintMarkFormat),
+        "mark format " + std::to_string(kFingerprintMarkFormat) + ", fingerprint reading " +
+            std::to_string(kFingerprintReading)}) {
     write_text(dir + "/mark_format.txt", older_build + "\n");
     const test::CliRun older = test::run_cli("bench " + config + " --out " + dir);
     EXPECT_EQ(older.code, 1) << older.out;

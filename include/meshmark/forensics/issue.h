@@ -146,8 +146,9 @@ struct CopyOutcome {
   IssuedCopy record;                           ///< the registry record (coded IDs with a registry)
   std::int64_t vertices = 0;                   ///< the original's vertex count
   /// Written with the fingerprint alone: no histogram mark fits the fidelity limits, or none is
-  /// feasible at the fixed strength (word, bins, embedding and result are then the search's
-  /// weakest attempt or the infeasible embedding, not in the copy; the record's strength is 0).
+  /// feasible at the fixed strength of a registered copy (word, bins, embedding and result are
+  /// then the search's weakest attempt or the infeasible embedding, not in the copy, but for
+  /// result.rms_percent, the copy's; the record's strength is 0).
   bool fingerprint_alone = false;
   /// Written with the fingerprint kept from moving the center (add_fingerprint's
   /// center_motion): the plain field would have cost the file histogram bits (weak marks).
