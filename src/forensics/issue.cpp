@@ -457,9 +457,8 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
   // chance for a copy whose file the plain field would cost histogram bits (the center's drift,
   // which weak marks feel); it costs the field 6 to 16 % of its RMS, so it is not the default.
   Field centered;
-  // The fingerprint's RMS (fingerprint_rms: raised on small originals) and the plain one; the
-  // fields above at an RMS.
-  double rms = 0;
+  // The plain RMS (the fingerprint's is fingerprint_rms, raised on small originals), and what
+  // sets the fields above at an RMS.
   const double plain_rms = FingerprintOptions().rms;
   std::function<void(double)> use_rms;
   if (coded && original.fingerprint) {
@@ -479,7 +478,7 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
         return add(V, &original.center_motion, r);
       };
     };
-    rms = fingerprint_rms(original.counted);
+    const double rms = fingerprint_rms(original.counted);
     use_rms(rms);
     if (rms > plain_rms)
       plain_fingerprint = [add, plain_rms](const Eigen::MatrixX3d& V) {
@@ -508,8 +507,7 @@ void make_copy(const CopyRequest& request, const Original& original, const Issue
       CalibrateResult again = search(plain_fingerprint);
       if (again.status != CalibrateStatus::BelowMinimum) {
         out.calibration = std::move(again);
-        rms = plain_rms;
-        use_rms(rms);
+        use_rms(plain_rms);
       }
     }
     const CalibrateResult& c = *out.calibration;
