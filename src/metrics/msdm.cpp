@@ -6,6 +6,8 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -13,6 +15,7 @@
 #include "carrier/curvature.h"
 #include "carrier/curvature_edges.h"
 #include "carrier/sphere_walk.h"
+#include "core/lanes.h"
 #include "core/parallel.h"
 #include "core/progress_counter.h"
 #include "meshmark/core/error.h"
@@ -21,6 +24,50 @@
 #include "metrics/msdm_common.h"
 
 namespace meshmark {
+
+namespace detail {
+
+// Four points at a time; the processor picks the wider lanes at load time.
+MESHMARK_LANE_TARGETS std::ptrdiff_t nearest_point(const double* x, const double* y,
+                                                   const double* z, std::ptrdiff_t n, double qx,
+                                                   double qy, double qz) {
+  using Lanes = double __attribute__((vector_size(32)));
+  using Indices = std::int64_t __attribute__((vector_size(32)));
+  constexpr double kFar = std::numeric_limits<double>::infinity();
+  const Lanes QX = {qx, qx, qx, qx}, QY = {qy, qy, qy, qy}, QZ = {qz, qz, qz, qz};
+  Lanes best = {kFar, kFar, kFar, kFar};
+  Indices at = {-1, -1, -1, -1}, index = {0, 1, 2, 3};
+  const Indices four = {4, 4, 4, 4};
+  {  // a loop from the first point keeps it when its distance is not a number
+    const double dx = x[0] - qx, dy = y[0] - qy, dz = z[0] - qz;
+    if (std::isnan((dx * dx + dy * dy) + dz * dz)) return 0;
+  }
+  std::ptrdiff_t j = 0;
+  for (; j + 4 <= n; j += 4) {
+    Lanes a, b, c;
+    std::memcpy(&a, x + j, sizeof a), std::memcpy(&b, y + j, sizeof b),
+        std::memcpy(&c, z + j, sizeof c);
+    a -= QX, b -= QY, c -= QZ;
+    const Lanes d = (a * a + b * b) + c * c;
+    const Indices closer = d < best;
+    best = closer ? d : best;
+    at = closer ? index : at;
+    index += four;
+  }
+  double nearest = kFar;
+  std::ptrdiff_t found = -1;
+  for (int l = 0; l < 4; ++l)
+    if (at[l] >= 0 && (best[l] < nearest || (best[l] == nearest && at[l] < found)))
+      nearest = best[l], found = at[l];
+  for (; j < n; ++j) {
+    const double dx = x[j] - qx, dy = y[j] - qy, dz = z[j] - qz;
+    const double d = (dx * dx + dy * dy) + dz * dz;
+    if (d < nearest) nearest = d, found = j;
+  }
+  return found < 0 ? 0 : found;
+}
+
+}  // namespace detail
 
 namespace {
 
@@ -66,25 +113,47 @@ WindowStats statistics(const std::vector<Sample>& s) {
   return out;
 }
 
+// A window's sample points, a column per coordinate, for nearest_point.
+struct PointColumns {
+  std::vector<double> x, y, z;
+  void assign(const std::vector<Sample>& s) {
+    x.resize(s.size()), y.resize(s.size()), z.resize(s.size());
+    for (std::size_t k = 0; k < s.size(); ++k)
+      x[k] = s[k].point(0), y[k] = s[k].point(1), z[k] = s[k].point(2);
+  }
+};
+
+// From this many candidates on, one_sided_covariance searches four at a time.
+constexpr std::ptrdiff_t kWideSearch = 8;
+
 // One side of MEPP's covariance (ProcessCovariance): each sample of x is paired with the
 // nearest sample of y among those whose index differs by at most twice the difference of the
-// window sizes (by index when the sizes agree, as when both walks saw the same edges); x's
-// weights.
+// window sizes (by index when the sizes agree, as when both walks saw the same edges; the
+// first of equally near ones); x's weights. `columns` holds y's points when the search is wide.
 double one_sided_covariance(const std::vector<Sample>& x, double mx, const std::vector<Sample>& y,
-                            double my) {
+                            double my, PointColumns& columns) {
   if (x.empty() || y.empty()) return 0;
   const std::ptrdiff_t nx = static_cast<std::ptrdiff_t>(x.size()),
                        ny = static_cast<std::ptrdiff_t>(y.size());
   const std::ptrdiff_t reach = 2 * std::abs(nx - ny);
+  const bool wide = 2 * reach >= kWideSearch;
+  if (wide) columns.assign(y);
   double w = 0, sum = 0;
   for (std::ptrdiff_t i = 0; i < nx; ++i) {
     const std::ptrdiff_t lo = std::min(std::max<std::ptrdiff_t>(0, i - reach), ny - 1),
                          hi = std::min(ny - 1, i + reach);
     std::ptrdiff_t best = lo;
-    double nearest = (y[lo].point - x[i].point).squaredNorm();
-    for (std::ptrdiff_t j = lo + 1; j <= hi; ++j) {
-      const double d = (y[j].point - x[i].point).squaredNorm();
-      if (d < nearest) nearest = d, best = j;
+    if (wide && hi - lo >= kWideSearch) {
+      const auto first = static_cast<std::size_t>(lo);
+      best += detail::nearest_point(columns.x.data() + first, columns.y.data() + first,
+                                    columns.z.data() + first, hi - lo + 1, x[i].point(0),
+                                    x[i].point(1), x[i].point(2));
+    } else {
+      double nearest = (y[lo].point - x[i].point).squaredNorm();
+      for (std::ptrdiff_t j = lo + 1; j <= hi; ++j) {
+        const double d = (y[j].point - x[i].point).squaredNorm();
+        if (d < nearest) nearest = d, best = j;
+      }
     }
     w += x[i].weight, sum += x[i].weight * (x[i].value - mx) * (y[best].value - my);
   }
@@ -168,6 +237,7 @@ Eigen::VectorXd MsdmReference::locals(const Eigen::MatrixX3d& B, int stride, con
   detail::parallel_chunks(valued, [&](int, std::int64_t begin, std::int64_t end) {
     detail::WalkScratch scratch_a(B.rows()), scratch_b(B.rows());
     std::vector<Sample> a, b;
+    PointColumns columns;
     detail::ProgressBatch done(counter);
     for (auto k = begin; k < end; ++k) {
       const std::int64_t i = k * stride;
@@ -180,8 +250,8 @@ Eigen::VectorXd MsdmReference::locals(const Eigen::MatrixX3d& B, int stride, con
       weigh(a, PB.row(i), inv);
       weigh(b, PB.row(i), inv);
       const WindowStats x = s.stats[static_cast<std::size_t>(i)], y = statistics(b);
-      const double covariance = 0.5 * (one_sided_covariance(a, x.mean, b, y.mean) +
-                                       one_sided_covariance(b, y.mean, a, x.mean));
+      const double covariance = 0.5 * (one_sided_covariance(a, x.mean, b, y.mean, columns) +
+                                       one_sided_covariance(b, y.mean, a, x.mean, columns));
       const detail::MsdmTerms t = detail::msdm_terms(x, y, covariance);
       local(i) = std::cbrt((t.L * t.L * t.L + t.C * t.C * t.C + 0.5 * t.S * t.S * t.S) / 2.5);
     }

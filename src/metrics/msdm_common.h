@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 
 #include "meshmark/core/mesh.h"
 
@@ -40,6 +41,14 @@ inline MsdmTerms msdm_terms(const WindowStats& x, const WindowStats& y, double c
   t.S = std::abs(x.deviation * y.deviation - covariance) / (x.deviation * y.deviation + 1);
   return t;
 }
+
+/// Which of the n points (x[j], y[j], z[j]) lies nearest (qx, qy, qz), as a loop that starts
+/// from point 0 and moves to each strictly nearer one finds it with Eigen's squaredNorm: the
+/// first of equally near ones, squared distances summed as (dx^2 + dy^2) + dz^2, a later
+/// distance that is not a number never winning, point 0 kept when its own is not one. MSDM's
+/// pairing of samples (msdm.cpp). Same units as the points; n >= 1.
+std::ptrdiff_t nearest_point(const double* x, const double* y, const double* z, std::ptrdiff_t n,
+                             double qx, double qy, double qz);
 
 /// (mean of local^3)^(1/3) over the vertices F references, or over those of every
 /// `stride`-th vertex (0, stride, 2 stride, ...).

@@ -11,6 +11,7 @@
 #include <cerrno>
 #include <cstring>
 
+#include "core/lanes.h"
 #include "meshmark/core/error.h"
 #include "meshmark/io/io.h"
 
@@ -91,11 +92,6 @@ void blake2b_compress(std::array<std::uint64_t, 8>& h, const std::uint8_t* block
 // the processor choosing at load time (target_clones); trace encodes four candidates' rounds of
 // the ID permutation with it. PackedEncoderGivesEncodesCodewords and
 // KeyedHashDigest4IsFourDigests check it against the one-lane function and libsodium.
-#if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang_analyzer__)
-#define MESHMARK_LANE_TARGETS __attribute__((target_clones("avx2", "default")))
-#else
-#define MESHMARK_LANE_TARGETS
-#endif
 using Lanes = std::uint64_t __attribute__((vector_size(32)));
 
 MESHMARK_LANE_TARGETS

@@ -6,12 +6,15 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
+#include <random>
 #include <vector>
 
 #include "meshmark/attacks/attack.h"
 #include "meshmark/core/error.h"
 #include "meshmark/io/io.h"
 #include "meshmark/metrics/metrics.h"
+#include "metrics/msdm_common.h"
 #include "test_data.h"
 
 using namespace meshmark;
@@ -290,4 +293,48 @@ TEST(Metrics, CompareMeshesGivesEachMetricAndReportsItsPhases) {
     EXPECT_EQ(c.msdm2.global, msdm2(m.V, m.F, other.V, other.F).global);
     check_phases(reports, {"measuring surface distances", "measuring MSDM2"});
   }
+}
+
+// MSDM pairs each sample with the nearest of a range of the other window's samples; the search
+// runs four points at a time. It must pick what the point-by-point loop with Eigen picks, ties
+// and distances that are not numbers included, or MSDM would change.
+TEST(Metrics, MsdmsNearestSampleSearchPicksWhatThePointByPointLoopPicks) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> coordinate(-1, 1);
+  std::uniform_int_distribution<int> pick(0, 9);
+  const double nan = std::numeric_limits<double>::quiet_NaN(),
+               inf = std::numeric_limits<double>::infinity();
+  int ties = 0, checked = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    const int n = 1 + trial % 41;
+    std::vector<Eigen::RowVector3d> p(static_cast<std::size_t>(n));
+    for (auto& q : p) q = {coordinate(rng), coordinate(rng), coordinate(rng)};
+    Eigen::RowVector3d query(coordinate(rng), coordinate(rng), coordinate(rng));
+    // Structured cases: repeated points (as an inner vertex reached by several edges), the
+    // query on a point, a point or a coordinate that is not finite.
+    for (auto& q : p) {
+      const int c = pick(rng);
+      if (c == 0) q = p[static_cast<std::size_t>(pick(rng)) % p.size()];
+      if (c == 1 && trial % 3 == 0) q(pick(rng) % 3) = nan;
+      if (c == 2 && trial % 5 == 0) q(pick(rng) % 3) = trial % 2 ? inf : -inf;
+    }
+    if (trial % 4 == 0) query = p[static_cast<std::size_t>(pick(rng)) % p.size()];
+    if (trial % 7 == 0) p[0] = p[static_cast<std::size_t>(n - 1)];
+    std::vector<double> x, y, z;
+    for (const auto& q : p) x.push_back(q(0)), y.push_back(q(1)), z.push_back(q(2));
+    std::ptrdiff_t expected = 0;
+    double nearest = (p[0] - query).squaredNorm();
+    for (std::ptrdiff_t j = 1; j < n; ++j) {
+      const double d = (p[static_cast<std::size_t>(j)] - query).squaredNorm();
+      if (d == nearest) ++ties;
+      if (d < nearest) nearest = d, expected = j;
+    }
+    ASSERT_EQ(meshmark::detail::nearest_point(x.data(), y.data(), z.data(), n, query(0), query(1),
+                                              query(2)),
+              expected)
+        << "trial " << trial << ", " << n << " points";
+    ++checked;
+  }
+  EXPECT_EQ(checked, 20000);
+  EXPECT_GT(ties, 1000);  // the structured cases did produce ties
 }
