@@ -184,18 +184,21 @@ Mesh remarked_copy(const CampaignConfig& c, const CampaignRemark& r, const Mesh&
   EmbedOptions eo = scheme_options(r.scheme);
   if (r.strength > 0) eo.strength = r.strength;
   eo.strengths = mark_strengths(key, c.bits, true, eo.strength, IssueSettings{}.strength_spread);
-  const EmbedResult e = embed(copy.V, copy.F, id_bins(code, id, key), eo);
+  EmbedResult e = embed(copy.V, copy.F, id_bins(code, id, key), eo);
+  const std::optional<FingerprintFrame> frame =
+      key ? fingerprint_frame(copy.V, copy.F, eo.variant.center, c.bits) : std::nullopt;
+  // Another shop issues a copy whose histogram mark is infeasible as issue_copies does: with
+  // the fingerprint alone.
+  if (e.status == EmbedStatus::Infeasible && frame) e.V = copy.V, e.status = EmbedStatus::Embedded;
   if (e.status != EmbedStatus::Embedded)
     throw InvalidArgumentError(fmt::format("re-marking {} with ID {}: {}: {}", remark_name(r), id,
                                            embed_status_name(e.status), e.message));
   Mesh out = copy;
   out.V = e.V;
-  if (key)
-    if (const std::optional<FingerprintFrame> frame =
-            fingerprint_frame(copy.V, copy.F, eo.variant.center, c.bits))
-      out.V = add_fingerprint(
-          e.V, copy.V, frame->basis, fingerprint_coefficients(*key, id, frame->basis.functions),
-          issued_fingerprint_rms(c, *frame), &frame->histogram, &frame->center_motion);
+  if (frame)
+    out.V = add_fingerprint(
+        e.V, copy.V, frame->basis, fingerprint_coefficients(*key, id, frame->basis.functions),
+        issued_fingerprint_rms(c, *frame), &frame->histogram, &frame->center_motion);
   return out;
 }
 

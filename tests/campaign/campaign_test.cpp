@@ -20,6 +20,7 @@
 #include "meshmark/carrier/method.h"
 #include "meshmark/core/error.h"
 #include "meshmark/forensics/fingerprint.h"
+#include "meshmark/forensics/trace.h"
 #include "meshmark/io/io.h"
 #include "meshmark/mark/calibrate.h"
 #include "meshmark/metrics/metrics.h"
@@ -710,13 +711,15 @@ TEST(Campaign, InnocentLeaksNameNobody) {
 // fingerprint alone (the trial's strength 0, its RMS that of the field alone, measured here
 // against 1e-4 min(3, sqrt(32768 / counted)) within [0.5, 1.5]: one copy, 146 signs, the
 // classes' lines left out), and trace names its buyer; without the fingerprint the unit is not
-// issued, and its trials say why.
+// issued, and its trials say why. The innocent leak of another key is issued by that shop the
+// same way (the fingerprint alone, under its key) and names nobody here.
 TEST(Campaign, AnInfeasibleHistogramMarkLeavesTheFingerprintAlone) {
   const std::string mushroom = test::cgal_mesh("mushroom.off");
   MESHMARK_REQUIRE(mushroom, "libcgal-demo's mushroom.off");
   const Mesh mesh = read_mesh(mushroom);
   const std::vector<std::uint8_t> carrier = carrier_vertices(mesh.V, mesh.F);
   const auto counted = static_cast<double>(std::count(carrier.begin(), carrier.end(), kCounted));
+  CampaignConfig c;  // the campaign with the fingerprint
   for (const bool fingerprint : {true, false}) {
     const std::string name = fingerprint ? "mushroom-alone" : "mushroom-without";
     const std::string dir = test::scratch_dir() + "/" + name;
@@ -726,13 +729,23 @@ TEST(Campaign, AnInfeasibleHistogramMarkLeavesTheFingerprintAlone) {
                        "\"], \"variants\": [\"VRS\"], \"mode\": \"trace\", \"copies\": 40, "
                        "\"fingerprint\": " +
                        (fingerprint ? "true" : "false") +
-                       ", \"strength\": 0.05, \"draws\": 1, \"payloads\": 2, \"attacks\": []}");
+                       ", \"strength\": 0.05, \"draws\": 1, \"payloads\": 2, \"attacks\": [], " +
+                       "\"innocents\": [\"other-key\"]}");
+    if (fingerprint) c = load_campaign(config);
     const test::CliRun run = test::run_cli("bench " + config + " --out " + dir + " --fresh");
     ASSERT_EQ(run.code, 0) << run.out;
     const std::map<std::string, std::string> rows = rows_without_times(dir);
-    ASSERT_EQ(rows.size(), 2u) << name;
+    ASSERT_EQ(rows.size(), 4u) << name;  // payloads x (the copy, the other key's copy)
     for (const auto& [key, json] : rows) {
       const TrialRow r = row_from_json(json);
+      if (!r.coalition.empty()) {    // the other key's copy, issued as that shop would issue it
+        if (!fingerprint) continue;  // without a fingerprint the unit is not issued at all
+        ASSERT_EQ(r.status, "ok") << key;
+        EXPECT_EQ(r.coalition, "innocent:other-key") << key;
+        EXPECT_EQ(r.trace_outcome, "none") << key << ": trace named " << r.trace_named;
+        EXPECT_EQ(r.innocents, 40) << key;
+        continue;
+      }
       if (!fingerprint) {
         EXPECT_NE(r.status.find("infeasible"), std::string::npos) << key << ": " << r.status;
         EXPECT_EQ(r.trace_outcome, "none") << key;
@@ -745,10 +758,26 @@ TEST(Campaign, AnInfeasibleHistogramMarkLeavesTheFingerprintAlone) {
       EXPECT_GT(r.rms_percent, 0.5 * expected) << key;
       EXPECT_LT(r.rms_percent, 1.5 * expected) << key;
       EXPECT_EQ(r.trace_outcome, "right") << key << ": " << r.trace_status;
-      EXPECT_EQ(r.trace_named, std::to_string(campaign_leaker(load_campaign(config), r.payload)))
-          << key;
+      EXPECT_EQ(r.trace_named, std::to_string(campaign_leaker(c, r.payload))) << key;
     }
   }
+  // The other key's copy of such an original carries that key's fingerprint alone: traced
+  // against rows of that shop's key (strength 0: no histogram mark), it names its ID alone.
+  const Mesh other = detail::remarked_copy(c, CampaignRemark{"VRS", 0.05, true}, mesh, 4321);
+  const Key that_key = detail::remarker_key(c);
+  std::vector<IssuedCopy> that_shops_rows(20);
+  for (int i = 0; i < 20; ++i) {
+    IssuedCopy& copy = that_shops_rows[static_cast<std::size_t>(i)];
+    copy.id = 4311 + static_cast<std::uint64_t>(i);
+    copy.bits = c.bits;
+    copy.variant = "VRS";
+    copy.strength = 0;
+    copy.key_fingerprint = key_fingerprint(that_key);
+    copy.mark_format = kFingerprintMarkFormat;
+  }
+  const TraceResult traced = trace(other, mesh, that_shops_rows, that_key);
+  ASSERT_EQ(traced.named.size(), 1u) << traced.message;
+  EXPECT_EQ(traced.named[0].copy.id, 4321u);
 }
 
 // Coalitions of consecutive IDs: each trial's leakers are the unit's leaker and the K - 1 IDs
