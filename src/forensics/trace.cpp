@@ -690,8 +690,9 @@ std::vector<Score> score_group(const std::vector<const CandidateRow*>& copies,
 }
 
 // Names the candidates of the ranking (sorted, best first) below the threshold. A row edited
-// after it was recorded is never named (its buyer or its ID may be anyone's); a row without a
-// MAC is, with a warning, and so is a reserved one. Sets the status and the message.
+// after it was recorded is never named (its buyer or its ID may be anyone's), nor is a row
+// without a MAC (whoever can edit the registry can blank one: swap two rows' IDs and remove
+// their MACs); a reserved one is, with a warning. Sets the status and the message.
 void name_buyers(TraceResult& r, const Key& key, double threshold) {
   std::size_t edited = 0;
   for (CandidateScore& s : r.ranking) {
@@ -705,13 +706,17 @@ void name_buyers(TraceResult& r, const Key& key, double threshold) {
             s.copy.row, s.copy.id, s.corrected_p));
       continue;
     }
+    if (s.auth == RowAuth::Unauthenticated) {
+      if (s.corrected_p < threshold)
+        r.warnings.push_back(fmt::format(
+            "row {} (ID {}, '{}') reads as the leaker (p = {:.3g} after correction) but carries "
+            "no authentication code (recorded before registry schema 4, or its code was "
+            "removed): its buyer and ID cannot be verified, and it is not named",
+            s.copy.row, s.copy.id, s.copy.buyer, s.corrected_p));
+      continue;
+    }
     if (s.corrected_p < threshold) {
       r.named.push_back(s);
-      if (s.auth == RowAuth::Unauthenticated)
-        r.warnings.push_back(fmt::format(
-            "row {} (ID {}) carries no authentication code (recorded before registry schema "
-            "4, or without the key): its buyer and ID are as the registry says, unverified",
-            s.copy.row, s.copy.id));
       if (s.copy.state == "reserved")
         r.warnings.push_back(fmt::format(
             "row {} (ID {}) is reserved, not completed: the issue of its copy was interrupted "
@@ -727,9 +732,9 @@ void name_buyers(TraceResult& r, const Key& key, double threshold) {
         r.ranking.size() < r.candidates ? ", and checks all of them" : ""));
   r.status = r.named.empty() ? TraceStatus::NoBuyer : TraceStatus::Named;
   if (r.named.empty() && !r.warnings.empty() && r.ranking.front().corrected_p < threshold &&
-      r.ranking.front().auth == RowAuth::Edited) {
+      r.ranking.front().auth != RowAuth::Authentic) {
     r.message =
-        "no buyer: the candidates that read as the leaker fail their authentication "
+        "no buyer: the candidates that read as the leaker fail or lack their authentication "
         "code (see the warnings)";
     return;
   }

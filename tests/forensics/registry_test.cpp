@@ -566,17 +566,34 @@ TEST(Registry, AnEditedRowIsFoundByVerifyAndNeverNamed) {
   EXPECT_EQ(j["named"][0]["buyer"], "b77");
   EXPECT_EQ(j["named"][0]["row_auth"], "authentic");
   EXPECT_EQ(j["identical_row"], 3);
-  // A row whose MAC is removed is named, with a warning that it is unverified.
-  edit_registry(db, "UPDATE copies SET mac = '' WHERE id = 77");
-  t = test::run_cli("trace " + dir + "/c77.ply --original " + spot + " --registry " + db +
-                    " --key-file " + key + " --json");
-  EXPECT_EQ(t.code, 0) << t.out;
-  j = nlohmann::json::parse(t.out.substr(t.out.find('{')));
-  EXPECT_EQ(j["named"][0]["row_auth"], "unauthenticated");
-  EXPECT_NE(j["warnings"].dump().find("no authentication code"), std::string::npos) << t.out;
+  // A row whose MAC is removed is not named either: whoever can edit the registry can blank
+  // MACs. Here b77's row and b11's (ID 40 since the swap above) trade IDs, both MACs removed:
+  // the mark reads ID 77, now b11's row, and nobody is named; then b77's row alone, its own ID
+  // back and its MAC still removed, is not named either.
+  edit_registry(db,
+                "UPDATE copies SET id = 1000001 WHERE buyer = 'b77'; "
+                "UPDATE copies SET id = 77, mac = '' WHERE buyer = 'b11'; "
+                "UPDATE copies SET id = 40, mac = '' WHERE buyer = 'b77'");
+  const std::string trace77 = "trace " + dir + "/c77.ply --original " + spot + " --registry " + db +
+                              " --key-file " + key + " --json";
+  for (int edit = 0; edit < 2; ++edit) {
+    t = test::run_cli(trace77);
+    EXPECT_EQ(t.code, 6) << t.out;
+    j = nlohmann::json::parse(t.out.substr(t.out.find('{')));
+    EXPECT_TRUE(j["named"].empty()) << t.out;
+    EXPECT_NE(j["warnings"].dump().find("no authentication code"), std::string::npos) << t.out;
+    EXPECT_NE(j["message"].get<std::string>().find("authentication code"), std::string::npos)
+        << t.out;
+    if (edit == 0) EXPECT_NE(j["warnings"].dump().find("'b11'"), std::string::npos) << t.out;
+    // Back to b77's own row, its MAC alone removed.
+    edit_registry(db,
+                  "UPDATE copies SET id = 1000001 WHERE buyer = 'b11'; "
+                  "UPDATE copies SET id = 77 WHERE buyer = 'b77'; "
+                  "UPDATE copies SET id = 40 WHERE buyer = 'b11'");
+  }
   v = test::run_cli(verify);
   EXPECT_EQ(v.code, 7);
-  EXPECT_EQ(nlohmann::json::parse(v.out)["unauthenticated"].size(), 1u) << v.out;
+  EXPECT_EQ(nlohmann::json::parse(v.out)["unauthenticated"].size(), 2u) << v.out;
   // A damaged index page: list still reads the table, verify says the file is damaged.
   int page_size = 0, root = 0;
   {
