@@ -690,10 +690,12 @@ std::vector<Score> score_group(const std::vector<const CandidateRow*>& copies,
 }
 
 // Names the candidates of the ranking (sorted, best first) below the threshold. A row edited
-// after it was recorded is never named (its buyer or its ID may be anyone's), nor is a row
-// without a MAC (whoever can edit the registry can blank one: swap two rows' IDs and remove
-// their MACs); a reserved one is, with a warning. Sets the status and the message.
-void name_buyers(TraceResult& r, const Key& key, double threshold) {
+// after it was recorded is never named (its buyer or its ID may be anyone's), nor, when the rows
+// come from a registry (from_registry), one without a MAC (whoever can edit the registry can
+// blank one: swap two rows' IDs and remove their MACs); a list the caller gives is its own, and
+// a row of it without a MAC is named with a warning. A reserved row is named with a warning.
+// Sets the status and the message.
+void name_buyers(TraceResult& r, const Key& key, double threshold, bool from_registry) {
   std::size_t edited = 0;
   for (CandidateScore& s : r.ranking) {
     s.auth = check_row(key, s.copy);
@@ -706,7 +708,7 @@ void name_buyers(TraceResult& r, const Key& key, double threshold) {
             s.copy.row, s.copy.id, s.corrected_p));
       continue;
     }
-    if (s.auth == RowAuth::Unauthenticated) {
+    if (s.auth == RowAuth::Unauthenticated && from_registry) {
       if (s.corrected_p < threshold)
         r.warnings.push_back(fmt::format(
             "row {} (ID {}, '{}') reads as the leaker (p = {:.3g} after correction) but carries "
@@ -717,6 +719,11 @@ void name_buyers(TraceResult& r, const Key& key, double threshold) {
     }
     if (s.corrected_p < threshold) {
       r.named.push_back(s);
+      if (s.auth == RowAuth::Unauthenticated)
+        r.warnings.push_back(fmt::format(
+            "row {} (ID {}) of the candidates given carries no authentication code: its buyer "
+            "and ID are as the list says, unverified",
+            s.copy.row, s.copy.id));
       if (s.copy.state == "reserved")
         r.warnings.push_back(fmt::format(
             "row {} (ID {}) is reserved, not completed: the issue of its copy was interrupted "
@@ -809,7 +816,8 @@ struct GroupReading {
 // fetched for the ranking alone.
 TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
                              const ReadCandidates& read_candidates, const FirstCandidate& hint,
-                             const FetchRows& fetch, const Key& key, const TraceOptions& o) {
+                             const FetchRows& fetch, const Key& key, const TraceOptions& o,
+                             bool from_registry) {
   if (!(o.threshold > 0 && o.threshold < 1))
     throw InvalidArgumentError(fmt::format("the threshold {} is out of (0, 1)", o.threshold));
   if (!(o.erase_distance > 0)) throw InvalidArgumentError("the erase distance must be positive");
@@ -1004,7 +1012,7 @@ TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
     c.fingerprint_z = x->fingerprint_z, c.fingerprint_p = x->fingerprint_p;
     r.ranking.push_back(std::move(c));
   }
-  name_buyers(r, key, o.threshold);
+  name_buyers(r, key, o.threshold, from_registry);
   return r;
 }
 
@@ -1031,7 +1039,7 @@ TraceResult trace(const Mesh& leaked, const Mesh& original,
         for (const std::size_t k : at) out.push_back(*mine[k]);
         return out;
       },
-      key, o);
+      key, o, false);
 }
 
 void compare_with_issued_files(TraceResult& r, const std::string& leaked_hash) {
@@ -1112,7 +1120,7 @@ TraceResult trace_issued(const Mesh& leaked, const Mesh& original, const std::st
                 registry_display_name(registry), rows[i].row));
         return rows;
       },
-      key, options);
+      key, options, true);
   r.seconds.registry = reading.count();
 
   if (r.status == TraceStatus::NoCandidates) {

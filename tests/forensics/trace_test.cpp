@@ -474,7 +474,7 @@ TEST(Trace, ARegistryReadBesideTheMeasurementTracesAsItsList) {
     }
     const std::string db = test::scratch_dir() + "/guess.db";
     std::filesystem::remove(db);
-    Registry(db).record(rows);
+    Registry(db).record(rows, s.key);
     const TraceResult got = trace_issued(leak, s.original, "the original's file", db, s.key);
     const TraceResult want = trace(leak, s.original, Registry(db, true).list(), s.key);
     ASSERT_EQ(got.status, TraceStatus::Named) << got.message;

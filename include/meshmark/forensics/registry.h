@@ -189,8 +189,9 @@ class Registry {
   std::vector<IssuedCopy> conflicts(const std::vector<IssuedCopy>& copies) const;
 
   /// Records copies in one transaction and returns them with their rows (and issued_at when
-  /// it was empty). \throw InvalidArgumentError listing the conflicts (nothing recorded);
-  /// IOError when the database fails (nothing recorded).
+  /// it was empty), without a MAC: trace_issued never names such a row (trace.h).
+  /// \throw InvalidArgumentError listing the conflicts (nothing recorded); IOError when the
+  /// database fails (nothing recorded).
   std::vector<IssuedCopy> record(std::vector<IssuedCopy> copies);
   /// The same, each row authenticated: its mac is row_mac(key, row) with issued_at filled.
   /// \throw InvalidArgumentError also when a copy's key_fingerprint is not key's.

@@ -205,7 +205,9 @@ struct TraceResult {
 
 /// Traces leaked against the copies issued from original under key (candidates: every copy
 /// whose key fingerprint is key's; others are ignored). Candidates may differ in variant,
-/// bits, ID length, strength and spread: each group is read with its own settings.
+/// bits, ID length, strength and spread: each group is read with its own settings. The list
+/// is the caller's: a row whose MAC fails is never named, one without a MAC is named with a
+/// warning (trace_issued, which reads a registry, never names one).
 /// \throw InvalidArgumentError when a mesh has no usable triangle.
 TraceResult trace(const Mesh& leaked, const Mesh& original,
                   const std::vector<IssuedCopy>& candidates, const Key& key,
@@ -224,7 +226,9 @@ void compare_with_issued_files(TraceResult& r, const std::string& leaked_hash);
 /// the same shape saved in another format). When none was, the message says how many copies of
 /// other originals were issued under that key (the original given is then likely not the file the
 /// copies were made from). The registry is read on a thread of its own while the leak is
-/// registered and measured; the result is trace()'s on the registry's list, bit for bit.
+/// registered and measured; the result is trace()'s on the registry's list, bit for bit, but
+/// for a row without a MAC, which is never named here (anyone who can edit the registry can
+/// remove MACs).
 /// \throw IOError when the registry does not exist or cannot be read; as trace() otherwise.
 TraceResult trace_issued(const Mesh& leaked, const Mesh& original, const std::string& original_hash,
                          const std::string& registry, const Key& key,
