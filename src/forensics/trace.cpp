@@ -1,6 +1,7 @@
 #include "meshmark/forensics/trace.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -812,6 +813,42 @@ struct GroupReading {
   double seconds_resampling = 0, seconds_reference = 0, seconds_reading = 0;
 };
 
+// Why a candidate row's scoring fields are none that meshmark records ("" when they are):
+// an ID longer than its length, a layout or code that cannot exist, an unknown variant,
+// method or mark format, a strength that is not a number in [0, 1/2). Such a row was edited
+// or is damaged; reading it could ask for anything (a layout of 10^8 bits). `known` caches
+// the variant and method names already parsed.
+std::string row_problem(const CandidateRow& c, std::map<std::string, std::string>& known) {
+  if (c.id_bits < 1 || c.id_bits > 32) return fmt::format("an ID length of {} bits", c.id_bits);
+  if (c.id >> c.id_bits != 0)
+    return fmt::format("ID {} does not fit in its {} bits", c.id, c.id_bits);
+  if (c.bits < 8 || c.bits > 1024) return fmt::format("{} bits (8 to 1024 are read)", c.bits);
+  if (!(std::isfinite(c.strength) && c.strength >= 0 && c.strength < 0.5))
+    return fmt::format("strength {}", c.strength);
+  if (!(std::isfinite(c.strength_spread) && c.strength_spread >= 0 && c.strength_spread < 1))
+    return fmt::format("strength spread {}", c.strength_spread);
+  if (c.mark_format < 1 || c.mark_format > kFingerprintMarkFormat)
+    return fmt::format("mark format {}", c.mark_format);
+  const auto check = [&](const std::string& what, const std::function<void()>& parse) {
+    const auto [it, fresh] = known.try_emplace(what);
+    if (fresh) try {
+        parse();
+      } catch (const Error& e) {
+        it->second = e.what();
+      }
+    return it->second;
+  };
+  std::string why = check("variant " + c.variant, [&] { (void)parse_variant(c.variant); });
+  if (why.empty()) why = check("method " + c.method, [&] { (void)parse_method(c.method); });
+  if (why.empty())
+    why = check(fmt::format("code {} {}", c.bits, c.id_bits), [&] {
+      IdCodeOptions o;
+      o.bits = c.bits, o.id_bits = c.id_bits;
+      (void)IdCode(o);
+    });
+  return why;
+}
+
 // trace() on candidates all issued under key, given by their scoring fields; whole rows are
 // fetched for the ranking alone.
 TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
@@ -910,8 +947,9 @@ TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
   // first candidate found is measured: a million rows take as long to read as a reading. It is
   // kept when it is the first group, and measured again otherwise.
   std::optional<GroupReading> guess;
+  std::map<std::string, std::string> parsed;  // row_problem's cache
   if (registered && hint)
-    if (const std::optional<CandidateRow> c = hint())
+    if (const std::optional<CandidateRow> c = hint(); c && row_problem(*c, parsed).empty())
       guess = measure(group_of(*c), nullptr, has_fingerprint(c->mark_format));
   const std::vector<CandidateRow>& mine = read_candidates();
   r.candidates = mine.size();
@@ -925,16 +963,41 @@ TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
     r.message = r.registration.message;
     return r;
   }
-  // Groups of candidates read alike.
+  // Groups of candidates read alike; rows that cannot be read (row_problem) are scored p = 1,
+  // counted among the candidates, and named in a warning.
   std::map<GroupKey, std::vector<std::size_t>> groups;
-  for (std::size_t k = 0; k < mine.size(); ++k) groups[group_of(mine[k])].push_back(k);
+  std::vector<Score> scores;
+  scores.reserve(mine.size());
+  std::vector<std::string> unreadable;
+  for (std::size_t k = 0; k < mine.size(); ++k) {
+    const std::string why = row_problem(mine[k], parsed);
+    if (why.empty()) {
+      groups[group_of(mine[k])].push_back(k);
+      continue;
+    }
+    Score x;
+    x.copy = &mine[k], x.order = k;
+    scores.push_back(x);
+    if (unreadable.size() < 5)
+      unreadable.push_back(fmt::format("row {} (ID {}): {}", mine[k].row, mine[k].id, why));
+  }
+  if (!scores.empty())
+    r.warnings.push_back(fmt::format(
+        "{} candidate row(s) hold values no copy is issued with, so they were edited or are "
+        "damaged; they are counted among the candidates but not read (p = 1): {}{} (meshmark "
+        "registry verify checks them)",
+        scores.size(), fmt::join(unreadable, "; "),
+        scores.size() > unreadable.size() ? "; ..." : ""));
+  if (groups.empty()) {
+    r.status = TraceStatus::NoBuyer;
+    r.message = "no buyer: no candidate row can be read (see the warnings)";
+    return r;
+  }
   // Progress: the registration (done), then each group measured and scored.
   detail::ProgressCounter progress(o.progress, "tracing", 1 + static_cast<long>(groups.size()));
   progress.step(1, "registered");
   std::optional<GroupReading> first;
   if (guess && guess->group == groups.begin()->first) first = std::move(guess);
-  std::vector<Score> scores;
-  scores.reserve(mine.size());
   for (const auto& [group, members] : groups) {
     const bool fingerprinted = std::any_of(members.begin(), members.end(), [&](std::size_t k) {
       return has_fingerprint(mine[k].mark_format);

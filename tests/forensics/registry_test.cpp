@@ -630,6 +630,58 @@ TEST(Registry, AnEditedRowIsFoundByVerifyAndNeverNamed) {
   }
 }
 
+// A row edited to values no copy is issued with (a layout of 10^8 bits, an unknown variant, an
+// ID longer than its length) made every trace of the original hang or stop with exit 1. Such a
+// row is counted among the candidates but not read; the intact row's leak is still named, and
+// when no row can be read nobody is named (exit 6).
+TEST(Registry, RowsHoldingValuesNoCopyIsIssuedWithAreCountedButNotRead) {
+  const std::string spot = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir();
+  const std::string db = dir + "/reg.db", key = dir + "/k.key";
+  ASSERT_EQ(test::run_cli("keygen " + key).code, 0);
+  for (const int id : {1, 2}) {
+    const test::CliRun r =
+        test::run_cli(fmt::format("embed {} {}/c{}.ply --id {} --buyer b{} --key-file {} "
+                                  "--registry {}",
+                                  spot, dir, id, id, id, key, db));
+    ASSERT_EQ(r.code, 0) << r.out;
+  }
+  const std::string trace = "trace " + dir + "/c1.ply --original " + spot + " --registry " + db +
+                            " --key-file " + key + " --json";
+  struct Edit {
+    std::string sql, said;
+  };
+  for (const Edit& e :
+       {Edit{"bits = 100000000", "100000000 bits"}, Edit{"variant = 'ZZZ'", "unknown center"},
+        Edit{"id = -1", "does not fit in its 32 bits"}, Edit{"strength = 1e999", "strength inf"}}) {
+    SCOPED_TRACE(e.sql);
+    edit_registry(db, "UPDATE copies SET " + e.sql + " WHERE buyer = 'b2'");
+    const test::CliRun t = test::run_cli(trace);
+    EXPECT_EQ(t.code, 0) << t.out;
+    const nlohmann::json j = nlohmann::json::parse(t.out.substr(t.out.find('{')));
+    ASSERT_EQ(j["named"].size(), 1u) << t.out;
+    EXPECT_EQ(j["named"][0]["buyer"], "b1");
+    EXPECT_EQ(j["candidates"], 2);  // the edited row still counts in the correction
+    const std::string warnings = j["warnings"].dump();
+    EXPECT_NE(warnings.find("row 2 (ID "), std::string::npos) << warnings;
+    EXPECT_NE(warnings.find(e.said), std::string::npos) << warnings;
+    edit_registry(db, "DELETE FROM copies WHERE buyer = 'b2'");
+    const test::CliRun r =
+        test::run_cli(fmt::format("embed {} {}/c2.ply --id 2 --buyer b2 --key-file {} "
+                                  "--registry {}",
+                                  spot, dir, key, db));
+    ASSERT_EQ(r.code, 0) << r.out;
+  }
+  edit_registry(db, "UPDATE copies SET bits = 0");
+  const test::CliRun t = test::run_cli(trace);
+  EXPECT_EQ(t.code, 6) << t.out;
+  const nlohmann::json j = nlohmann::json::parse(t.out.substr(t.out.find('{')));
+  EXPECT_TRUE(j["named"].empty());
+  EXPECT_NE(j["message"].get<std::string>().find("no candidate row can be read"), std::string::npos)
+      << t.out;
+}
+
 TEST(Registry, CommandLineIssuesRecordsAndSurvivesAKilledBatch) {
   const std::string spot = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
