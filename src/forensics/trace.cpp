@@ -813,12 +813,18 @@ struct GroupReading {
   double seconds_resampling = 0, seconds_reference = 0, seconds_reading = 0;
 };
 
+// What row_problem has parsed: each name's verdict, and the last readable row's names.
+struct ParsedRows {
+  std::map<std::string, std::string> verdicts;
+  std::string variant, method;
+  int bits = 0, id_bits = 0;
+};
+
 // Why a candidate row's scoring fields are none that meshmark records ("" when they are):
 // an ID longer than its length, a layout or code that cannot exist, an unknown variant,
 // method or mark format, a strength that is not a number in [0, 1/2). Such a row was edited
-// or is damaged; reading it could ask for anything (a layout of 10^8 bits). `known` caches
-// the variant and method names already parsed.
-std::string row_problem(const CandidateRow& c, std::map<std::string, std::string>& known) {
+// or is damaged; reading it could ask for anything (a layout of 10^8 bits).
+std::string row_problem(const CandidateRow& c, ParsedRows& parsed) {
   if (c.id_bits < 1 || c.id_bits > 32) return fmt::format("an ID length of {} bits", c.id_bits);
   if (c.id >> c.id_bits != 0)
     return fmt::format("ID {} does not fit in its {} bits", c.id, c.id_bits);
@@ -829,8 +835,11 @@ std::string row_problem(const CandidateRow& c, std::map<std::string, std::string
     return fmt::format("strength spread {}", c.strength_spread);
   if (c.mark_format < 1 || c.mark_format > kFingerprintMarkFormat)
     return fmt::format("mark format {}", c.mark_format);
+  if (c.bits == parsed.bits && c.id_bits == parsed.id_bits && c.variant == parsed.variant &&
+      c.method == parsed.method)
+    return "";  // as the row before (a registry's rows mostly are)
   const auto check = [&](const std::string& what, const std::function<void()>& parse) {
-    const auto [it, fresh] = known.try_emplace(what);
+    const auto [it, fresh] = parsed.verdicts.try_emplace(what);
     if (fresh) try {
         parse();
       } catch (const Error& e) {
@@ -846,6 +855,9 @@ std::string row_problem(const CandidateRow& c, std::map<std::string, std::string
       o.bits = c.bits, o.id_bits = c.id_bits;
       (void)IdCode(o);
     });
+  if (why.empty())
+    parsed.bits = c.bits, parsed.id_bits = c.id_bits, parsed.variant = c.variant,
+    parsed.method = c.method;
   return why;
 }
 
@@ -947,7 +959,7 @@ TraceResult trace_candidates(const Mesh& leaked, const Mesh& original,
   // first candidate found is measured: a million rows take as long to read as a reading. It is
   // kept when it is the first group, and measured again otherwise.
   std::optional<GroupReading> guess;
-  std::map<std::string, std::string> parsed;  // row_problem's cache
+  ParsedRows parsed;  // row_problem's cache
   if (registered && hint)
     if (const std::optional<CandidateRow> c = hint(); c && row_problem(*c, parsed).empty())
       guess = measure(group_of(*c), nullptr, has_fingerprint(c->mark_format));
