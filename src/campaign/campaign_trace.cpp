@@ -189,7 +189,8 @@ Mesh remarked_copy(const CampaignConfig& c, const CampaignRemark& r, const Mesh&
       key ? fingerprint_frame(copy.V, copy.F, eo.variant.center, c.bits) : std::nullopt;
   // Another shop issues a copy whose histogram mark is infeasible as issue_copies does: with
   // the fingerprint alone.
-  if (e.status == EmbedStatus::Infeasible && frame) e.V = copy.V, e.status = EmbedStatus::Embedded;
+  const bool alone = e.status == EmbedStatus::Infeasible && frame;
+  if (alone) e.V = copy.V, e.status = EmbedStatus::Embedded;
   if (e.status != EmbedStatus::Embedded)
     throw InvalidArgumentError(fmt::format("re-marking {} with ID {}: {}: {}", remark_name(r), id,
                                            embed_status_name(e.status), e.message));
@@ -199,6 +200,15 @@ Mesh remarked_copy(const CampaignConfig& c, const CampaignRemark& r, const Mesh&
     out.V = add_fingerprint(
         e.V, copy.V, frame->basis, fingerprint_coefficients(*key, id, frame->basis.functions),
         issued_fingerprint_rms(c, *frame), &frame->histogram, &frame->center_motion);
+  if (alone) {  // issued only when it can name its buyer, as issue_copies does
+    IssuedCopy row;
+    row.id = id, row.bits = c.bits, row.variant = eo.variant.name();
+    row.method = method_name(eo.method);
+    const SelfReading self = fingerprint_alone_reading(out, copy, row, *key);
+    if (!self.nameable)
+      throw InvalidArgumentError(fmt::format("re-marking {} with ID {}: {}: not issued",
+                                             remark_name(r), id, self.message));
+  }
   return out;
 }
 
@@ -242,7 +252,8 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
     const auto t0 = Clock::now();
     EmbedResult e = embed(mesh.V, mesh.F, id_bins(code, pair[k], key), eo);
     if (k == 0) base.embed_seconds = since(t0);
-    if (e.status == EmbedStatus::Infeasible && frame) {
+    const bool alone = e.status == EmbedStatus::Infeasible && frame;
+    if (alone) {
       // As issue_copies issues it: the fingerprint alone, its row of strength 0.
       e.V = mesh.V, e.rms_percent = 0, e.status = EmbedStatus::Embedded;
       for (IssuedCopy& copy : copies)
@@ -260,6 +271,15 @@ void run_trace_unit(const CampaignConfig& c, const CampaignUnit& u, const Mesh& 
       marked.back().V = add_fingerprint(
           e.V, mesh.V, frame->basis, fingerprint_coefficients(key, pair[k], frame->basis.functions),
           issued_fingerprint_rms(c, *frame), &frame->histogram, &frame->center_motion);
+    if (alone) {  // and issues it only when it can name its buyer
+      const auto row = std::find_if(copies.begin(), copies.end(),
+                                    [&](const IssuedCopy& x) { return x.id == pair[k]; });
+      const SelfReading self = fingerprint_alone_reading(marked.back(), mesh, *row, key);
+      if (!self.nameable) {
+        base.status = fmt::format("ID {}: {}: not issued", pair[k], self.message);
+        break;
+      }
+    }
     if (k == 0) {
       base.rms_percent = e.rms_percent;
       if (frame) {  // both marks, as embed measures one (each position once)

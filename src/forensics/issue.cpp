@@ -25,6 +25,7 @@
 #include "meshmark/core/error.h"
 #include "meshmark/forensics/fingerprint.h"
 #include "meshmark/forensics/spacing.h"
+#include "meshmark/forensics/trace.h"
 #include "meshmark/metrics/metrics.h"
 #include "meshmark/protocol/coding.h"
 #include "meshmark/protocol/watermark.h"
@@ -388,6 +389,16 @@ void issue_fingerprint_alone(const CopyRequest& request, const Original& origina
     out.status = CopyStatus::NotWithinFidelity;
     out.message = fmt::format("{}; the fingerprint alone does not fit either (RMS {:.5f} %{})", why,
                               rms, m >= 0 ? fmt::format(", MSDM {:.4f}", m) : std::string());
+    return;
+  }
+  // A copy nobody can name is no copy: traced as it is, against its own row alone, it must be
+  // named among kFingerprintAloneCandidates (on a few hundred vertices, or a shape whose every
+  // displacement moves the histogram, the field is too weak for that).
+  const SelfReading self =
+      fingerprint_alone_reading(copy, O, out.record, settings.key.value_or(public_key()));
+  if (!self.nameable) {
+    out.status = CopyStatus::NotEmbedded;
+    out.message = fmt::format("{}; {}: not issued", why, self.message);
     return;
   }
   std::error_code ec;
@@ -1072,6 +1083,25 @@ const IssueSettings& Issuer::settings() const {
 
 Registry* Issuer::registry() {
   return impl_->registry ? &*impl_->registry : nullptr;
+}
+
+SelfReading fingerprint_alone_reading(const Mesh& copy, const Mesh& original,
+                                      const IssuedCopy& record, const Key& key) {
+  IssuedCopy row = record;
+  row.strength = 0, row.bin_offset = 0, row.mark_format = kFingerprintMarkFormat;
+  row.key_fingerprint = key_fingerprint(key);
+  TraceOptions o;
+  o.register_leak = false, o.ranking = 1;
+  const TraceResult t = trace(copy, original, {row}, key, o);
+  SelfReading out;
+  if (!t.ranking.empty())
+    out.p = t.ranking.front().p_value, out.z = t.ranking.front().fingerprint_z;
+  out.nameable = out.p * kFingerprintAloneCandidates < o.threshold;
+  out.message = fmt::format(
+      "the fingerprint alone would {}name its buyer among {} candidates in the copy as issued "
+      "(its own p = {:.3g}, fingerprint z = {:.2f})",
+      out.nameable ? "" : "not ", kFingerprintAloneCandidates, out.p, out.z);
+  return out;
 }
 
 }  // namespace meshmark

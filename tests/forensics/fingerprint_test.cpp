@@ -1133,6 +1133,56 @@ TEST(Fingerprint, ACopyWhoseHistogramMarkIsInfeasibleAtItsStrengthCarriesTheFing
   EXPECT_FALSE(std::filesystem::exists(dir + "/unregistered.ply"));
 }
 
+// On libcgal-demo's plane.off (841 vertices, 52 bumps) the histogram mark is infeasible at 0.05
+// too, and the fingerprint alone is too weak to name anyone among many: the copy as issue_copies
+// would make it (built here from fingerprint_frame and add_fingerprint, as campaigns do), traced
+// unprocessed against 10,000 rows of consecutive IDs, names nobody. So the copy is not issued
+// (exit 4 in the CLI), nothing is written or recorded, and the message gives its own p.
+TEST(Fingerprint, AFingerprintAloneThatCannotNameItsBuyerIsNotIssued) {
+  const std::string original = test::cgal_mesh("plane.off");
+  MESHMARK_REQUIRE(original, "libcgal-demo's plane.off");
+  const std::string dir = fresh_dir("fingerprint-alone-weak");
+  IssueSettings settings;
+  settings.key = key_from_passphrase_v1("plane shop key");
+  settings.registry = dir + "/shop.db";
+  const std::uint64_t id = 5000;
+  const CopyOutcome c =
+      issue_copies({copy_request(original, dir + "/copy.ply", id)}, settings).copies[0];
+  EXPECT_EQ(c.status, CopyStatus::NotEmbedded) << c.message;
+  EXPECT_NE(c.message.find("would not name its buyer among 10000 candidates"), std::string::npos)
+      << c.message;
+  EXPECT_FALSE(c.fingerprint_alone);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/copy.ply"));
+  EXPECT_TRUE(read_registry(settings.registry, {}).empty());
+
+  const Mesh O = read_mesh(original);
+  const std::optional<FingerprintFrame> frame =
+      fingerprint_frame(O.V, O.F, settings.embedding.variant.center, settings.bits);
+  ASSERT_TRUE(frame.has_value());
+  const auto counted =
+      static_cast<std::size_t>(std::count(frame->counted.begin(), frame->counted.end(), 1));
+  Mesh copy = O;
+  copy.V = add_fingerprint(O.V, O.V, frame->basis,
+                           fingerprint_coefficients(*settings.key, id, frame->basis.functions),
+                           fingerprint_rms(counted), &frame->histogram, &frame->center_motion);
+  std::vector<IssuedCopy> rows(kFingerprintAloneCandidates);
+  for (int k = 0; k < kFingerprintAloneCandidates; ++k) {
+    IssuedCopy& row = rows[static_cast<std::size_t>(k)];
+    row.row = k + 1;
+    row.id = id - kFingerprintAloneCandidates / 2 + static_cast<std::uint64_t>(k);
+    row.bits = settings.bits;
+    row.variant = settings.embedding.variant.name();
+    row.strength = 0;
+    row.key_fingerprint = key_fingerprint(*settings.key);
+    row.mark_format = kFingerprintMarkFormat;
+  }
+  TraceOptions o;
+  o.register_leak = false;
+  const TraceResult among = trace(copy, O, rows, *settings.key, o);
+  EXPECT_EQ(among.status, TraceStatus::NoBuyer) << among.message;
+  EXPECT_EQ(among.ranking.front().copy.id, id);  // it reads best, but not enough
+}
+
 // Within limits (RMS 0.02 %, MSDM 1) under this key, spot's copy for ID 25 calibrated with
 // format 4's field lost 8 histogram bits in its OBJ file and needed the field kept from moving
 // the center. Format 5's narrower field costs more of the RMS limit on this small mesh (at 0.02 %

@@ -62,7 +62,8 @@ struct IssueSettings {
   /// on originals under 32,768 counted carrier vertices); with fidelity limits both marks
   /// together stay within them, and a copy whose histogram mark cannot fit, or is infeasible at
   /// the fixed strength without limits, is issued with the fingerprint alone
-  /// (CopyOutcome::fingerprint_alone).
+  /// (CopyOutcome::fingerprint_alone) when that copy, as issued, would be named among
+  /// kFingerprintAloneCandidates, and not issued otherwise.
   /// - unset (the default): every copy recorded in a registry (a coded ID) carries one, unless
   ///   its original has fewer counted carrier vertices than a fingerprint needs (128,
   ///   fingerprint_functions()): such copies are issued without, with a warning;
@@ -101,6 +102,25 @@ struct CopyRequest {
 };
 
 /// What became of a copy.
+/// A copy issued with the fingerprint alone must be named, as issued, among this many
+/// candidates (its own p-value times this below TraceOptions::threshold); otherwise it is not
+/// issued (CopyStatus::NotEmbedded).
+inline constexpr int kFingerprintAloneCandidates = 10000;
+
+/// How a copy carrying the fingerprint alone reads as it is issued (fingerprint_alone_reading).
+struct SelfReading {
+  double p = 1;           ///< its own p-value, traced against its row alone
+  double z = 0;           ///< its fingerprint score
+  bool nameable = false;  ///< p times kFingerprintAloneCandidates below trace's 1e-6
+  std::string message;    ///< one sentence saying so
+};
+
+/// Traces `copy` (the fingerprint alone of `record`'s ID under key, from `original`) as it is
+/// against its own row alone: whether it would be named among kFingerprintAloneCandidates.
+/// issue_copies issues such a copy only then, and campaigns do the same.
+SelfReading fingerprint_alone_reading(const Mesh& copy, const Mesh& original,
+                                      const IssuedCopy& record, const Key& key);
+
 enum class CopyStatus {
   Written,            ///< written, carrying the mark (and recorded, with a registry)
   Skipped,            ///< issued and recorded by an earlier run, its file intact
