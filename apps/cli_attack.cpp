@@ -41,12 +41,12 @@ int run(const AttackArgs& a) {
                                       {"input", a.input},
                                       {"output", a.output},
                                       {"vertices", attacked.V.rows()},
-                                      {"faces", attacked.faces.size()},
+                                      {"faces", attacked.F.rows()},
                                       {"seed", a.seed}}
                            .dump(2));
   else
     fmt::print("{}: {} -> {} ({} vertices, {} faces, seed {})\n", printable(a.kind),
-               printable(a.input), printable(a.output), attacked.V.rows(), attacked.faces.size(),
+               printable(a.input), printable(a.output), attacked.V.rows(), attacked.F.rows(),
                a.seed);
   return kOk;
 }

@@ -169,6 +169,10 @@ int run_verify(const VerifyArgs& a) {
     fmt::print("  rows             {} ({} under this key, {} under other keys)\n", check.rows,
                check.rows - check.other_key, check.other_key);
     fmt::print("  authentic        {}\n", check.authentic);
+    if (check.rows > 0 && check.other_key == check.rows)
+      fmt::print(
+          "  no row is under this key: nothing was checked (give the key the copies were "
+          "issued under)\n");
     for (const IssuedCopy& c : check.edited)
       fmt::print("  EDITED           row {}: ID {}, '{}': fails its authentication code\n", c.row,
                  c.id, printable(c.buyer));

@@ -167,8 +167,9 @@ int main(int argc, char** argv) {
       "Exit codes: 0 done; 1 bad command line or option value; 2 an input cannot be read or is "
       "malformed; 3 an output cannot be written; 4 not embedded (infeasible, not within the "
       "limits, no histogram); 5 extract --expect found bit errors; 6 no valid ID, not detected, "
-      "no buyer named; 7 registry verify found an edited or unauthenticated row or a damaged "
-      "file; 70 a bug. With --json, an error is printed on stdout as {\"error\": "
+      "no buyer named; 7 registry verify found an edited or unauthenticated row, a damaged file "
+      "or no row under the key; 70 a bug. With --json, an error is printed on stdout as "
+      "{\"error\": "
       "{\"exit_code\": N, \"message\": ...}}.";
   app.footer(exit_codes);
   for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; }))

@@ -72,6 +72,8 @@ TEST(Cli, MistakesListTheChoicesAndJsonErrorsAreJson) {
   const nlohmann::json j = nlohmann::json::parse(
       run("attack noise " + spot + " " + out + " --strength 0.001 --json").out);
   EXPECT_EQ(j.at("vertices"), read_mesh(out).V.rows());
+  EXPECT_EQ(j.at("faces"), read_mesh(out).F.rows());  // was always 0
+  EXPECT_GT(j.at("faces").get<int>(), 0);
   EXPECT_EQ(j.at("kind"), "noise");
   for (const char* help : {"--help", "embed --help", "trace --help", "keygen --help"}) {
     r = run(help);

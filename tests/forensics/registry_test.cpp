@@ -531,6 +531,8 @@ TEST(Registry, AnEditedRowIsFoundByVerifyAndNeverNamed) {
   j = nlohmann::json::parse(v.out);
   EXPECT_EQ(j["other_key"], 3);
   EXPECT_EQ(j["authentic"], 0);
+  EXPECT_FALSE(j["ok"].get<bool>());  // nothing checked is nothing verified
+  EXPECT_EQ(v.code, 7) << v.out;
   // The forgery: b11's and b40's IDs swapped, so that b11's leak reads as "b40's ID".
   edit_registry(db,
                 "UPDATE copies SET id = -1 WHERE id = 11; UPDATE copies SET id = 11 WHERE id = 40; "

@@ -256,8 +256,12 @@ struct RegistryCheck {
   /// Rows under the key reserved and not completed (an interrupted or running issue); they
   /// do not make the check fail.
   std::vector<IssuedCopy> reserved;
-  /// Whether the file is sound and every row under the key is authentic.
-  bool ok() const { return integrity == "ok" && edited.empty() && unauthenticated.empty(); }
+  /// Whether the file is sound and every row under the key is authentic, some row being under
+  /// it when the registry has any (rows of other keys alone verify nothing: the wrong key).
+  bool ok() const {
+    return integrity == "ok" && edited.empty() && unauthenticated.empty() &&
+           (rows == 0 || other_key < rows);
+  }
 };
 
 /// Checks an existing registry, opened read-only: SQLite's integrity check, and the MAC of
