@@ -81,6 +81,9 @@ void add_method_option(CLI::App& app, Method& method, const std::string& purpose
 /// Adds --weld-tolerance to a subcommand.
 void add_input_options(CLI::App& app, InputOptions& options);
 
+/// Refuses a number that is not finite: CLI11's ranges and PositiveNumber let "nan" through.
+const CLI::Validator& finite_number();
+
 /// Output format options: --format, --encoding, --float32.
 struct OutputOptions {
   std::optional<FileFormat> format;  // none: from the extension

@@ -263,10 +263,12 @@ void register_embed(CLI::App& app, int& exit_code) {
   sub->add_option("--variant", args->variant,
                   "center (D S V), direction (R N S), cost (S Q L); default DRS");
   sub->add_option("--lambda", args->embed.lambda,
-                  "costs Q and L: weight of the squared error, in [0, 1]");
+                  "costs Q and L: weight of the squared error, in [0, 1]")
+      ->check(finite_number());
   CLI::Option* strength =
       sub->add_option("--strength", args->embed.strength,
-                      "alpha in (0, 1/2): target distance of bin means from 1/2 (default 0.05)");
+                      "alpha in (0, 1/2): target distance of bin means from 1/2 (default 0.05)")
+          ->check(finite_number());
   CLI::Option* fidelity =
       sub->add_option(
              "--fidelity", args->fidelity,
@@ -277,11 +279,11 @@ void register_embed(CLI::App& app, int& exit_code) {
       sub->add_option("--max-rms", args->max_rms,
                       "search the strongest mark whose vertex RMS stays within this % of the "
                       "bounding-box diagonal (with --max-msdm; default 0.04 with either)")
-          ->check(CLI::PositiveNumber);
+          ->check(finite_number() & CLI::PositiveNumber);
   CLI::Option* max_msdm =
       sub->add_option("--max-msdm", args->max_msdm,
                       "search the strongest mark whose MSDM stays within this (default 0.25)")
-          ->check(CLI::PositiveNumber);
+          ->check(finite_number() & CLI::PositiveNumber);
   add_enum_option<BinOffsetRule>(
       *sub, "--bin-offset-rule", args->bin_offset_rule,
       "with a fidelity search: at-most-strength (G = min(--bin-offset, alpha), the "
@@ -289,7 +291,7 @@ void register_embed(CLI::App& app, int& exit_code) {
   sub->add_option("--strength-spread", args->strength_spread,
                   "keyed or coded marks: bit j's strength is alpha (1 + spread u_j), u_j drawn "
                   "from the key in [0, 1), so the histogram does not show alpha; 0 = uniform")
-      ->check(CLI::Range(0.0, 4.0));
+      ->check(finite_number() & CLI::Range(0.0, 4.0));
   CLI::Option* fingerprint = sub->add_flag(
       "--fingerprint", args->fingerprint,
       "every coded copy carries the buyer's fingerprint, registered or not (refused for an "
@@ -303,7 +305,8 @@ void register_embed(CLI::App& app, int& exit_code) {
                 "easier to defeat by averaging or smoothing)")
       ->excludes(fingerprint);
   sub->add_option("--bin-offset", args->embed.bin_offset,
-                  "G in [0, 1/2): vertices stay in [G, 1-G] of their bin");
+                  "G in [0, 1/2): vertices stay in [G, 1-G] of their bin")
+      ->check(finite_number());
   sub->add_option("--max-rounds", args->embed.max_rounds, "linearize-and-solve rounds at most")
       ->check(CLI::Range(1, 1000));
   add_enum_option<SolverBackend>(

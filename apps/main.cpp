@@ -24,6 +24,18 @@ void add_method_option(CLI::App& app, Method& method, const std::string& purpose
                               "2007's Method I or II, baselines: docs/cho.md)");
 }
 
+const CLI::Validator& finite_number() {
+  static const CLI::Validator v(
+      [](const std::string& text) -> std::string {
+        double d = 0;
+        if (CLI::detail::lexical_cast(text, d) && !std::isfinite(d))
+          return fmt::format("{} is not a finite number", text);
+        return {};
+      },
+      "FINITE");
+  return v;
+}
+
 void add_input_options(CLI::App& app, InputOptions& options) {
   const CLI::Validator distance(
       [](const std::string& text) -> std::string {

@@ -815,6 +815,25 @@ void complete_rows(Registry& registry, const std::vector<CopyRequest>& requests,
 
 namespace {
 
+// The settings no copy can be issued with, refused before any ID is reserved (a strength that is
+// not a number would reach the registry's NOT NULL columns).
+void check_settings(const IssueSettings& s) {
+  if (s.bits < 1) throw InvalidArgumentError(fmt::format("{} payload bits: at least 1", s.bits));
+  const EmbedOptions& o = s.embedding;
+  if (!(o.strength > 0 && o.strength < 0.5))
+    throw InvalidArgumentError(fmt::format("strength {} is outside (0, 1/2)", o.strength));
+  if (!(o.bin_offset >= 0 && o.bin_offset < 0.5))
+    throw InvalidArgumentError(fmt::format("bin offset {} is outside [0, 1/2)", o.bin_offset));
+  if (!(std::isfinite(s.strength_spread) && s.strength_spread >= 0))
+    throw InvalidArgumentError(
+        fmt::format("strength spread {} is not a finite number >= 0", s.strength_spread));
+  if (s.limits && !(s.limits->max_rms_percent > 0 && std::isfinite(s.limits->max_rms_percent) &&
+                    s.limits->max_msdm > 0 && std::isfinite(s.limits->max_msdm)))
+    throw InvalidArgumentError(
+        fmt::format("fidelity limits RMS {} % and MSDM {} are not finite positive numbers",
+                    s.limits->max_rms_percent, s.limits->max_msdm));
+}
+
 // issue_copies, with the originals of cache prepared before and the registry open (when given).
 // lock (when given, held on entry): what guards the cache and the registry; it is released
 // while the copies are embedded and written, so that several issues embed side by side, and
@@ -823,8 +842,7 @@ IssueResult issue_with(std::vector<CopyRequest> requests, const IssueSettings& s
                        OriginalCache& cache, Registry* open_registry,
                        std::unique_lock<std::mutex>* lock = nullptr) {
   const auto start = std::chrono::steady_clock::now();
-  if (settings.bits < 1)
-    throw InvalidArgumentError(fmt::format("{} payload bits: at least 1", settings.bits));
+  check_settings(settings);
   IssueResult result;
   std::vector<CopyOutcome>& out = result.copies;
   out.resize(requests.size());
@@ -986,8 +1004,7 @@ struct Issuer::Impl {
 Issuer::Issuer(IssueSettings settings, std::size_t max_originals)
     : impl_(std::make_unique<Impl>()) {
   if (max_originals == 0) throw InvalidArgumentError("an issuer holds at least one original");
-  if (settings.bits < 1)
-    throw InvalidArgumentError(fmt::format("{} payload bits: at least 1", settings.bits));
+  check_settings(settings);
   impl_->settings = std::move(settings);
   impl_->max_originals = max_originals;
   impl_->cache.kept = true;

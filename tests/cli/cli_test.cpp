@@ -1,5 +1,6 @@
 // The command line as a user runs it: exit codes, messages, files.
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
@@ -9,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <set>
 
@@ -448,6 +450,29 @@ TEST(Cli, OptionValuesThatAreNotFiniteAreRefusedAndNamedSo) {
     EXPECT_EQ(r.out.find("negative"), std::string::npos) << r.out;
   }
   EXPECT_FALSE(std::filesystem::exists(dir + "/o.obj"));
+  // embed into a registry: "nan" reached the registry's NOT NULL columns (strength, spread,
+  // bin offset), or was replaced by the default limit (--max-rms, --max-msdm).
+  ASSERT_EQ(run("keygen " + dir + "/k.key").code, 0);
+  for (const char* option :
+       {"--strength", "--strength-spread", "--bin-offset", "--max-rms", "--max-msdm", "--lambda"}) {
+    const CliRun r =
+        run(fmt::format("embed {} {}/c.obj --id 5 --key-file {}/k.key --registry "
+                        "{}/r.db {} nan",
+                        in, dir, dir, dir, option));
+    EXPECT_EQ(r.code, 1) << option << "\n" << r.out;
+    EXPECT_NE(r.out.find(std::string(option) + ": nan is not a finite number"), std::string::npos)
+        << r.out;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir + "/c.obj"));
+  if (std::filesystem::exists(dir + "/r.db")) EXPECT_TRUE(Registry(dir + "/r.db").list().empty());
+  // The library refuses them too, before any ID is reserved (Python and serve go there).
+  IssueSettings settings;
+  settings.embedding.strength = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(issue_copies({}, settings), InvalidArgumentError);
+  settings.embedding.strength = 0.05;
+  settings.limits = CalibrateOptions{};
+  settings.limits->max_rms_percent = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(issue_copies({}, settings), InvalidArgumentError);
 }
 
 TEST(Cli, CompareAcceptsTheSameFileTwice) {
