@@ -866,6 +866,11 @@ IssueResult issue_with(std::vector<CopyRequest> requests, const IssueSettings& s
              "--public-key to issue it anyway");
       continue;
     }
+    if (r.id && settings.id_bits >= 1 && settings.id_bits < 64 && *r.id >> settings.id_bits != 0) {
+      refuse(out[k], fmt::format("ID {} does not fit in {} bits (the IDs' length)", *r.id,
+                                 settings.id_bits));
+      continue;
+    }
     any_coded = any_coded || r.id || r.auto_id;
     if (!r.id && !r.auto_id) {
       try {

@@ -172,6 +172,19 @@ TEST(Cli, BatchEmbedsOneCopyPerLineAndReportsFailuresPerLine) {
   EXPECT_EQ(bad.code, 4);  // a malformed line is one failed copy, reported like the others
   EXPECT_NE(bad.out.find("bad.txt:1: FAILED"), std::string::npos) << bad.out;
   EXPECT_NE(bad.out.find("expected INPUT OUTPUT PAYLOAD"), std::string::npos) << bad.out;
+  // An ID of 2^32 on one line of a registered batch: that line fails, the other is issued (the
+  // whole batch stopped with exit 1 before).
+  ASSERT_EQ(run("keygen " + dir + "/k.key").code, 0);
+  std::ofstream(dir + "/ids.txt") << spot << " " << dir << "/id1.obj id:201 ok\n"
+                                  << spot << " " << dir << "/id2.obj id:4294967296 big\n";
+  const CliRun ids = run("embed --batch " + dir + "/ids.txt --key-file " + dir +
+                         "/k.key --registry " + dir + "/ids.db");
+  EXPECT_EQ(ids.code, 4) << ids.out;
+  EXPECT_NE(ids.out.find("ids.txt:2: FAILED"), std::string::npos) << ids.out;
+  EXPECT_NE(ids.out.find("does not fit in 32 bits"), std::string::npos) << ids.out;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/id1.obj"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/id2.obj"));
+  EXPECT_EQ(Registry(dir + "/ids.db").list().size(), 1u);
 }
 
 // --json on a batch and on the registry: one object per batch (each copy with its status and
