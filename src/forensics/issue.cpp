@@ -253,6 +253,29 @@ void check_registry(const Registry& registry, std::vector<CopyRequest>& requests
                                taken.buyer, taken.issued_at, taken.output_path)
                  : fmt::format("ID {} is given twice for this original", taken.id));
     }
+  // An output file that is another row's issued copy of this original would be lost: refused.
+  // The rows are listed only when the file exists (a fresh output, the usual case, costs nothing).
+  std::map<std::string, std::vector<IssuedCopy>> issued_of;  // by original file hash
+  for (const std::size_t k : candidates) {
+    std::error_code ec;
+    if (!pending(out[k]) || !fs::exists(requests[k].output, ec)) continue;
+    const IssuedCopy& r = out[k].record;
+    auto it = issued_of.find(r.original_hash);
+    if (it == issued_of.end()) {
+      RegistryQuery q;
+      q.original_hash = r.original_hash;
+      it = issued_of.emplace(r.original_hash, registry.list(q)).first;
+    }
+    const std::string path = normalized_path(requests[k].output);
+    for (const IssuedCopy& other : it->second)
+      if (other.output_path == path && other.id != r.id) {
+        refuse(out[k],
+               fmt::format("{} is the copy issued to '{}' (ID {}, row {}) on {}: writing "
+                           "this copy there would lose it; choose another output",
+                           requests[k].output, other.buyer, other.id, other.row, other.issued_at));
+        break;
+      }
+  }
   wanted.clear();
   std::vector<std::size_t> index;
   for (const std::size_t k : candidates)

@@ -225,7 +225,7 @@ TEST(Cli, BatchAndRegistryTalkJson) {
 // Nothing a command needs is overwritten (the review's reproductions): an output that is the
 // registry, the key file (by name or through a symbolic or a hard link) or the manifest is
 // refused before anything is written, exit 1 for one copy and 4 for a batch line, and every
-// such file keeps its bytes.
+// such file keeps its bytes; so is an output that is another row's issued copy.
 TEST(Cli, EmbedNeverWritesOverItsRegistryKeyFileOrManifest) {
   const std::string spot = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(spot, "spot.obj");
@@ -267,6 +267,15 @@ TEST(Cli, EmbedNeverWritesOverItsRegistryKeyFileOrManifest) {
   EXPECT_EQ(bytes(manifest), manifest_bytes);
   EXPECT_EQ(read_registry(db).size(), 1u);
   EXPECT_EQ(bytes(db).substr(0, 16), std::string("SQLite format 3\0", 16));
+  // Nor another buyer's issued copy of the same original: first.ply is ID 1's (hostile pass:
+  // ID 2 written there replaced it, and two rows named the file).
+  const std::string first = bytes(dir + "/first.ply");
+  const CliRun over = run("embed " + spot + " " + dir + "/first.ply --id 2 --key-file " + key +
+                          " --registry " + db);
+  EXPECT_EQ(over.code, 1) << over.out;
+  EXPECT_NE(over.out.find("is the copy issued to"), std::string::npos) << over.out;
+  EXPECT_EQ(bytes(dir + "/first.ply"), first);
+  EXPECT_EQ(read_registry(db).size(), 1u);
 }
 
 // The review: a key file readable by others and --key on the command line were used without a
