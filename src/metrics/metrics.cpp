@@ -97,7 +97,29 @@ SurfaceDistance surface_distance(const Eigen::MatrixX3d& VA, const Eigen::Matrix
   return d;
 }
 
+namespace {
+
+// Refuses a mesh whose surface cannot be measured, naming its file: no triangle of finite,
+// non-zero area (all collinear or repeated points, or coordinates whose squares overflow).
+void check_measurable(const Mesh& m, const char* which) {
+  for (Eigen::Index f = 0; f < m.F.rows(); ++f) {
+    const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
+    const double area2 = (b - a).cross(c - a).squaredNorm();
+    if (area2 > 0 && std::isfinite(area2) && std::isfinite((b - a).squaredNorm()) &&
+        std::isfinite((c - a).squaredNorm()))
+      return;
+  }
+  throw InvalidInputError(m.source_path.empty() ? which : m.source_path, 0,
+                          "no triangle has a finite, non-zero area (collinear or repeated "
+                          "points, or coordinates too large to square): its surface cannot be "
+                          "measured");
+}
+
+}  // namespace
+
 MeshComparison compare_meshes(const Mesh& A, const Mesh& B, const CompareOptions& options) {
+  check_measurable(A, "the reference mesh");
+  check_measurable(B, "the distorted mesh");
   MeshComparison out;
   // Eigen compares matrices of equal sizes only.
   out.same_connectivity = A.V.rows() == B.V.rows() && A.F.rows() == B.F.rows() && A.F == B.F;

@@ -497,6 +497,25 @@ TEST(Cli, OptionValuesThatAreNotFiniteAreRefusedAndNamedSo) {
   EXPECT_THROW(issue_copies({}, settings), InvalidArgumentError);
 }
 
+// A mesh whose surface cannot be measured (every triangle collinear, or coordinates whose
+// squares overflow) is bad input: exit 2, the file named (exit 1 and no file before).
+TEST(Cli, CompareNamesAMeshWhoseSurfaceCannotBeMeasured) {
+  const std::string spot = test::data_mesh("spot.obj");
+  MESHMARK_REQUIRE(spot, "spot.obj");
+  const std::string dir = test::scratch_dir();
+  std::ofstream(dir + "/line.off") << "OFF\n3 1 0\n0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n";
+  std::ofstream(dir + "/huge.off") << "OFF\n3 1 0\n1e300 0 0\n0 1e300 0\n0 0 1e300\n3 0 1 2\n";
+  for (const std::string bad : {"line.off", "huge.off"}) {
+    for (const bool first : {true, false}) {
+      const std::string a = first ? dir + "/" + bad : spot, b = first ? spot : dir + "/" + bad;
+      const CliRun r = run("compare " + a + " " + b);
+      EXPECT_EQ(r.code, 2) << bad << "\n" << r.out;
+      EXPECT_NE(r.out.find(bad + ": no triangle has a finite, non-zero area"), std::string::npos)
+          << r.out;
+    }
+  }
+}
+
 TEST(Cli, CompareAcceptsTheSameFileTwice) {
   const std::string in = test::data_mesh("spot.obj");
   MESHMARK_REQUIRE(in, "spot.obj");

@@ -189,8 +189,9 @@ struct MeshComparison {
 };
 
 /// Compares B with A: vertex RMS and MSDM when they share their connectivity, surface
-/// distances and MSDM2 always. \throw InvalidArgumentError when either mesh has no triangle
-/// (no surface to sample) or is invalid.
+/// distances and MSDM2 always. \throw InvalidInputError naming the mesh's source_path (or "the
+/// reference mesh", "the distorted mesh") when it has no triangle of finite, non-zero area (no
+/// surface to measure); InvalidArgumentError when either is otherwise invalid.
 MeshComparison compare_meshes(const Mesh& A, const Mesh& B, const CompareOptions& options = {});
 
 }  // namespace meshmark
