@@ -261,6 +261,10 @@ void read_trace_settings(const std::string& file, const json& j, CampaignConfig&
   c.spread = j.value("spread", c.spread);
   if (c.copies < 2 || c.copies > 1000000)
     bad(file, fmt::format("copies {} is out of 2..1000000", c.copies));
+  if (c.payloads > c.copies)
+    bad(file, fmt::format("{} payloads draw as many leakers among {} copies: some would be the "
+                          "same buyer; give at most {}",
+                          c.payloads, c.copies, c.copies));
   if (!(c.spread >= 0 && c.spread <= 4))
     bad(file, fmt::format("spread {} is out of [0, 4]", c.spread));
   for (const CampaignCoalition& k : c.coalitions)
@@ -355,6 +359,8 @@ CampaignConfig load_campaign(const std::string& path) {
       } catch (const InvalidArgumentError& e) {
         bad(path, fmt::format("variant \"{}\": {}", name, e.what()));
       }
+      if (std::count(c.variants.begin(), c.variants.end(), c.variants.back()) > 1)
+        bad(path, fmt::format("\"variants\" lists \"{}\" twice", name));
     }
     if (j.contains("strength") && j.contains("calibration"))
       bad(path, "give \"strength\" or \"calibration\", not both");

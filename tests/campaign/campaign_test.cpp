@@ -67,6 +67,8 @@ TEST(Campaign, RejectsBadFilesNamingFileAndKey) {
   };
   const std::vector<Case> cases = {
       {head + ", \"draw\": 3}", "unknown key \"draw\""},
+      {"{\"models\": [\"" + spot + "\"], \"variants\": [\"VRS\", \"DRS\", \"vrs\"]}",
+       "\"variants\" lists \"vrs\" twice"},
       {head + ", \"attacks\": [{\"kind\": \"melt\", \"strengths\": [1]}]}",
        "unknown attack 'melt' (the kinds: reorder, similarity, noise"},
       {head + ", \"attacks\": [{\"kind\": \"noise\"}]}", "attacks[0]: \"strengths\""},
@@ -105,6 +107,8 @@ TEST(Campaign, RejectsBadFilesNamingFileAndKey) {
       {head + ", \"copies\": 10}", "\"copies\" needs \"mode\": \"trace\""},
       {head + ", \"collusion\": true}", "\"collusion\" needs \"mode\": \"trace\""},
       {head + ", \"mode\": \"trace\", \"copies\": 1}", "copies 1 is out of 2..1000000"},
+      {head + ", \"mode\": \"trace\", \"copies\": 5, \"payloads\": 6}",
+       "6 payloads draw as many leakers among 5 copies"},
       {head + ", \"mode\": \"trace\", \"spread\": -1}", "spread -1 is out of [0, 4]"},
       {head + ", \"mode\": \"trace\", \"bits\": 16}", "bits 16 cannot carry a 32-bit ID"},
       {head + ", \"mode\": \"trace\", \"collusion\": 1}",
@@ -121,7 +125,8 @@ TEST(Campaign, RejectsBadFilesNamingFileAndKey) {
        "coalition \"average:1\": 1 colluders is out of 2..64"},
       {head + ", \"mode\": \"trace\", \"collusion\": [\"weighted:3\", \"weighted:03\"]}",
        "\"collusion\" lists the coalition \"weighted:03\" twice"},
-      {head + ", \"mode\": \"trace\", \"copies\": 4, \"collusion\": [\"splice:5\"]}",
+      {head +
+           ", \"mode\": \"trace\", \"copies\": 4, \"payloads\": 2, \"collusion\": [\"splice:5\"]}",
        "the coalition \"splice:5\" needs more than the 4 copies issued"},
       {head + ", \"fingerprint\": true}", "\"fingerprint\" needs \"mode\": \"trace\""},
       // Re-markings.
