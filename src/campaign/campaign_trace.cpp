@@ -392,6 +392,10 @@ std::vector<TraceSummaryRow> summarize_trace(const CampaignConfig& c,
         row.colluders = it->second.front()->colluders;
         std::vector<double> seconds;
         for (const TrialRow* r : it->second) {
+          if (r->status != "ok") {  // it did not run: no outcome to count
+            ++row.failed;
+            continue;
+          }
           ++row.trials;
           row.trace_right += detail::outcome_is(r->trace_outcome, TraceOutcome::Right);
           row.trace_none += detail::outcome_is(r->trace_outcome, TraceOutcome::None);
@@ -409,7 +413,7 @@ std::vector<TraceSummaryRow> summarize_trace(const CampaignConfig& c,
           seconds.push_back(r->trace_seconds);
         }
         std::sort(seconds.begin(), seconds.end());
-        row.median_trace_seconds = seconds[seconds.size() / 2];
+        row.median_trace_seconds = seconds.empty() ? 0 : seconds[seconds.size() / 2];
         out.push_back(row);
       }
   return out;

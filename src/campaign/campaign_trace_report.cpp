@@ -131,12 +131,13 @@ std::string model_table(const CampaignConfig& c, const std::vector<TrialRow>& ro
       double alpha = 0, rms = 0, msdm = 0;
       for (const TrialRow& r : rows) {
         if (r.model != m.name || r.variant != v) continue;
+        if (r.attack == "none" && r.colluders == 1 && r.payload == 0)
+          vertices = r.vertices, alpha = r.strength, rms = r.rms_percent, msdm = r.msdm;
+        if (r.status != "ok") continue;  // did not run: no outcome (Failed trials)
         ++n, tr += detail::outcome_is(r.trace_outcome, TraceOutcome::Right),
             br += detail::outcome_is(r.blind_outcome, TraceOutcome::Right);
         tw += detail::outcome_is(r.trace_outcome, TraceOutcome::Wrong),
             bw += detail::outcome_is(r.blind_outcome, TraceOutcome::Wrong);
-        if (r.attack == "none" && r.colluders == 1 && r.payload == 0)
-          vertices = r.vertices, alpha = r.strength, rms = r.rms_percent, msdm = r.msdm;
       }
       md += fmt::format("| {} | {} | {} | {:.4f} | {:.4f} | {:.4f} | {} | {} | {} | {} | {} |\n",
                         m.name, v, vertices, alpha, rms, msdm, n, percent(tr, n), percent(br, n),
@@ -159,7 +160,7 @@ std::string right_by_model(const CampaignConfig& c, const std::vector<TraceSumma
       int right = 0, n = 0;
       for (const TrialRow& r : rows)
         if (r.model == m.name && r.attack == s.attack && r.attack_strength == s.attack_strength &&
-            r.coalition == s.coalition)
+            r.coalition == s.coalition && r.status == "ok")
           ++n, right += detail::outcome_is(r.trace_outcome, TraceOutcome::Right);
       md += fmt::format(" {}/{} |", right, n);
     }
@@ -194,13 +195,13 @@ std::string write_trace_report(const std::string& out_dir, const CampaignConfig&
   std::string csv =
       "attack,attack_strength,colluders,coalition,trials,trace_right,trace_none,trace_wrong,"
       "trace_all_named,blind_right,blind_none,blind_wrong,worst_right_p,median_trace_seconds,"
-      "innocents,innocent_p\n";
+      "innocents,innocent_p,failed\n";
   for (const TraceSummaryRow& r : summary)
-    csv += fmt::format("\"{}\",{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", r.attack,
+    csv += fmt::format("\"{}\",{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", r.attack,
                        r.attack_strength, r.colluders, r.coalition, r.trials, r.trace_right,
                        r.trace_none, r.trace_wrong, r.trace_all, r.blind_right, r.blind_none,
                        r.blind_wrong, r.worst_right_p, r.median_trace_seconds, r.innocents,
-                       r.innocent_p);
+                       r.innocent_p, r.failed);
   write_file_atomically((dir / "summary.csv").string(), csv);
   const bool png = write_figure(out_dir, "figure-trace", outcome_figure(summary));
 
@@ -210,7 +211,8 @@ std::string write_trace_report(const std::string& out_dir, const CampaignConfig&
         detail::outcome_is(r.blind_outcome, TraceOutcome::Wrong))
       wrong.push_back(&r);
     // An innocent leak (no colluder) is right to name nobody: not listed as a miss.
-    if (detail::outcome_is(r.trace_outcome, TraceOutcome::None) && r.colluders > 0)
+    if (detail::outcome_is(r.trace_outcome, TraceOutcome::None) && r.colluders > 0 &&
+        r.status == "ok")
       unnamed.push_back(&r);
     if (r.status != "ok") failed.push_back(&r);
   }
@@ -272,7 +274,10 @@ std::string write_trace_report(const std::string& out_dir, const CampaignConfig&
                     c.innocents.empty() ? "" : ", innocent leaks left out");
   md += unnamed.empty() ? "None.\n\n" : trial_lines(unnamed, 100) + "\n";
   if (!failed.empty())
-    md += fmt::format("## Failed trials ({})\n\n{}\n", failed.size(), trial_lines(failed, 50));
+    md += fmt::format(
+        "## Failed trials ({})\n\nThese did not run (their status says why): they are left out "
+        "of the counts above (`failed` in summary.csv).\n\n{}\n",
+        failed.size(), trial_lines(failed, 50));
   md += fmt::format(
       "Files: `rows.csv` and `rows.jsonl` (one row per trial, both outcomes), `summary.csv`, "
       "`figure-trace.svg`{}.\n",

@@ -765,6 +765,24 @@ TEST(Campaign, AnInfeasibleHistogramMarkLeavesTheFingerprintAlone) {
       EXPECT_EQ(r.trace_outcome, "right") << key << ": " << r.trace_status;
       EXPECT_EQ(r.trace_named, std::to_string(campaign_leaker(c, r.payload))) << key;
     }
+    // Trials that did not run are no "none": the summary counts them apart (every trial of
+    // the campaign without the fingerprint failed: 0 trials, 2 failed in each line).
+    std::ifstream summary(dir + "/summary.csv");
+    std::string line;
+    std::getline(summary, line);
+    EXPECT_EQ(line.substr(line.rfind(',') + 1), "failed") << line;
+    int lines = 0;
+    while (std::getline(summary, line)) {
+      std::vector<std::string> f;
+      std::stringstream fields(line);
+      for (std::string x; std::getline(fields, x, ',');) f.push_back(x);
+      ASSERT_EQ(f.size(), 17u) << line;
+      EXPECT_EQ(f[4], fingerprint ? "2" : "0") << line;   // trials
+      EXPECT_EQ(f[16], fingerprint ? "0" : "2") << line;  // failed
+      if (!fingerprint) EXPECT_EQ(f[6], "0") << line;     // trace none: not counted
+      ++lines;
+    }
+    EXPECT_EQ(lines, 2) << name;  // the copy and the other key's copy, attack none
   }
   // The other key's copy of such an original carries that key's fingerprint alone: traced
   // against rows of that shop's key (strength 0: no histogram mark), it names its ID alone.

@@ -331,6 +331,7 @@ struct TraceSummaryRow {
   double median_trace_seconds = 0;
   std::int64_t innocents = 0;  ///< innocent candidates scored over the trials (TrialRow)
   double innocent_p = 1;       ///< the smallest corrected p among them (1: none recorded)
+  int failed = 0;  ///< trials that did not run (their status is not "ok"), not in `trials`
 };
 
 /// The outcome counts, in the config's order of attacks and strengths, single copies first,
